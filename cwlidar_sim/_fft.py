@@ -1,0 +1,240 @@
+"""The package's one route to FFTW (through pyfftw).
+
+Every transform in cwlidar_sim goes through this module, so that alignment,
+planning flags and threading are decided once.
+
+Reproducibility
+---------------
+Results must be bit-for-bit identical whatever the number of threads.  FFTW's
+own multi-threaded planner may pick a different decomposition (and so a
+different rounding) for a different thread count, and ``FFTW_MEASURE`` picks
+plans by timing, which differs from run to run.  This module therefore
+
+* plans with ``FFTW_ESTIMATE`` only (a deterministic cost model);
+* splits every multi-dimensional transform into passes of batched 1-D
+  transforms, cuts each pass into chunks whose size depends only on the array
+  shape, and plans each chunk single-threaded.  Worker threads pick up
+  whole chunks, so every 1-D transform is computed by the same plan whatever
+  the thread count.
+
+Plans
+-----
+``FFTW_ESTIMATE`` plans cost microseconds; a plan is built once per chunk
+shape and worker for each call, and FFTW's in-process wisdom makes repeats
+cheaper still.  Plans are not kept between calls on purpose: a pyfftw plan
+holds a reference to the arrays it was built on, and keeping it would keep a
+whole turbulence box alive after the caller dropped it.
+
+Conventions
+-----------
+Inverse transforms are *unnormalised* synthesis sums,
+``x[n] = sum_k X[k] exp(+2j pi k n / N)``; forward transforms are
+``X[k] = sum_n x[n] exp(-2j pi k n / N)`` (numpy's conventions without the
+``1/N``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyfftw
+
+from ._config import get_num_threads, run_static as _run_chunks
+
+#: Target number of complex elements in one chunk of a batched pass.
+_CHUNK_ELEMENTS = 1 << 17
+_FLAGS = ("FFTW_ESTIMATE", "FFTW_UNALIGNED", "FFTW_DESTROY_INPUT")
+
+_COMPLEX_OF = {np.dtype(np.float32): np.dtype(np.complex64), np.dtype(np.float64): np.dtype(np.complex128)}
+
+
+def complex_dtype(real_dtype) -> np.dtype:
+    """Complex dtype matching a real floating dtype (float32 or float64)."""
+    dt = np.dtype(real_dtype)
+    if dt not in _COMPLEX_OF:
+        raise TypeError(f"dtype must be float32 or float64, got {dt}")
+    return _COMPLEX_OF[dt]
+
+
+def empty_halfspectrum(shape, real_dtype=np.float32):
+    """Allocate a half-spectrum buffer for an in-place inverse real FFT.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        Shape of the real field to be synthesised, e.g. ``(nx, ny, nz)``.
+    real_dtype : dtype
+        float32 or float64.
+
+    Returns
+    -------
+    spec : ndarray, complex
+        Uninitialised array of shape ``shape[:-1] + (shape[-1] // 2 + 1,)`` whose
+        memory is exactly the padded real array, so :func:`irfftn_inplace`
+        needs no second buffer.
+    """
+    cdt = complex_dtype(real_dtype)
+    nh = shape[-1] // 2 + 1
+    spec = pyfftw.empty_aligned(tuple(shape[:-1]) + (nh,), dtype=cdt)
+    return spec
+
+
+def _chunks(n: int, per_slice: int) -> list[tuple[int, int]]:
+    """Split range(n) into chunks whose size depends only on the shape."""
+    step = max(1, _CHUNK_ELEMENTS // max(1, per_slice))
+    return [(i, min(n, i + step)) for i in range(0, n, step)]
+
+
+class _PlanBook:
+    """Per-call plan store: one pyfftw plan per (worker, kind, shape, strides)."""
+
+    def __init__(self):
+        self._plans = {}
+
+    def get(self, worker, key, make):
+        k = (worker,) + key
+        p = self._plans.get(k)
+        if p is None:
+            p = make()
+            self._plans[k] = p
+        return p
+
+
+def _c2c_pass(spec, axis, book, worker, lo, hi, chunk_axis):
+    sl = [slice(None)] * spec.ndim
+    sl[chunk_axis] = slice(lo, hi)
+    block = spec[tuple(sl)]
+    key = ("c2c", axis, block.shape, block.strides, block.dtype.str)
+    plan = book.get(
+        worker,
+        key,
+        lambda: pyfftw.FFTW(block, block, axes=(axis,), direction="FFTW_BACKWARD", flags=_FLAGS, threads=1),
+    )
+    plan.update_arrays(block, block)
+    plan.execute()
+
+
+def _c2r_pass(spec, real, book, worker, lo, hi):
+    s_in = spec[lo:hi]
+    s_out = real[lo:hi]
+    key = ("c2r", s_in.shape, s_in.strides, s_out.strides, s_in.dtype.str)
+    axis = spec.ndim - 1
+    plan = book.get(
+        worker,
+        key,
+        lambda: pyfftw.FFTW(s_in, s_out, axes=(axis,), direction="FFTW_BACKWARD", flags=_FLAGS, threads=1),
+    )
+    plan.update_arrays(s_in, s_out)
+    plan.execute()
+
+
+def irfftn_inplace(spec, n_last: int):
+    """Unnormalised inverse real N-D FFT, computed in place.
+
+    Parameters
+    ----------
+    spec : ndarray, complex64 or complex128, C-contiguous
+        Half spectrum of shape ``(..., n_last // 2 + 1)`` as returned by
+        :func:`empty_halfspectrum`.  Destroyed.  The planes ``k_last = 0`` and
+        (for even ``n_last``) ``k_last = n_last / 2`` must already be
+        Hermitian; FFTW does not check it.
+    n_last : int
+        Length of the last axis of the real output.
+
+    Returns
+    -------
+    real : ndarray, float32 or float64
+        View of ``spec``'s memory with shape ``spec.shape[:-1] + (n_last,)``:
+        ``real[x] = sum_k spec[k] exp(+2j pi k.x / N)``.  It is not
+        C-contiguous (its rows keep FFTW's in-place padding of one or two
+        values), which keeps the peak memory at the size of the output.
+    """
+    if not spec.flags.c_contiguous:
+        raise ValueError("spec must be C-contiguous")
+    nh = n_last // 2 + 1
+    if spec.shape[-1] != nh:
+        raise ValueError(f"spec.shape[-1]={spec.shape[-1]} does not match n_last={n_last} (expected {nh})")
+    rdt = np.float32 if spec.dtype == np.complex64 else np.float64
+    padded = spec.view(rdt)  # shape (..., 2 * nh)
+    real = padded[..., :n_last]
+    book = _PlanBook()
+    nd = spec.ndim
+    # c2c passes over all axes but the last, then c2r along the last.
+    for axis in range(nd - 1):
+        chunk_axis = 1 if axis == 0 else 0
+        per_slice = spec.size // spec.shape[chunk_axis]
+        tasks = _chunks(spec.shape[chunk_axis], per_slice)
+        _run_chunks(tasks, lambda w, t, a=axis, ca=chunk_axis: _c2c_pass(spec, a, book, w, t[0], t[1], ca))
+    if nd == 1:
+        plan = pyfftw.FFTW(spec, real, axes=(0,), direction="FFTW_BACKWARD", flags=_FLAGS, threads=1)
+        plan.execute()
+        return real
+    per_slice = spec.size // spec.shape[0]
+    tasks = _chunks(spec.shape[0], per_slice)
+    _run_chunks(tasks, lambda w, t: _c2r_pass(spec, real, book, w, t[0], t[1]))
+    return real
+
+
+def irfft3_floor(shape, real_dtype=np.float32, threads: int | None = None):
+    """Return a callable timing floor: FFTW's own threaded inverse real 3-D FFT.
+
+    Used by the benchmarks as the speed floor of box generation.  It is not
+    used for generation because FFTW's threaded plans are not guaranteed to
+    round identically for different thread counts.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        Real shape ``(nx, ny, nz)``.
+    threads : int, optional
+        FFTW threads (default: the configured thread count).
+
+    Returns
+    -------
+    run : callable
+        ``run()`` executes one transform on a pre-allocated buffer.
+    """
+    threads = get_num_threads() if threads is None else threads
+    spec = empty_halfspectrum(shape, real_dtype)
+    real = spec.view(np.float32 if spec.dtype == np.complex64 else np.float64)[..., : shape[-1]]
+    plan = pyfftw.FFTW(spec, real, axes=tuple(range(len(shape))), direction="FFTW_BACKWARD",
+                       flags=("FFTW_ESTIMATE", "FFTW_DESTROY_INPUT"), threads=threads)
+    return plan.execute
+
+
+def rfft_rows(x, out=None):
+    """Unnormalised forward real FFT along the last axis of a 2-D array.
+
+    Parameters
+    ----------
+    x : ndarray, float32 or float64, shape (m, n)
+        Rows to transform (not modified).
+    out : ndarray, complex, shape (m, n // 2 + 1), optional
+        Output buffer.
+
+    Returns
+    -------
+    X : ndarray, complex, shape (m, n // 2 + 1)
+        ``X[r, k] = sum_j x[r, j] exp(-2j pi k j / n)``.
+    """
+    x = np.ascontiguousarray(x)
+    if x.ndim != 2:
+        raise ValueError(f"x must be 2-D (rows, samples), got shape {x.shape}")
+    m, n = x.shape
+    cdt = complex_dtype(x.dtype)
+    if out is None:
+        out = pyfftw.empty_aligned((m, n // 2 + 1), dtype=cdt)
+    book = _PlanBook()
+
+    def work(w, t):
+        lo, hi = t
+        xi, oi = x[lo:hi], out[lo:hi]
+        key = ("r2c", xi.shape, xi.strides, oi.strides, xi.dtype.str)
+        plan = book.get(w, key, lambda: pyfftw.FFTW(
+            xi, oi, axes=(1,), direction="FFTW_FORWARD", flags=("FFTW_ESTIMATE", "FFTW_UNALIGNED"), threads=1))
+        plan.update_arrays(xi, oi)
+        plan.execute()
+
+    _run_chunks(_chunks(m, n), work)
+    return out
+
+

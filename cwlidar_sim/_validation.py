@@ -1,0 +1,104 @@
+"""Input checks shared by every public function.
+
+Each check raises ValueError or TypeError whose message names the field, the
+offending value and the allowed range, so that a user reading the message
+knows what to change.  Never use ``assert`` for these: it vanishes under
+``python -O``.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+
+def check_real(name: str, value, *, lo=None, hi=None, lo_open=False, hi_open=False) -> float:
+    """Return ``value`` as a float after checking it is finite and in range.
+
+    Parameters
+    ----------
+    name : str
+        Field name used in the error message.
+    value : real number
+    lo, hi : float, optional
+        Bounds of the allowed range.
+    lo_open, hi_open : bool
+        Exclude the bound itself.
+    """
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
+    v = float(value)
+    rng = _range_text(lo, hi, lo_open, hi_open)
+    if not math.isfinite(v):
+        raise ValueError(f"{name}={value!r} is not finite; allowed: {rng}")
+    if lo is not None and (v < lo or (lo_open and v == lo)):
+        raise ValueError(f"{name}={value!r} is out of range; allowed: {rng}")
+    if hi is not None and (v > hi or (hi_open and v == hi)):
+        raise ValueError(f"{name}={value!r} is out of range; allowed: {rng}")
+    return v
+
+
+def check_int(name: str, value, *, lo=None, hi=None) -> int:
+    """Return ``value`` as an int after checking type and range."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
+    v = int(value)
+    rng = _range_text(lo, hi, False, False)
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        raise ValueError(f"{name}={v} is out of range; allowed: {rng}")
+    return v
+
+
+def check_choice(name: str, value, choices) -> str:
+    """Return ``value`` if it is one of ``choices``."""
+    if value not in choices:
+        raise ValueError(f"{name}={value!r} is not allowed; allowed: {', '.join(map(repr, choices))}")
+    return value
+
+
+def check_seed(name: str, value) -> int:
+    """Seeds are non-negative integers below 2**63."""
+    return check_int(name, value, lo=0, hi=2**63 - 1)
+
+
+def check_tuple(name: str, value, n: int, item_check):
+    """Check a length-``n`` sequence element by element with ``item_check(label, v)``."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise TypeError(f"{name} must be a sequence of {n} values, got {value!r}")
+    if len(value) != n:
+        raise ValueError(f"{name} must have {n} values, got {len(value)}: {tuple(value)!r}")
+    return tuple(item_check(f"{name}[{i}]", v) for i, v in enumerate(value))
+
+
+def check_memory(name: str, nbytes: int, *, fraction: float = 0.8) -> None:
+    """Refuse an allocation larger than ``fraction`` of the available memory."""
+    avail = available_memory()
+    if avail is not None and nbytes > fraction * avail:
+        raise ValueError(
+            f"{name} needs about {nbytes / 2**30:.2f} GiB, more than {fraction:.0%} of the "
+            f"{avail / 2**30:.2f} GiB available; allowed: at most {fraction * avail / 2**30:.2f} GiB"
+        )
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to this process (Linux), or None if unknown."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def _range_text(lo, hi, lo_open, hi_open) -> str:
+    if lo is None and hi is None:
+        return "any finite value"
+    if hi is None:
+        return f"{'>' if lo_open else '>='} {lo}"
+    if lo is None:
+        return f"{'<' if hi_open else '<='} {hi}"
+    return f"{'(' if lo_open else '['}{lo}, {hi}{')' if hi_open else ']'}"

@@ -1,0 +1,144 @@
+"""Numba kernels of the beam stage: trilinear sampling of a periodic field along beams.
+
+Imported lazily by :mod:`cwlidar_sim.beam.sampling`; importing it compiles
+(or loads from cache) the kernels.  Every parallel loop runs over time samples
+and writes only that sample's outputs; sums over range cells run serially in
+index order inside one iteration, so results do not depend on the thread
+count.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .._config import NJIT, NJIT_PARALLEL
+
+
+@numba.njit(**NJIT)
+def _index_periodic(f, n):
+    """Lower node and fraction of fractional index ``f`` on a periodic axis of ``n`` nodes."""
+    f = f - math.floor(f / n) * n
+    i = int(math.floor(f))
+    t = f - i
+    if i >= n:  # f rounded up to n
+        i -= n
+    i1 = i + 1
+    if i1 == n:
+        i1 = 0
+    return i, i1, t
+
+
+@numba.njit(**NJIT)
+def _index_bounded(f, n):
+    """Lower node and fraction on a non-periodic axis; ``f`` was checked to lie in [0, n-1]."""
+    if n == 1:
+        return 0, 0, 0.0
+    i = int(math.floor(f))
+    if i < 0:
+        i = 0
+    if i > n - 2:
+        i = n - 2
+    t = f - i
+    if t < 0.0:
+        t = 0.0
+    if t > 1.0:
+        t = 1.0
+    return i, i + 1, t
+
+
+@numba.njit(**NJIT)
+def _interp3(a, i0, i1, j0, j1, k0, k1, tx, ty, tz):
+    """Trilinear interpolation of ``a`` between the 8 nodes (i0|i1, j0|j1, k0|k1)."""
+    c00 = a[i0, j0, k0] * (1.0 - tx) + a[i1, j0, k0] * tx
+    c10 = a[i0, j1, k0] * (1.0 - tx) + a[i1, j1, k0] * tx
+    c01 = a[i0, j0, k1] * (1.0 - tx) + a[i1, j0, k1] * tx
+    c11 = a[i0, j1, k1] * (1.0 - tx) + a[i1, j1, k1] * tx
+    c0 = c00 * (1.0 - ty) + c10 * ty
+    c1 = c01 * (1.0 - ty) + c11 * ty
+    return c0 * (1.0 - tz) + c1 * tz
+
+
+@numba.njit(**NJIT)
+def _locate(px, py, pz, grid, nx, ny, nz, wrap_y, wrap_z):
+    """Nodes and fractions of a point; ``grid`` = (x0, y0, z0, dx, dy, dz)."""
+    i0, i1, tx = _index_periodic((px - grid[0]) / grid[3], nx)
+    fy = (py - grid[1]) / grid[4]
+    if wrap_y and ny > 1:
+        j0, j1, ty = _index_periodic(fy, ny)
+    else:
+        j0, j1, ty = _index_bounded(fy, ny)
+    fz = (pz - grid[2]) / grid[5]
+    if wrap_z and nz > 1:
+        k0, k1, tz = _index_periodic(fz, nz)
+    else:
+        k0, k1, tz = _index_bounded(fz, nz)
+    return i0, i1, j0, j1, k0, k1, tx, ty, tz
+
+
+@numba.njit(**NJIT_PARALLEL)
+def sample_points_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_tc, range_s, time_t, U, add_mean, vel_tsc, vlos_ts):
+    """Velocity at ``origin + range * n(t)`` and time t, field advected at U along +x.
+
+    Writes ``vel_tsc[t, s, :]`` (u, v, w) [m/s] and ``vlos_ts[t, s] = n(t) . vel``.
+    """
+    nx, ny, nz = u.shape
+    n_t = time_t.shape[0]
+    n_s = range_s.shape[0]
+    for it in numba.prange(n_t):
+        ex = n_tc[it, 0]
+        ey = n_tc[it, 1]
+        ez = n_tc[it, 2]
+        shift = U * time_t[it]
+        for js in range(n_s):
+            r = range_s[js]
+            px = origin[0] + r * ex - shift
+            py = origin[1] + r * ey
+            pz = origin[2] + r * ez
+            i0, i1, j0, j1, k0, k1, tx, ty, tz = _locate(px, py, pz, grid, nx, ny, nz, wrap_y, wrap_z)
+            a = _interp3(u, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+            b = _interp3(v, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+            c = _interp3(w, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+            if add_mean:
+                a += U
+            vel_tsc[it, js, 0] = a
+            vel_tsc[it, js, 1] = b
+            vel_tsc[it, js, 2] = c
+            vlos_ts[it, js] = ex * a + ey * b + ez * c
+
+
+@numba.njit(**NJIT_PARALLEL)
+def los_weighted_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_tc, range_s, weight_s, time_t, U, add_mean, vlos_t):
+    """Weighted line-of-sight speed ``vlos_t[t] = sum_s weight_s[s] n(t) . vel(origin + range_s[s] n(t), t)``.
+
+    The sum over cells runs in index order within one time sample.
+    """
+    nx, ny, nz = u.shape
+    n_t = time_t.shape[0]
+    n_s = range_s.shape[0]
+    for it in numba.prange(n_t):
+        ex = n_tc[it, 0]
+        ey = n_tc[it, 1]
+        ez = n_tc[it, 2]
+        shift = U * time_t[it]
+        acc = 0.0
+        for js in range(n_s):
+            r = range_s[js]
+            px = origin[0] + r * ex - shift
+            py = origin[1] + r * ey
+            pz = origin[2] + r * ez
+            i0, i1, j0, j1, k0, k1, tx, ty, tz = _locate(px, py, pz, grid, nx, ny, nz, wrap_y, wrap_z)
+            a = _interp3(u, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+            b = _interp3(v, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+            c = _interp3(w, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+            if add_mean:
+                a += U
+            acc += weight_s[js] * (ex * a + ey * b + ez * c)
+        vlos_t[it] = acc
+
+
+def empty_outputs(n_t: int, n_s: int):
+    """float64 outputs of :func:`sample_points_kernel`."""
+    return np.empty((n_t, n_s, 3)), np.empty((n_t, n_s))

@@ -1,0 +1,28 @@
+"""Mann (1994, 1998) spectral-tensor turbulence: tensor, spectra, fields, files."""
+
+from .io import hawc2_paths, read_hawc2, read_netcdf, write_hawc2, write_netcdf
+from .box import BoxExpectation, BoxGenerator, expected_box_covariance, generate_box
+from .parameters import MannParameters
+from .spectra import Covariances, covariances, isotropic_spectra, one_point_spectra
+from .tensor import amplitude_matrix, eddy_lifetime, energy_spectrum, spectral_tensor
+
+__all__ = [
+    "MannParameters",
+    "BoxExpectation",
+    "BoxGenerator",
+    "Covariances",
+    "amplitude_matrix",
+    "covariances",
+    "eddy_lifetime",
+    "energy_spectrum",
+    "expected_box_covariance",
+    "generate_box",
+    "isotropic_spectra",
+    "one_point_spectra",
+    "spectral_tensor",
+    "hawc2_paths",
+    "read_hawc2",
+    "read_netcdf",
+    "write_hawc2",
+    "write_netcdf",
+]

@@ -1,0 +1,537 @@
+"""Turbulence-field interchange: HAWC2 / Mann64bit binary boxes and NetCDF.
+
+HAWC2 (Mann64bit) box format
+----------------------------
+Three raw files, one per component (u, v, w), each holding ``Nx*Ny*Nz``
+little-endian float32 values [m/s] and no header.  Shape and spacing are not
+in the files; the reader must be told them.  Default file names are
+``BASE_u.bin``, ``BASE_v.bin``, ``BASE_w.bin`` (a trailing ``.bin`` on BASE is
+dropped, so ``box.bin`` names ``box_u.bin``..., as ``mannrs`` does); explicit
+paths are accepted too (``hipersim`` writes ``BASENAMEu.turb``...).
+
+Conventions (established from the peers, pinned in tests/turbulence/test_io.py)
+
+* **Value order.**  The file is the C-order flattening of the array indexed
+  ``[ix, iy, iz]``: z runs fastest, then y, x slowest.  Evidence: ``mannrs``
+  2.0 ``Windfield.to_HAWC2`` writes ``np.array(self.U).astype("<f").tofile``
+  of ``U`` shaped (Nx, Ny, Nz) (mannrs/Windfield.py, l. 137-139) and names the
+  files with ``filename.with_stem(stem + "_u")`` (l. 107-109); ``hipersim``
+  0.1.22 ``TurbulenceField.to_hawc2`` writes ``uvw[i].astype('<f').tofile``
+  of an (Nx, Ny, Nz) array and ``from_hawc2`` reshapes to ``(3,) + Nxyz``
+  (hipersim/_hipersim.py, l. 89-97).  Neither flips any axis or sign, so our
+  Dataset ``u[ix, iy, iz]`` is the peer's ``U[ix, iy, iz]`` value for value.
+* **Frame and signs.**  x is the mean-wind direction, y is lateral, positive
+  to the *left* looking downwind, z is up: a right-handed frame, and u, v, w
+  are positive along +x, +y, +z.  hipersim documents this (``to_xarray``,
+  hipersim/_hipersim.py l. 68-72: "x: In direction of U, i.e. first yz-plane
+  hits wind turbine last; y: to the left, when looking in the direction of the
+  wind; z: up").  The tests check it on the peers' own boxes read through
+  :func:`read_hawc2`: the spectral divergence ``k1 u + k2 v + k3 w`` nearly
+  cancels with these signs and does not if any one term is reversed (that is
+  what a reversed axis or a flipped component would do), the u-w covariance
+  is negative, and the sheared eddies lean downstream with height (more u and
+  w energy at k1*k3 < 0), as the Mann (1994) distortion k3 = k30 - beta*k1 of
+  a flow whose speed increases with z requires.  No sign is flipped on
+  reading or writing.
+* **x and time.**  Under Taylor's hypothesis the box is convected along +x at
+  the mean speed U, so a sensor at rest at x0 sees at time t the plane at
+  ``x = x0 - U t`` (periodic in x).  A sensor at the last plane,
+  ``x0 = (Nx-1) dx``, sees planes Nx-1, Nx-2, ..., 0 at t = 0, dx/U, ...,
+  (Nx-1) dx/U: the last plane (largest x) arrives first and file plane 0
+  (our ``x = 0``) last.  Time runs against the x index.
+* **The "reversed box" complaint.**  HAWC2 before 13.1 and OpenFAST
+  InflowWind bring file plane 0 to the rotor first, i.e. they use the box
+  reversed in x, which mirrors the sheared eddies' tilt (OpenFAST issue
+  #256, where DTU confirmed it; SINTEF's SIMA wind-field documentation cites
+  the HAWC2 13.1 release notes: "Mann turbulence box - read in wrong
+  direction").  ``reverse_x=True`` writes (or reads) the planes in arrival
+  order, ``file plane j = our plane Nx-1-j``, so such a reader convects the
+  field the right way round.  Only the x order changes, not u's sign.  The
+  default (``False``) keeps the order the generators (Mann64bit, mannrs,
+  hipersim) write.
+
+NetCDF
+------
+:func:`write_netcdf` / :func:`read_netcdf` store a box (x, y, z), plane
+(x, y) or line (x,) Dataset with the h5netcdf engine: u, v, w keep their dtype
+(float32 by default), carry CF ``units`` ("m s-1") and ``long_name``;
+coordinates carry ``units`` "m"; the Dataset attributes (Mann parameters,
+seed, spacing, generation settings) become global attributes and are read
+back.  Attribute values netCDF cannot hold (bool, None, dict, lists of
+strings, integers beyond int64) are stored as JSON text and decoded on
+reading, so they round-trip.
+"""
+
+from __future__ import annotations
+
+import json
+import numbers
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .._validation import check_int, check_memory, check_real, check_tuple
+
+__all__ = ["hawc2_paths", "read_hawc2", "read_netcdf", "write_hawc2", "write_netcdf"]
+
+_COMPONENTS = ("u", "v", "w")
+_FIELD_DIMS = (("x", "y", "z"), ("x", "y"), ("x",))
+_HAWC2_DTYPE = np.dtype("<f4")
+#: Default largest slab copied at once while writing a HAWC2 file [bytes].
+_DEFAULT_CHUNK_BYTES = 16 * 2**20
+#: Global attribute listing the attributes stored as JSON text.
+_JSON_ATTR = "cwlidar_sim_json_attrs"
+
+_LONG_NAMES = {
+    "u": "longitudinal velocity fluctuation",
+    "v": "lateral velocity fluctuation",
+    "w": "vertical velocity fluctuation",
+    "x": "longitudinal position (along the mean wind)",
+    "y": "lateral position (positive to the left looking downwind)",
+    "z": "vertical position (positive up)",
+}
+
+
+# ---------------------------------------------------------------------------
+# HAWC2 / Mann64bit binary
+# ---------------------------------------------------------------------------
+def hawc2_paths(base_or_paths) -> tuple[Path, Path, Path]:
+    """File names of the u, v, w components of a HAWC2 box.
+
+    Parameters
+    ----------
+    base_or_paths : str or os.PathLike or sequence of 3 of them
+        Either a base name ``BASE`` (giving ``BASE_u.bin``, ``BASE_v.bin``,
+        ``BASE_w.bin``; a trailing ``.bin`` on BASE is dropped first, so
+        ``box.bin`` gives ``box_u.bin``..., the names ``mannrs`` writes) or the
+        three paths, in the order u, v, w.
+
+    Returns
+    -------
+    tuple of pathlib.Path
+        Paths of the u, v and w files.
+    """
+    if isinstance(base_or_paths, (str, os.PathLike)):
+        base = Path(base_or_paths)
+        if base.name in ("", ".", ".."):
+            raise ValueError(f"base={str(base_or_paths)!r} names no file; allowed: a file base name such as 'out/box'")
+        stem = base.name[:-4] if base.name.lower().endswith(".bin") and len(base.name) > 4 else base.name
+        return tuple(base.with_name(f"{stem}_{c}.bin") for c in _COMPONENTS)
+    if isinstance(base_or_paths, (bytes, bytearray)) or not hasattr(base_or_paths, "__len__"):
+        raise TypeError(
+            f"base_or_paths must be a path or a sequence of 3 paths (u, v, w), got "
+            f"{type(base_or_paths).__name__} {base_or_paths!r}"
+        )
+    if len(base_or_paths) != 3:
+        raise ValueError(f"base_or_paths must hold 3 paths (u, v, w), got {len(base_or_paths)}: {base_or_paths!r}")
+    out = []
+    for c, p in zip(_COMPONENTS, base_or_paths):
+        if not isinstance(p, (str, os.PathLike)):
+            raise TypeError(f"path of component {c} must be str or os.PathLike, got {type(p).__name__} {p!r}")
+        out.append(Path(p))
+    if len(set(out)) != 3:
+        raise ValueError(f"base_or_paths must name 3 different files, got {[str(p) for p in out]}")
+    return tuple(out)
+
+
+def write_hawc2(box, base, *, reverse_x: bool = False, max_chunk_bytes: int = _DEFAULT_CHUNK_BYTES):
+    """Write a 3-D box as a HAWC2 / Mann64bit binary turbulence box.
+
+    Parameters
+    ----------
+    box : xarray.Dataset
+        Data variables ``u``, ``v``, ``w`` [m/s] on dims ``("x", "y", "z")``
+        (any order of those three names; they are written as [x, y, z]).  Any
+        real dtype; values are cast to float32 and must be finite after the
+        cast.  Views, non-contiguous or dask-backed arrays are fine.
+    base : str or os.PathLike or sequence of 3 of them
+        Base name or the three paths (u, v, w); see :func:`hawc2_paths`.
+        Existing files are overwritten.
+    reverse_x : bool, optional
+        Write the x planes in reverse order (file plane j = plane Nx-1-j), for
+        readers that bring file plane 0 to the rotor first (HAWC2 < 13.1,
+        OpenFAST InflowWind).  Default False: file plane j = our plane j, as
+        Mann64bit, mannrs and hipersim write.  See the module docstring.
+    max_chunk_bytes : int, optional
+        Largest float32 slab converted at a time [bytes] (at least one x
+        plane is always taken).  Memory held by the writer is about this,
+        never a contiguous copy of a whole component.
+
+    Returns
+    -------
+    tuple of pathlib.Path
+        The u, v and w files written, each ``Nx*Ny*Nz*4`` bytes.
+
+    Raises
+    ------
+    TypeError
+        ``box`` is not an xarray Dataset or a variable is not real.
+    ValueError
+        Missing component, wrong dims, empty box, or a non-finite value (no
+        file is left behind in that case).
+
+    Notes
+    -----
+    No header is written: the reader needs the shape (Nx, Ny, Nz) and spacing
+    (dx, dy, dz) [m] from elsewhere (e.g. ``box.attrs``).  Each file is first
+    written as ``NAME.part`` and renamed when complete.
+    """
+    reverse_x = _check_bool("reverse_x", reverse_x)
+    max_chunk_bytes = check_int("max_chunk_bytes", max_chunk_bytes, lo=1)
+    arrays = _field_arrays(box, "box", allowed=(_FIELD_DIMS[0],))
+    paths = hawc2_paths(base)
+    nx = arrays[0].shape[0]
+    plane_bytes = _HAWC2_DTYPE.itemsize * int(np.prod(arrays[0].shape[1:]))
+    step = max(1, max_chunk_bytes // plane_bytes)
+    for p in paths:
+        if not p.parent.is_dir():
+            raise FileNotFoundError(f"directory {str(p.parent)!r} for HAWC2 file {str(p)!r} does not exist")
+    done = []
+    try:
+        for c, vel_xyz, path in zip(_COMPONENTS, arrays, paths):
+            part = path.with_name(path.name + ".part")
+            with open(part, "wb") as fh:
+                for i0 in range(0, nx, step):
+                    i1 = min(nx, i0 + step)
+                    src = vel_xyz[nx - i1: nx - i0][::-1] if reverse_x else vel_xyz[i0:i1]
+                    # One slab at a time: a contiguous little-endian float32
+                    # copy of at most ``step`` planes, never of the component.
+                    with np.errstate(over="ignore", invalid="ignore"):  # caught just below
+                        slab_xyz = np.ascontiguousarray(np.asarray(src), dtype=_HAWC2_DTYPE)
+                    if not np.isfinite(slab_xyz).all():
+                        bad = np.argwhere(~np.isfinite(slab_xyz))[0]
+                        ix = nx - 1 - (i0 + bad[0]) if reverse_x else i0 + bad[0]
+                        raise ValueError(
+                            f"box['{c}'] has a non-finite value (after the cast to float32) at "
+                            f"[x={ix}, y={bad[1]}, z={bad[2]}]; allowed: finite values below 3.4e38 m/s"
+                        )
+                    fh.write(slab_xyz.data)
+                    del slab_xyz
+            done.append((part, path))
+    except BaseException:
+        for path in paths:
+            path.with_name(path.name + ".part").unlink(missing_ok=True)
+        raise
+    for part, path in done:
+        os.replace(part, path)
+    return paths
+
+
+def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, mmap: bool = False, attrs=None):
+    """Read a HAWC2 / Mann64bit binary turbulence box.
+
+    Parameters
+    ----------
+    base_or_paths : str or os.PathLike or sequence of 3 of them
+        Base name or the three paths (u, v, w); see :func:`hawc2_paths`.
+    shape : sequence of 3 int
+        (Nx, Ny, Nz), each >= 1.  Each file must hold exactly
+        ``Nx*Ny*Nz*4`` bytes.
+    spacing : sequence of 3 float
+        (dx, dy, dz) [m], each > 0 and finite.
+    reverse_x : bool, optional
+        The files hold the planes in reverse order (see :func:`write_hawc2`);
+        they are flipped back so that the Dataset is in our convention.
+    mmap : bool, optional
+        Map the files read-only (``numpy.memmap``) instead of loading them:
+        data are read lazily, only the slices used, and the files must stay in
+        place while the Dataset is used.  Default False (load into memory).
+    attrs : mapping, optional
+        Extra Dataset attributes (e.g. Mann parameters, seed); ``dx``, ``dy``,
+        ``dz`` are always set from ``spacing``.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``u``, ``v``, ``w`` float32 [m/s] on dims ("x", "y", "z"), coordinates
+        ``x = ix*dx``, ``y = iy*dy``, ``z = iz*dz`` [m]; our convention (x
+        along the mean wind, y to the left, z up; see the module docstring).
+
+    Raises
+    ------
+    FileNotFoundError
+        A component file is missing.
+    ValueError
+        Bad shape or spacing, or a file size that is not ``Nx*Ny*Nz*4`` bytes
+        (the message gives the expected and the actual size).
+    """
+    import xarray as xr
+
+    paths = hawc2_paths(base_or_paths)
+    shape = check_tuple("shape", shape, 3, lambda n, v: check_int(n, v, lo=1))
+    spacing = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
+    reverse_x = _check_bool("reverse_x", reverse_x)
+    mmap = _check_bool("mmap", mmap)
+    extra = _check_attrs(attrs)
+    count = shape[0] * shape[1] * shape[2]
+    expected = count * _HAWC2_DTYPE.itemsize
+    for c, p in zip(_COMPONENTS, paths):
+        if not p.is_file():
+            raise FileNotFoundError(f"HAWC2 file for component {c} not found: {str(p)!r}")
+        actual = p.stat().st_size
+        if actual != expected:
+            raise ValueError(
+                f"HAWC2 file {str(p)!r} (component {c}) holds {actual} bytes, but shape={shape} "
+                f"needs {expected} bytes ({count} float32 values); the file holds "
+                f"{actual / _HAWC2_DTYPE.itemsize:g} values. Check shape (Nx, Ny, Nz)."
+            )
+    if not mmap:
+        check_memory("read_hawc2 (3 components)", 3 * expected)
+    data = {}
+    for c, p in zip(_COMPONENTS, paths):
+        if mmap:
+            vel_xyz = np.memmap(p, dtype=_HAWC2_DTYPE, mode="r", shape=shape)
+        else:
+            vel_xyz = np.fromfile(p, dtype=_HAWC2_DTYPE, count=count).reshape(shape)
+            # Native byte order for numba kernels; no copy on little-endian hosts.
+            vel_xyz = vel_xyz.astype(np.float32, copy=False)
+        if reverse_x:
+            vel_xyz = vel_xyz[::-1]
+        data[c] = (("x", "y", "z"), vel_xyz, {"units": "m s-1", "long_name": _LONG_NAMES[c]})
+    coords = {
+        d: (d, np.arange(n) * s, {"units": "m", "long_name": _LONG_NAMES[d]})
+        for d, n, s in zip("xyz", shape, spacing)
+    }
+    ds_attrs = dict(extra)
+    ds_attrs.update(dx=spacing[0], dy=spacing[1], dz=spacing[2])
+    return xr.Dataset(data, coords=coords, attrs=ds_attrs)
+
+
+# ---------------------------------------------------------------------------
+# NetCDF
+# ---------------------------------------------------------------------------
+def write_netcdf(field, path):
+    """Write a turbulence box, plane or line to a NetCDF-4 file (h5netcdf).
+
+    Parameters
+    ----------
+    field : xarray.Dataset
+        Data variables ``u``, ``v``, ``w`` [m/s], real dtype, all on the same
+        dims: ``("x", "y", "z")`` (box), ``("x", "y")`` (plane) or ``("x",)``
+        (line).  Other variables and coordinates are written as they are.
+        Dataset attributes (Mann parameters, seed, spacing, settings) become
+        global attributes.
+    path : str or os.PathLike
+        Output file; overwritten if it exists.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+
+    Notes
+    -----
+    Dtypes are kept (float32 stays float32) and no ``_FillValue`` is added, so
+    a round trip is bit-exact.  ``units`` ("m s-1" for u, v, w; "m" for the
+    x, y, z coordinates) and ``long_name`` are added where missing, in the
+    file only: ``field`` is not modified.  Attribute values that netCDF
+    cannot hold (bool, None, dict, lists of strings, integers outside int64)
+    are written as JSON text and listed in the global attribute
+    ``cwlidar_sim_json_attrs``; :func:`read_netcdf` decodes them.
+    """
+    path = _check_path("path", path)
+    _field_dims(field, "field", allowed=_FIELD_DIMS)
+    if not path.parent.is_dir():
+        raise FileNotFoundError(f"directory {str(path.parent)!r} for NetCDF file {str(path)!r} does not exist")
+    # A shallow copy: new Variable objects (own attrs and encoding) sharing
+    # the data, so the caller's Dataset is left untouched.
+    ds = field.copy(deep=False)
+    ds.attrs = _encode_attrs(dict(field.attrs), "field.attrs")
+    for name, var in ds.variables.items():
+        var.attrs = _encode_attrs(dict(field.variables[name].attrs), f"field[{name!r}].attrs")
+        var.encoding = {}
+    for c in _COMPONENTS:
+        ds.variables[c].attrs.setdefault("units", "m s-1")
+        ds.variables[c].attrs.setdefault("long_name", _LONG_NAMES[c])
+    for d in ds[_COMPONENTS[0]].dims:
+        if d in ds.variables:
+            ds.variables[d].attrs.setdefault("units", "m")
+            ds.variables[d].attrs.setdefault("long_name", _LONG_NAMES[d])
+    encoding = {name: {"_FillValue": None} for name in ds.variables}
+    ds.to_netcdf(path, mode="w", engine="h5netcdf", format="NETCDF4", encoding=encoding)
+    return path
+
+
+def read_netcdf(path, *, lazy: bool = False):
+    """Read a turbulence box, plane or line written by :func:`write_netcdf`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        NetCDF file.
+    lazy : bool, optional
+        If True, return the Dataset backed by the open file: values are read
+        only when indexed (useful for boxes larger than memory); close it with
+        ``ds.close()`` when done.  Default False: everything is loaded and
+        the file is closed.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``u``, ``v``, ``w`` [m/s] in the stored dtype, coordinates [m], and
+        the global attributes (JSON-encoded ones decoded).
+
+    Raises
+    ------
+    FileNotFoundError
+        ``path`` does not exist.
+    ValueError
+        The file lacks u, v or w, or they are not on (x, y, z), (x, y) or (x,).
+    """
+    import xarray as xr
+
+    path = _check_path("path", path)
+    lazy = _check_bool("lazy", lazy)
+    if not path.is_file():
+        raise FileNotFoundError(f"NetCDF file not found: {str(path)!r}")
+    ds = xr.open_dataset(path, engine="h5netcdf", mask_and_scale=False, decode_times=False, cache=False)
+    try:
+        _field_dims(ds, f"NetCDF file {str(path)!r}", allowed=_FIELD_DIMS)
+        if not lazy:
+            ds.load()
+    except BaseException:
+        ds.close()
+        raise
+    if not lazy:
+        ds.close()
+    ds.attrs = _decode_attrs(ds.attrs)
+    return ds
+
+
+# ---------------------------------------------------------------------------
+# helpers
+# ---------------------------------------------------------------------------
+def _check_bool(name, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {type(value).__name__} {value!r}")
+    return bool(value)
+
+
+def _check_path(name, value) -> Path:
+    if not isinstance(value, (str, os.PathLike)):
+        raise TypeError(f"{name} must be str or os.PathLike, got {type(value).__name__} {value!r}")
+    p = Path(value)
+    if p.name in ("", ".", ".."):
+        raise ValueError(f"{name}={str(value)!r} names no file; allowed: a file path such as 'out/box.nc'")
+    return p
+
+
+def _check_attrs(attrs) -> dict:
+    if attrs is None:
+        return {}
+    if not hasattr(attrs, "keys"):
+        raise TypeError(f"attrs must be a mapping or None, got {type(attrs).__name__} {attrs!r}")
+    return dict(attrs)
+
+
+def _field_arrays(field, label, *, allowed):
+    """Validate a u, v, w Dataset; return its three arrays with dims in canonical order."""
+    target = _field_dims(field, label, allowed=allowed)
+    out = [field[c].transpose(*target).data for c in _COMPONENTS]
+    if len({a.shape for a in out}) != 1:
+        raise ValueError(f"{label}: u, v, w shapes differ: {[a.shape for a in out]}")
+    return out
+
+
+def _field_dims(field, label, *, allowed):
+    """Validate a u, v, w Dataset without touching its data; return the canonical dims."""
+    import xarray as xr
+
+    if not isinstance(field, xr.Dataset):
+        raise TypeError(f"{label} must be an xarray.Dataset with variables u, v, w, got {type(field).__name__}")
+    missing = [c for c in _COMPONENTS if c not in field.data_vars]
+    if missing:
+        raise ValueError(
+            f"{label} lacks velocity component(s) {missing}; allowed: a Dataset with data variables u, v, w"
+        )
+    dims0 = field[_COMPONENTS[0]].dims
+    target = next((d for d in allowed if sorted(d) == sorted(dims0)), None)
+    if target is None:
+        raise ValueError(
+            f"{label}['u'] has dims {dims0}; allowed: "
+            + " or ".join(str(d) for d in allowed)
+        )
+    for c in _COMPONENTS:
+        da = field[c]
+        if sorted(da.dims) != sorted(target):
+            raise ValueError(f"{label}['{c}'] has dims {da.dims}; allowed: {target}, the same as u")
+        if not (np.issubdtype(da.dtype, np.floating) or np.issubdtype(da.dtype, np.integer)):
+            raise TypeError(f"{label}['{c}'] must hold real numbers, got dtype {da.dtype}")
+        if da.size == 0:
+            raise ValueError(f"{label}['{c}'] is empty (shape {da.shape}); allowed: at least one point per dim")
+    return target
+
+
+def _netcdf_native(value) -> bool:
+    """True if netCDF-4 can hold ``value`` as an attribute as it is."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, (str, np.str_)):
+        return True
+    if isinstance(value, (numbers.Integral, np.integer)):
+        return -(2**63) <= int(value) < 2**63
+    if isinstance(value, (numbers.Real, np.floating)):
+        return True
+    if isinstance(value, (list, tuple, np.ndarray)):
+        arr = np.asarray(value)
+        return (
+            arr.ndim == 1
+            and arr.size > 0
+            and (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer))
+            and arr.dtype != np.bool_
+        )
+    return False
+
+
+def _encode_attrs(attrs: dict, label: str) -> dict:
+    out = {}
+    json_names = []
+    for key, value in attrs.items():
+        if not isinstance(key, str):
+            raise TypeError(f"{label} key {key!r} must be a str")
+        if key == _JSON_ATTR:
+            continue
+        if _netcdf_native(value):
+            out[key] = value
+            continue
+        try:
+            out[key] = json.dumps(_to_json(value), allow_nan=True)
+        except TypeError:
+            raise TypeError(
+                f"{label}[{key!r}] = {value!r} ({type(value).__name__}) cannot be stored in NetCDF; allowed: "
+                "str, int, float, bool, None, 1-D numeric arrays, and lists/dicts of those"
+            ) from None
+        json_names.append(key)
+    if json_names:
+        out[_JSON_ATTR] = json.dumps(json_names)
+    return out
+
+
+def _to_json(value):
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, (numbers.Integral, np.integer)):
+        return int(value)
+    if isinstance(value, (numbers.Real, np.floating)):
+        return float(value)
+    if isinstance(value, np.ndarray):
+        return _to_json(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return [_to_json(v) for v in value]
+    if isinstance(value, dict) and all(isinstance(k, str) for k in value):
+        return {k: _to_json(v) for k, v in value.items()}
+    raise TypeError(type(value).__name__)
+
+
+def _decode_attrs(attrs) -> dict:
+    out = dict(attrs)
+    names = out.pop(_JSON_ATTR, None)
+    if names is None:
+        return out
+    for key in json.loads(names):
+        if key in out:
+            out[key] = json.loads(out[key])
+    return out

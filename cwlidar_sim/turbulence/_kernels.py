@@ -453,3 +453,28 @@ def hermitian_plane_kernel(spec, n3):
                 spec[n1, n2, n3] = sq2 * spec[n1, n2, n3].real
             elif n1 * N2 + n2 > m1 * N2 + m2:
                 spec[n1, n2, n3] = spec[m1, m2, n3].conjugate()
+
+
+@numba.njit(**NJIT)
+def plane_kernel(k1_m, k2_m, q3, w3, L, gamma, tab, out_m6):
+    """Phi integrated over k3 on the nodes q3 (scaled per mode), per (k1, k2).
+
+    q3/w3 are normalised nodes on [0, inf) for unit scale; for each mode
+    they are stretched by the mode's scale and used for both signs of k3.
+    """
+    m = np.empty((3, 3))
+    for n in range(k1_m.shape[0]):
+        k1 = k1_m[n]
+        k2 = k2_m[n]
+        kh = math.sqrt(k1 * k1 + k2 * k2)
+        sc = kh if 0.0 < kh < 1.0 / L else 1.0 / L
+        acc = np.zeros(6)
+        for j in range(q3.shape[0]):
+            x = q3[j] * sc
+            w = w3[j] * sc
+            amplitude(k1, k2, x, L, gamma, tab, m)
+            _accumulate_phi(m, w, acc)
+            amplitude(k1, k2, -x, L, gamma, tab, m)
+            _accumulate_phi(m, w, acc)
+        for c in range(6):
+            out_m6[n, c] = acc[c]

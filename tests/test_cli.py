@@ -1,0 +1,49 @@
+"""The command line: fast start, box command, clear errors."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+
+from cwlidar_sim import cli
+
+
+def test_help_imports_no_heavy_module():
+    code = (
+        "import sys; from cwlidar_sim import cli; "
+        "p = cli.build_parser(); p.format_help(); "
+        "print(sorted(m for m in ('numba', 'pyfftw', 'xarray', 'scipy') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_box_command_writes_netcdf_and_reports(tmp_path, capsys):
+    from cwlidar_sim.turbulence import read_netcdf
+
+    out = tmp_path / "sub" / "box.nc"
+    rc = cli.main(["box", "--alpha-eps", "1", "--length-scale", "20", "--gamma", "3", "--shape", "64", "8", "8",
+                   "--spacing", "2", "2", "2", "--seed", "3", "--out", str(out), "--stats"])
+    assert rc == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert set(rep) >= {"sample", "expected", "grid_resolved", "full"}
+    box = read_netcdf(out)
+    assert box.u.shape == (64, 8, 8) and box.attrs["seed"] == 3
+    assert np.isclose(float(box.u.var()), rep["sample"]["uu"], rtol=1e-5)
+
+
+def test_box_command_hawc2(tmp_path):
+    rc = cli.main(["box", "--alpha-eps", "1", "--length-scale", "20", "--gamma", "3", "--shape", "16", "4", "4",
+                   "--spacing", "1", "1", "1", "--seed", "1", "--out", str(tmp_path / "t"), "--format", "hawc2"])
+    assert rc == 0
+    for c in "uvw":
+        assert (tmp_path / f"t_{c}.bin").stat().st_size == 16 * 4 * 4 * 4
+
+
+def test_bad_input_is_one_clear_line(tmp_path, capsys):
+    rc = cli.main(["box", "--alpha-eps", "1", "--length-scale", "-20", "--gamma", "3", "--shape", "16", "4", "4",
+                   "--spacing", "1", "1", "1", "--seed", "1", "--out", str(tmp_path / "b.nc")])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert "length_scale" in err and "allowed" in err and "Traceback" not in err

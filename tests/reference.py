@@ -247,10 +247,14 @@ def signal_process_one(spec, bg, k_lo, k_hi, t, est, window, second_frac, guard,
         yc = y[kp]
         if est == "peak":
             right = yr >= yl
-            r = math.sqrt((yr if right else yl) / yc)
-            d = r / (1 + r) if window == "rect" else (2 * r - 1) / (1 + r)
-            d = min(0.5, max(0.0, d))
-            d = d if right else -d
+            yn = yr if right else yl
+            if yc <= 0 or yn <= 0:
+                d = 0.0
+            else:
+                r = math.sqrt(yn / yc)
+                d = r / (1 + r) if window == "rect" else (2 * r - 1) / (1 + r)
+                d = min(0.5, max(0.0, d))
+                d = d if right else -d
         else:
             if est == "peak_gaussian" and min(yl, yc, yr) > 0:
                 yl, yc, yr = math.log(yl), math.log(yc), math.log(yr)

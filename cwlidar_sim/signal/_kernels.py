@@ -1,0 +1,519 @@
+"""numba kernels of the Doppler signal chain (imported lazily; compile on first use).
+
+Random numbers come from a counter-based scheme: each stream (one estimate in
+tier 2, one block of samples or one range cell in tier 3) starts from
+``splitmix64(key ^ splitmix64(index))`` and advances as a splitmix64 sequence,
+so every number depends only on (seed, index) and never on which thread drew
+it.  Slow plain-Python references of every kernel are in ``tests/reference.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from scipy.special import ndtri
+
+from .._config import NJIT, NJIT_PARALLEL
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_M1 = np.uint64(0xBF58476D1CE4E5B9)
+_M2 = np.uint64(0x94D049BB133111EB)
+_S30 = np.uint64(30)
+_S27 = np.uint64(27)
+_S31 = np.uint64(31)
+_S32 = np.uint64(32)
+_LO32 = np.uint64(0xFFFFFFFF)
+_TWO_M32 = 2.0**-32
+_TWOPI = 2.0 * math.pi
+
+# Estimator ids (the registry in processing.py maps names to these).
+EST_MEDIAN, EST_CENTROID, EST_PEAK, EST_PEAK_PARABOLIC, EST_PEAK_GAUSSIAN, EST_ML = 0, 1, 2, 3, 4, 5
+# Quality flag bits (mirrored by processing.Flag).
+F_NO_SIGNAL, F_NEAR_NYQUIST, F_NEAR_ZERO, F_SECOND_PEAK, F_FIT_FAILED = 1, 2, 4, 8, 16
+# Threshold kinds.
+THR_SIGMA, THR_SNR, THR_PEAK_FRACTION = 0, 1, 2
+# Windows.
+WIN_RECT, WIN_HANN = 0, 1
+
+
+# ---------------------------------------------------------------------------
+# counter-based random numbers
+# ---------------------------------------------------------------------------
+@numba.njit(**NJIT)
+def mix64(z):
+    """splitmix64 finaliser (Steele, Lea & Flood 2014), a bijection of uint64."""
+    z = (z ^ (z >> _S30)) * _M1
+    z = (z ^ (z >> _S27)) * _M2
+    return z ^ (z >> _S31)
+
+
+@numba.njit(**NJIT)
+def stream_start(key, index):
+    """Initial state of stream ``index`` under ``key`` (both uint64-convertible)."""
+    return mix64(np.uint64(key) ^ mix64(np.uint64(index) * _GOLDEN + _GOLDEN))
+
+
+# Inverse normal CDF: a table of ndtri on a uniform grid of 2**14 cells of
+# (0, 1), linearly interpolated (absolute error < 1e-4 where used), and
+# Acklam's rational approximation (relative error < 1.2e-9) in the outer
+# 64 cells of each tail (|z| > 2.66), where the table would be too coarse.
+_NT_BITS = 14
+_NTAB = ndtri(np.arange(2**_NT_BITS + 1) / 2.0**_NT_BITS)
+_NT_SHIFT = np.uint64(32 - _NT_BITS)
+_NT_FRAC = np.uint64((1 << (32 - _NT_BITS)) - 1)
+_NT_FSCALE = 1.0 / (1 << (32 - _NT_BITS))
+_NT_LO = 64
+_NT_HI = 2**_NT_BITS - 64
+_A0, _A1, _A2, _A3, _A4, _A5 = (-3.969683028665376e01, 2.209460984245205e02, -2.759285104469687e02,
+                                1.383577518672690e02, -3.066479806614716e01, 2.506628277459239e00)
+_B0, _B1, _B2, _B3, _B4 = (-5.447609879822406e01, 1.615858368580409e02, -1.556989798598866e02,
+                           6.680131188771972e01, -1.328068155288572e01)
+_C0, _C1, _C2, _C3, _C4, _C5 = (-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e00,
+                                -2.549732539343734e00, 4.374664141464968e00, 2.938163982698783e00)
+_D0, _D1, _D2, _D3 = (7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e00, 3.754408661907416e00)
+
+
+@numba.njit(**NJIT)
+def acklam(p):
+    """Inverse standard-normal CDF, Acklam's algorithm (relative error < 1.2e-9), 0 < p < 1."""
+    if p < 0.02425 or p > 0.97575:
+        q = math.sqrt(-2.0 * math.log(p if p < 0.5 else 1.0 - p))
+        z = (((((_C0 * q + _C1) * q + _C2) * q + _C3) * q + _C4) * q + _C5) / (
+            (((_D0 * q + _D1) * q + _D2) * q + _D3) * q + 1.0)
+        return z if p < 0.5 else -z
+    q = p - 0.5
+    r = q * q
+    return (((((_A0 * r + _A1) * r + _A2) * r + _A3) * r + _A4) * r + _A5) * q / (
+        ((((_B0 * r + _B1) * r + _B2) * r + _B3) * r + _B4) * r + 1.0)
+
+
+@numba.njit(**NJIT)
+def normal_u32(u):
+    """N(0, 1) number from a 32-bit unsigned integer ``u`` (uniform), by inverse CDF.
+
+    The uniform is ``(u + 1/2) / 2**32``: |z| <= 6.3.
+    """
+    i = int(u >> _NT_SHIFT)
+    if i < _NT_LO or i >= _NT_HI:
+        return acklam((float(u) + 0.5) * _TWO_M32)
+    f = float(u & _NT_FRAC) * _NT_FSCALE
+    return _NTAB[i] + f * (_NTAB[i + 1] - _NTAB[i])
+
+
+@numba.njit(**NJIT)
+def normal_pair(state):
+    """Two independent N(0, 1) numbers from one splitmix64 step; returns (state, z0, z1)."""
+    state = state + _GOLDEN
+    z = mix64(state)
+    return state, normal_u32(z >> _S32), normal_u32(z & _LO32)
+
+
+@numba.njit(**NJIT)
+def normal_pair_polar(state):
+    """Two independent N(0, 1) numbers by Marsaglia's polar method (no trigonometry)."""
+    while True:
+        state = state + _GOLDEN
+        z = mix64(state)
+        a = float(z >> _S32) * (2.0 * _TWO_M32) - 1.0
+        b = float(z & _LO32) * (2.0 * _TWO_M32) - 1.0
+        s = a * a + b * b
+        if 0.0 < s < 1.0:
+            f = math.sqrt(-2.0 * math.log(s) / s)
+            return state, a * f, b * f
+
+
+# ---------------------------------------------------------------------------
+# line shape and expected spectrum (tier 2)
+# ---------------------------------------------------------------------------
+@numba.njit(**NJIT)
+def line_value(table, oversample, n_fft, x):
+    """Line shape G(x) at an offset of x bins, from its table on [0, N/2] (step 1/oversample).
+
+    G is even and N-periodic; linear interpolation between table nodes.
+    """
+    x = x - n_fft * math.floor(x / n_fft)
+    if x > 0.5 * n_fft:
+        x = n_fft - x
+    j = x * oversample
+    i = int(j)
+    if i >= table.shape[0] - 1:
+        return table[table.shape[0] - 1]
+    f = j - i
+    return table[i] * (1.0 - f) + table[i + 1] * f
+
+
+@numba.njit(**NJIT_PARALLEL)
+def expected_signal_kernel(x_es, amp_es, table, oversample, n_fft, out_ef):
+    """Expected signal periodogram ``out[e, k] = sum_s amp[e, s] (G(k - x[e, s]) + G(k + x[e, s]))``.
+
+    ``x_es`` are the (signed) Doppler frequencies in bins; the two terms are
+    the line and its homodyne mirror.
+    """
+    ne, nf = out_ef.shape
+    ns = x_es.shape[1]
+    for e in numba.prange(ne):
+        for k in range(nf):
+            acc = 0.0
+            for s in range(ns):
+                a = amp_es[e, s]
+                if a != 0.0:
+                    x = x_es[e, s]
+                    acc += a * (line_value(table, oversample, n_fft, k - x) + line_value(table, oversample, n_fft, k + x))
+            out_ef[e, k] = acc
+
+
+@numba.njit(**NJIT)
+def ncx2_wh(ms, mn, inv_mn, nu, z):
+    """Mean-M periodogram bin of signal power ``ms`` plus noise ``mn`` (``nu`` = 2M real dof), from a normal z.
+
+    Conditional on the signal power, the average of M block periodograms of
+    a bin is ``mn / nu`` times a noncentral chi-square with ``nu`` degrees of
+    freedom and noncentrality ``lam = nu ms / mn``.  Patnaik's two-moment
+    approximation makes it ``(mn / nu) (a / f) chi2_f`` with ``a = nu + lam``,
+    ``f = a^2 / (a + lam)``, and the Wilson-Hilferty cube of a normal draws
+    ``chi2_f / f``.  Mean and variance are exact: ``E = ms + mn``,
+    ``Var = (mn^2 + 2 ms mn) * 2 / nu``.  ``inv_mn = 1 / mn``.
+    """
+    lam = nu * ms * inv_mn
+    a = nu + lam
+    c = 2.0 * (a + lam) / (9.0 * a * a)
+    b = 1.0 - c + z * math.sqrt(c)
+    if b < 0.0:
+        b = 0.0
+    return (mn / nu) * a * b * b * b
+
+
+@numba.njit(**NJIT_PARALLEL)
+def spectral_sample_kernel(sig_ef, noise_f, gain_eg, m_blocks, key, e0, out_ef):
+    """Tier 2 speckle draw: ``out[e, k]`` = averaged periodogram of M blocks.
+
+    ``sig_ef`` has 1 or ``ne`` rows (broadcast); ``gain_eg`` (the signal's
+    speckle factor, Gamma(M_eff, 1/M_eff)) has 1 column (common to the bins
+    of an estimate, 'coherent') or ``nf`` columns ('independent').  Bins 0
+    and N/2 of a real signal are real: M real degrees of freedom, not 2M.
+    Row e uses random stream ``e0 + e`` (so a run may be drawn in chunks).
+    """
+    ne, nf = out_ef.shape
+    row_step = 0 if sig_ef.shape[0] == 1 else 1
+    gain_step = 0 if gain_eg.shape[1] == 1 else 1
+    inv_noise = 1.0 / noise_f
+    for e in numba.prange(ne):
+        es = e * row_step
+        state = stream_start(key, e0 + e)
+        z = np.uint64(0)
+        for k in range(nf):
+            if k % 2 == 0:
+                state = state + _GOLDEN
+                z = mix64(state)
+                zn = normal_u32(z >> _S32)
+            else:
+                zn = normal_u32(z & _LO32)
+            g = gain_eg[e, k * gain_step]
+            nu = m_blocks if (k == 0 or k == nf - 1) else 2.0 * m_blocks
+            out_ef[e, k] = ncx2_wh(sig_ef[es, k] * g, noise_f[k], inv_noise[k], nu, zn)
+
+
+# ---------------------------------------------------------------------------
+# processing: threshold, estimators, flags
+# ---------------------------------------------------------------------------
+@numba.njit(**NJIT)
+def _interp_peak(yl, yc, yr, est_id, win_id):
+    """Sub-bin offset of a peak from its bin and its two neighbours (values of y = S/B - 1)."""
+    if est_id == EST_PEAK:
+        # Magnitude ratio matched to the window's line shape: for a tone at
+        # offset d from the peak bin, |X(neighbour)| / |X(peak)| is
+        # d / (1 - d) (rect) or (1 + d) / (2 - d) (Hann).
+        right = yr >= yl
+        yn = yr if right else yl
+        if yc <= 0.0 or yn <= 0.0:
+            return 0.0
+        r = math.sqrt(yn / yc)
+        if win_id == WIN_RECT:
+            d = r / (1.0 + r)
+        else:
+            d = (2.0 * r - 1.0) / (1.0 + r)
+        if d < 0.0:
+            d = 0.0
+        if d > 0.5:
+            d = 0.5
+        return d if right else -d
+    if est_id == EST_PEAK_GAUSSIAN:
+        if yl > 0.0 and yc > 0.0 and yr > 0.0:
+            yl, yc, yr = math.log(yl), math.log(yc), math.log(yr)
+    den = yl - 2.0 * yc + yr
+    if den >= 0.0:
+        return 0.0
+    d = 0.5 * (yl - yr) / den
+    if d < -0.5:
+        d = -0.5
+    if d > 0.5:
+        d = 0.5
+    return d
+
+
+@numba.njit(**NJIT)
+def _ml_profile(shat, lo, hi, x0, table, oversample, n_fft, a0):
+    """Negative Whittle log-likelihood at line position x0, amplitude profiled by Fisher scoring."""
+    g0 = line_value(table, oversample, n_fft, 0.0)
+    a = a0
+    for _ in range(12):
+        score = 0.0
+        info = 0.0
+        for k in range(lo, hi):
+            g = (line_value(table, oversample, n_fft, k - x0) + line_value(table, oversample, n_fft, k + x0)) / g0
+            mu = 1.0 + a * g
+            score += g * (shat[k] - mu) / (mu * mu)
+            info += g * g / (mu * mu)
+        if info <= 0.0:
+            break
+        step = score / info
+        a_new = a + step
+        if a_new < 0.5 * a:
+            a_new = 0.5 * a
+        if abs(a_new - a) <= 1e-10 * (1.0 + a):
+            a = a_new
+            break
+        a = a_new
+    nll = 0.0
+    for k in range(lo, hi):
+        g = (line_value(table, oversample, n_fft, k - x0) + line_value(table, oversample, n_fft, k + x0)) / g0
+        mu = 1.0 + a * g
+        nll += math.log(mu) + shat[k] / mu
+    return nll
+
+
+@numba.njit(**NJIT)
+def _ml_estimate(shat, kp, k_lo, k_hi, table, oversample, n_fft, half_width):
+    """Maximum-likelihood line position (bins): golden-section search over [kp - 1, kp + 1]."""
+    lo = max(k_lo, kp - half_width)
+    hi = min(k_hi, kp + half_width + 1)
+    a0 = max(shat[kp] - 1.0, 1e-6)
+    gr = 0.5 * (math.sqrt(5.0) - 1.0)
+    a = kp - 1.0
+    b = kp + 1.0
+    c = b - gr * (b - a)
+    d = a + gr * (b - a)
+    fc = _ml_profile(shat, lo, hi, c, table, oversample, n_fft, a0)
+    fd = _ml_profile(shat, lo, hi, d, table, oversample, n_fft, a0)
+    for _ in range(40):
+        if fc < fd:
+            b, d, fd = d, c, fc
+            c = b - gr * (b - a)
+            fc = _ml_profile(shat, lo, hi, c, table, oversample, n_fft, a0)
+        else:
+            a, c, fc = c, d, fd
+            d = a + gr * (b - a)
+            fd = _ml_profile(shat, lo, hi, d, table, oversample, n_fft, a0)
+        if b - a < 1e-6:
+            break
+    return 0.5 * (a + b)
+
+
+@numba.njit(**NJIT)
+def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y, est_id, win_id,
+                second_frac, guard_bins, table, oversample, n_fft, ml_half, shat):
+    """Threshold one averaged spectrum and estimate its Doppler bin; returns (x [bins] or NaN, flags).
+
+    ``shat`` is scratch of length N/2 + 1 (receives S / B).
+    """
+    nf = spec.shape[0]
+    for k in range(nf):
+        shat[k] = spec[k] * inv_bg[k]
+    # threshold on y = S/B - 1
+    if thr_kind == THR_SIGMA:
+        t = thr_value * sigma_y
+    elif thr_kind == THR_SNR:
+        t = thr_value
+    else:
+        ymax = -1.0
+        for k in range(k_lo, k_hi):
+            if shat[k] - 1.0 > ymax:
+                ymax = shat[k] - 1.0
+        t = thr_value * ymax if ymax > 0.0 else 0.0
+    t = (1.0 + t) * raise_factor - 1.0
+    # totals, argmax, separated groups of thresholded bins
+    total = 0.0
+    first = 0.0
+    kp = -1
+    pmax = 0.0
+    best = 0.0
+    second = 0.0
+    run = 0.0
+    gap = 3
+    for k in range(k_lo, k_hi):
+        p = shat[k] - 1.0 - t
+        if p > 0.0:
+            total += p
+            first += k * p
+            if p > pmax:
+                pmax = p
+                kp = k
+            if gap > 2:
+                # a new group starts: file the previous one
+                if run > best:
+                    second = best
+                    best = run
+                elif run > second:
+                    second = run
+                run = 0.0
+            run += p
+            gap = 0
+        else:
+            gap += 1
+    if run > best:
+        second = best
+        best = run
+    elif run > second:
+        second = run
+    if total <= 0.0 or kp < 0:
+        return np.nan, F_NO_SIGNAL
+    flags = 0
+    if second >= second_frac * best:
+        flags |= F_SECOND_PEAK
+    if est_id == EST_MEDIAN:
+        half = 0.5 * total
+        cum = 0.0
+        x = np.nan
+        for k in range(k_lo, k_hi):
+            p = shat[k] - 1.0 - t
+            if p > 0.0:
+                if cum + p >= half:
+                    # the bin's power is spread evenly over [k - 1/2, k + 1/2]
+                    x = k - 0.5 + (half - cum) / p
+                    break
+                cum += p
+    elif est_id == EST_CENTROID:
+        x = first / total
+    elif est_id == EST_ML:
+        x = _ml_estimate(shat, kp, k_lo, k_hi, table, oversample, n_fft, ml_half)
+    else:
+        yl = shat[kp - 1] - 1.0 if kp >= 1 else 0.0
+        yr = shat[kp + 1] - 1.0 if kp + 1 < nf else 0.0
+        x = kp + _interp_peak(yl, shat[kp] - 1.0, yr, est_id, win_id)
+    if not (x == x):
+        return np.nan, flags | F_FIT_FAILED
+    if x < k_lo + guard_bins:
+        flags |= F_NEAR_ZERO
+    if x > (nf - 1) - guard_bins:
+        flags |= F_NEAR_NYQUIST
+    return x, flags
+
+
+@numba.njit(**NJIT_PARALLEL)
+def process_kernel(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y, est_id, win_id,
+                   second_frac, guard_bins, table, oversample, n_fft, ml_half, out_x_e, out_flags_e):
+    """:func:`process_one` over every estimate (rows of ``spec_ef``)."""
+    ne, nf = spec_ef.shape
+    n_chunk = 64
+    for c in numba.prange((ne + n_chunk - 1) // n_chunk):
+        shat = np.empty(nf)
+        for e in range(c * n_chunk, min(ne, (c + 1) * n_chunk)):
+            x, fl = process_one(spec_ef[e], inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y,
+                                est_id, win_id, second_frac, guard_bins, table, oversample, n_fft, ml_half, shat)
+            out_x_e[e] = x
+            out_flags_e[e] = fl
+
+
+# ---------------------------------------------------------------------------
+# tier 3: heterodyne signal
+# ---------------------------------------------------------------------------
+@numba.njit(**NJIT_PARALLEL)
+def ar1_amplitudes_kernel(key, step0, rho, std_s, first_re_s, first_im_s, out_re_ts, out_im_ts):
+    """AR(1) complex-Gaussian speckle amplitudes of each range cell.
+
+    ``a[t] = rho a[t-1] + sqrt(1 - rho^2) xi[t]`` with ``E|a|^2 = std_s^2``;
+    ``first_*`` is the amplitude before step ``step0`` (ignored when
+    ``step0 == 0``: the first step is drawn from the stationary law).  The
+    innovation of global step t of cell s comes from stream (cell s, step t).
+    """
+    nt, ns = out_re_ts.shape
+    inno = math.sqrt(max(0.0, 1.0 - rho * rho))
+    for s in numba.prange(ns):
+        ckey = mix64(np.uint64(key) ^ mix64(np.uint64(s) + _GOLDEN))
+        sd = std_s[s] * math.sqrt(0.5)
+        ar = first_re_s[s]
+        ai = first_im_s[s]
+        for t in range(nt):
+            st = stream_start(ckey, step0 + t)
+            st, z0, z1 = normal_pair(st)
+            if step0 + t == 0:
+                ar = sd * z0
+                ai = sd * z1
+            else:
+                ar = rho * ar + inno * sd * z0
+                ai = rho * ai + inno * sd * z1
+            out_re_ts[t, s] = ar
+            out_im_ts[t, s] = ai
+
+
+@numba.njit(**NJIT_PARALLEL)
+def synth_kernel(key, block0, n_sub, amp_re_ts, amp_im_ts, phase0_bs, dtheta_bs, noise_std, window_n, use_window,
+                 out_bn):
+    """Real heterodyne samples of ``out_bn.shape[0]`` blocks starting at global block ``block0``.
+
+    ``x[n] = sum_s Re(a_s e^{i (phase0_s + dtheta_s n)}) + noise_std * xi[n]``;
+    the amplitude of cell s is constant over each of the ``n_sub`` sub-steps
+    of a block (row ``b * n_sub + j`` of ``amp_*_ts``).  The tones follow the
+    Chebyshev recurrence ``y[n] = 2 cos(theta) y[n-1] - y[n-2]`` (float64),
+    restarted at each sub-step, with the cells interleaved so that their
+    independent recurrences pipeline.  Noise of global block b comes from
+    stream b (Marsaglia's polar method).
+    """
+    nb, nn = out_bn.shape
+    ns = dtheta_bs.shape[1]
+    ln = nn // n_sub
+    for b in numba.prange(nb):
+        st = stream_start(key, block0 + b)
+        for n in range(0, nn, 2):
+            st, z0, z1 = normal_pair_polar(st)
+            out_bn[b, n] = noise_std * z0
+            out_bn[b, n + 1] = noise_std * z1
+        y0 = np.empty(ns)
+        y1 = np.empty(ns)
+        c2 = np.empty(ns)
+        for j in range(n_sub):
+            n0 = j * ln
+            for s in range(ns):
+                ar = amp_re_ts[b * n_sub + j, s]
+                ai = amp_im_ts[b * n_sub + j, s]
+                th = dtheta_bs[b, s]
+                ph = phase0_bs[b, s] + th * n0
+                y0[s] = ar * math.cos(ph) - ai * math.sin(ph)
+                y1[s] = ar * math.cos(ph + th) - ai * math.sin(ph + th)
+                c2[s] = 2.0 * math.cos(th)
+            acc0 = 0.0
+            acc1 = 0.0
+            for s in range(ns):
+                acc0 += y0[s]
+                acc1 += y1[s]
+            out_bn[b, n0] += acc0
+            if ln > 1:
+                out_bn[b, n0 + 1] += acc1
+            for n in range(2, ln):
+                acc = 0.0
+                for s in range(ns):
+                    y2 = c2[s] * y1[s] - y0[s]
+                    y0[s] = y1[s]
+                    y1[s] = y2
+                    acc += y2
+                out_bn[b, n0 + n] += acc
+        if use_window:
+            for n in range(nn):
+                out_bn[b, n] *= window_n[n]
+
+
+@numba.njit(**NJIT_PARALLEL)
+def power_average_kernel(spec_bf, m_blocks, scale, out_ef):
+    """``out[e, k] = scale / M * sum_b |X[e M + b, k]|^2`` (blocks summed in order)."""
+    ne, nf = out_ef.shape
+    for e in numba.prange(ne):
+        for k in range(nf):
+            out_ef[e, k] = 0.0
+        for b in range(e * m_blocks, (e + 1) * m_blocks):
+            for k in range(nf):
+                v = spec_bf[b, k]
+                out_ef[e, k] += v.real * v.real + v.imag * v.imag
+        for k in range(nf):
+            out_ef[e, k] *= scale / m_blocks

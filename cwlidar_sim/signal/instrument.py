@@ -1,0 +1,328 @@
+"""Instrument presets: sampling, block FFT, averaging and processing choices of a cw lidar.
+
+Two presets are provided, both overridable field by field with
+:meth:`Instrument.replace` or :meth:`Instrument.from_dict`:
+
+:data:`PROTOTYPE_2003`
+    The 2003 ZephIR prototype of A2012 (section II): 50 MHz sampling, DFT of
+    512 consecutive samples (bins of 97.66 kHz = 0.0756 m/s, Nyquist 25 MHz =
+    19.4 m/s), 50 Hz staring output, so up to
+    ``floor(50e6 / 512 / 50) = 1953`` spectra averaged per estimate, median
+    estimator, focus 67.5 m, lambda = 1547.615 nm, a0 = 20 mm.
+:data:`CS_SERIES`
+    The conically scanning series ZephIR of CS: 200 000 spectra per second,
+    4000 averaged per estimate (20 ms, 50 estimates per revolution), centroid
+    estimator, z_R = 0.0013 r^2.  CS gives neither the sampling rate nor the
+    FFT length; we assume 512-point blocks at 102.4 MHz, the pair that gives
+    exactly 200 000 spectra per second.  The telescope radius
+    ``a0 = sqrt(lambda / (0.0013 pi)) = 19.47 mm`` reproduces z_R = 0.0013 r^2
+    through A2012 Eq. 1.  Focus 100 m (CS's example).
+
+Choices the papers do not state, and which are therefore fields with
+documented defaults rather than facts: the window of the 512-point block
+(rectangular: "DFT of 512 consecutive samples"), the threshold rule and its
+factor, the width of the low-frequency blind zone and of the edge guards.
+
+Doppler conversion: ``f = 2 v / lambda`` [Hz], so 1 m/s <-> 1.2923 MHz at
+1547.615 nm.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .._validation import check_choice, check_int, check_real
+
+#: Laser wavelength of the ZephIR prototype [m] (A2012).
+WAVELENGTH = 1547.615e-9
+
+WINDOWS = ("rect", "hann")
+THRESHOLD_KINDS = ("sigma", "snr", "peak_fraction")
+
+__all__ = ["Instrument", "PROTOTYPE_2003", "CS_SERIES", "PRESETS", "preset", "WINDOWS", "THRESHOLD_KINDS"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Instrument:
+    """Acquisition and processing settings of a cw coherent Doppler lidar.
+
+    Parameters
+    ----------
+    name : str
+        Free label.
+    wavelength : float
+        Laser wavelength lambda [m]; in (0, 1e-4].
+    telescope_radius : float
+        Effective telescope radius a0 at e^-2 intensity [m]; in (0, 1].
+    focus : float
+        Focus distance r [m]; > 0.
+    sample_rate : float
+        Sampling rate of the real detector signal f_s [Hz]; > 0.
+    n_fft : int
+        Samples per block (one DFT) N; even, in [16, 65536].
+    blocks_per_estimate : int
+        Block periodograms averaged into one spectrum (one estimate) M; >= 1.
+    estimate_rate : float
+        Output rate of speed estimates [Hz]; > 0.  Must leave room for the
+        blocks: ``blocks_per_estimate * n_fft / sample_rate <= 1 / estimate_rate``.
+    window : {'rect', 'hann'}
+        Taper applied to each block before the DFT.  'rect' (no taper) gives
+        the Fejer (periodic sinc^2) line shape.
+    estimator : str
+        Name of the Doppler estimator, one of
+        :data:`cwlidar_sim.signal.processing.ESTIMATORS`.
+    threshold_kind : {'sigma', 'snr', 'peak_fraction'}
+        Threshold rule on the noise-normalised spectrum ``y = S / B - 1`` (see
+        :func:`cwlidar_sim.signal.processing.threshold_levels`):
+        'sigma' (the instrument rule): ``t = value * sigma_y``, with
+        ``sigma_y = sqrt(1/M + 1/M_bg)`` the standard deviation of ``y`` in a
+        signal-free bin; 'snr': ``t = value`` (a per-bin signal-to-noise
+        ratio, linear); 'peak_fraction': ``t = value * max(y)``.
+    threshold_value : float
+        The factor of the rule; >= 0 (<= 1 for 'peak_fraction').
+    threshold_raise_percent : float
+        A2012's experiment: the threshold *in raw spectrum units*,
+        ``B (1 + t)``, is raised by this percentage, i.e.
+        ``t -> (1 + t)(1 + x/100) - 1``; in [0, 1000].
+    blind_zone_speed : float
+        Speeds below this are never used (relative-intensity noise and the
+        homodyne ambiguity live near 0 Hz) [m/s]; >= 0 and below Nyquist.
+    edge_guard_speed : float
+        An estimate within this distance of the blind-zone edge or of the
+        Nyquist speed is flagged [m/s]; >= 0.
+    second_peak_fraction : float
+        A separate group of thresholded bins carrying at least this fraction of
+        the main group's power raises the second-peak (cloud) flag; in (0, 1].
+    rin_level : float
+        Relative-intensity-noise density at 0 Hz relative to the shot-noise
+        floor [-]; >= 0 (0: none).
+    rin_corner : float
+        Corner frequency of the Lorentzian RIN shape ``1 / (1 + (f/f_c)^2)`` [Hz]; > 0.
+    background_blocks : int
+        Signal-free blocks averaged into the background (noise-floor) spectrum
+        M_bg; >= 1.  Default: 10 min of blocks, as the prototype measured every 3 h.
+    """
+
+    name: str = "custom"
+    wavelength: float = WAVELENGTH
+    telescope_radius: float = 0.020
+    focus: float = 67.5
+    sample_rate: float = 50e6
+    n_fft: int = 512
+    blocks_per_estimate: int = 1953
+    estimate_rate: float = 50.0
+    window: str = "rect"
+    estimator: str = "median"
+    threshold_kind: str = "sigma"
+    threshold_value: float = 4.0
+    threshold_raise_percent: float = 0.0
+    blind_zone_speed: float = 0.5
+    edge_guard_speed: float = 0.5
+    second_peak_fraction: float = 0.2
+    rin_level: float = 0.0
+    rin_corner: float = 1e6
+    background_blocks: int = 58_593_750
+
+    def __post_init__(self):
+        def put(k, v):
+            object.__setattr__(self, k, v)
+
+        if not isinstance(self.name, str):
+            raise TypeError(f"name must be a str, got {type(self.name).__name__}")
+        put("wavelength", check_real("wavelength", self.wavelength, lo=0.0, hi=1e-4, lo_open=True))
+        put("telescope_radius", check_real("telescope_radius", self.telescope_radius, lo=0.0, hi=1.0, lo_open=True))
+        put("focus", check_real("focus", self.focus, lo=0.0, hi=1e5, lo_open=True))
+        put("sample_rate", check_real("sample_rate", self.sample_rate, lo=0.0, hi=1e12, lo_open=True))
+        n = check_int("n_fft", self.n_fft, lo=16, hi=65536)
+        if n % 2:
+            raise ValueError(f"n_fft={n} must be even; allowed: even integers in [16, 65536]")
+        put("n_fft", n)
+        put("blocks_per_estimate", check_int("blocks_per_estimate", self.blocks_per_estimate, lo=1, hi=10**8))
+        put("estimate_rate", check_real("estimate_rate", self.estimate_rate, lo=0.0, lo_open=True))
+        fit = self.sample_rate / self.n_fft / self.estimate_rate
+        if self.blocks_per_estimate > fit * (1 + 1e-9):
+            raise ValueError(
+                f"blocks_per_estimate={self.blocks_per_estimate} does not fit in one output period "
+                f"(1/estimate_rate = {1 / self.estimate_rate:g} s holds {fit:.6g} blocks of "
+                f"{self.n_fft / self.sample_rate:g} s); allowed: <= {math.floor(fit * (1 + 1e-9))}"
+            )
+        check_choice("window", self.window, WINDOWS)
+        from .processing import ESTIMATORS  # plain Python, no numba
+
+        check_choice("estimator", self.estimator, tuple(ESTIMATORS))
+        check_choice("threshold_kind", self.threshold_kind, THRESHOLD_KINDS)
+        hi = 1.0 if self.threshold_kind == "peak_fraction" else 1e6
+        put("threshold_value", check_real("threshold_value", self.threshold_value, lo=0.0, hi=hi))
+        put("threshold_raise_percent",
+            check_real("threshold_raise_percent", self.threshold_raise_percent, lo=0.0, hi=1000.0))
+        nyq = self.nyquist_speed
+        put("blind_zone_speed", check_real("blind_zone_speed", self.blind_zone_speed, lo=0.0, hi=nyq, hi_open=True))
+        put("edge_guard_speed", check_real("edge_guard_speed", self.edge_guard_speed, lo=0.0, hi=nyq))
+        put("second_peak_fraction",
+            check_real("second_peak_fraction", self.second_peak_fraction, lo=0.0, hi=1.0, lo_open=True))
+        put("rin_level", check_real("rin_level", self.rin_level, lo=0.0, hi=1e12))
+        put("rin_corner", check_real("rin_corner", self.rin_corner, lo=0.0, lo_open=True))
+        put("background_blocks", check_int("background_blocks", self.background_blocks, lo=1, hi=10**15))
+        if self.first_bin >= self.n_fft // 2 - 1:
+            raise ValueError(
+                f"blind_zone_speed={self.blind_zone_speed} leaves no usable bin below Nyquist; "
+                f"allowed: < {(self.n_fft // 2 - 2) * self.bin_speed:g} m/s"
+            )
+
+    # -- interchange -----------------------------------------------------
+    def as_dict(self) -> dict:
+        """Plain dict of the fields (round-trips through :meth:`from_dict`)."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict, base: "Instrument | None" = None) -> "Instrument":
+        """Build from a mapping; unknown keys are rejected by name.
+
+        Fields missing from ``d`` are taken from ``base`` (a preset), or from
+        the class defaults (the prototype) when ``base`` is None.
+        """
+        if not isinstance(d, dict):
+            raise TypeError(f"Instrument.from_dict expects a dict, got {type(d).__name__}")
+        _check_keys(d)
+        start = {} if base is None else base.as_dict()
+        start.update(d)
+        return cls(**start)
+
+    def replace(self, **changes) -> "Instrument":
+        """Copy with some fields changed (validated); unknown names are rejected."""
+        _check_keys(changes)
+        return dataclasses.replace(self, **changes)
+
+    # -- derived quantities ------------------------------------------------
+    @property
+    def n_bins(self) -> int:
+        """Bins of the one-sided block spectrum (rfft output), N/2 + 1."""
+        return self.n_fft // 2 + 1
+
+    @property
+    def block_duration(self) -> float:
+        """Duration of one block, N / f_s [s] (10.24 us for the prototype)."""
+        return self.n_fft / self.sample_rate
+
+    @property
+    def estimate_duration(self) -> float:
+        """Signal time averaged into one estimate, M N / f_s [s]."""
+        return self.blocks_per_estimate * self.block_duration
+
+    @property
+    def bin_width(self) -> float:
+        """Frequency bin width f_s / N [Hz] (97.66 kHz for the prototype)."""
+        return self.sample_rate / self.n_fft
+
+    @property
+    def speed_per_hz(self) -> float:
+        """Radial speed per Doppler frequency, lambda / 2 [m/s per Hz]."""
+        return 0.5 * self.wavelength
+
+    @property
+    def bin_speed(self) -> float:
+        """Speed width of one bin, lambda f_s / (2 N) [m/s] (0.0756 m/s for the prototype)."""
+        return self.bin_width * self.speed_per_hz
+
+    @property
+    def nyquist(self) -> float:
+        """Nyquist frequency f_s / 2 [Hz]."""
+        return 0.5 * self.sample_rate
+
+    @property
+    def nyquist_speed(self) -> float:
+        """Speed at the Nyquist frequency, lambda f_s / 4 [m/s] (19.35 m/s for the prototype)."""
+        return self.nyquist * self.speed_per_hz
+
+    @property
+    def first_bin(self) -> int:
+        """First bin outside the blind zone: the smallest k with k * bin_speed >= blind_zone_speed."""
+        return int(math.ceil(self.blind_zone_speed / self.bin_speed - 1e-9))
+
+    @property
+    def frequencies_f(self) -> np.ndarray:
+        """Centre frequency of each one-sided bin, k f_s / N [Hz], k = 0..N/2."""
+        return np.arange(self.n_bins) * self.bin_width
+
+    @property
+    def speeds_f(self) -> np.ndarray:
+        """Speed of each one-sided bin, k lambda f_s / (2 N) [m/s]."""
+        return np.arange(self.n_bins) * self.bin_speed
+
+    @property
+    def waist_radius(self) -> float:
+        """e^-2 beam radius at the focus, lambda r / (pi a0) [m] (1.66 mm for the prototype)."""
+        return self.wavelength * self.focus / (math.pi * self.telescope_radius)
+
+    @property
+    def rayleigh_length(self) -> float:
+        """Rayleigh length lambda r^2 / (pi a0^2) [m] (A2012 Eq. 1)."""
+        return self.wavelength * self.focus**2 / (math.pi * self.telescope_radius**2)
+
+    def optics(self):
+        """The beam optics as a :class:`cwlidar_sim.beam.BeamOptics`."""
+        from ..beam.optics import BeamOptics
+
+        return BeamOptics(focus=self.focus, wavelength=self.wavelength, radius=self.telescope_radius)
+
+    def doppler_frequency(self, speed):
+        """Doppler shift 2 v / lambda [Hz] of a radial speed v [m/s] (signed)."""
+        return np.asarray(speed, dtype=np.float64) / self.speed_per_hz
+
+    def speed_of_frequency(self, freq):
+        """Radial speed lambda f / 2 [m/s] of a Doppler frequency f [Hz]."""
+        return np.asarray(freq, dtype=np.float64) * self.speed_per_hz
+
+    def speckle_time(self, transverse_speed: float) -> float:
+        """Speckle correlation time: transit time of aerosols across the beam waist [s].
+
+        ``tau_c = w0 / v_perp`` with ``w0 = lambda r / (pi a0)``; infinite for
+        ``v_perp = 0`` (the speckle pattern then never renews during an estimate).
+
+        Parameters
+        ----------
+        transverse_speed : float
+            Speed of the aerosols across the beam [m/s]; >= 0.
+        """
+        v = check_real("transverse_speed", transverse_speed, lo=0.0, hi=1e3)
+        return math.inf if v == 0.0 else self.waist_radius / v
+
+
+_FIELDS = None
+
+
+def _check_keys(d):
+    global _FIELDS
+    if _FIELDS is None:
+        _FIELDS = {f.name for f in dataclasses.fields(Instrument)}
+    unknown = sorted(set(d) - _FIELDS)
+    if unknown:
+        raise ValueError(f"unknown key(s) for Instrument: {unknown}; allowed: {sorted(_FIELDS)}")
+
+
+#: The 2003 ZephIR prototype of A2012 (staring mode).
+PROTOTYPE_2003 = Instrument(name="zephir-prototype-2003")
+
+#: The conically scanning series ZephIR of CS (assumed 512-point blocks at 102.4 MHz).
+CS_SERIES = Instrument(
+    name="zephir-cs-series",
+    telescope_radius=math.sqrt(WAVELENGTH / (0.0013 * math.pi)),
+    focus=100.0,
+    sample_rate=102.4e6,
+    n_fft=512,
+    blocks_per_estimate=4000,
+    estimate_rate=50.0,
+    estimator="centroid",
+    background_blocks=120_000_000,
+)
+
+PRESETS = {"prototype": PROTOTYPE_2003, "cs": CS_SERIES}
+
+
+def preset(name: str) -> Instrument:
+    """Instrument preset by name: 'prototype' (A2012) or 'cs' (CS series)."""
+    check_choice("preset", name, tuple(PRESETS))
+    return PRESETS[name]

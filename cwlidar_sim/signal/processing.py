@@ -1,0 +1,278 @@
+"""Processing shared by tiers 2 and 3: background, threshold, Doppler estimators, quality flags.
+
+Spectrum convention
+-------------------
+An averaged spectrum ``S[e, k]`` holds, for estimate ``e`` and one-sided bin
+``k = 0 .. N/2`` (frequency ``k f_s / N``), the mean over M blocks of the block
+periodogram ``|X_k|^2 / sum_n w_n^2`` (``X`` the DFT of the windowed block,
+``w`` the window).  White noise of variance sigma^2 then has expected level
+sigma^2 in *every* bin (bins are not doubled: the sum over k = 0..N-1 of the
+two-sided periodogram is N times the mean power).  The package measures power
+in units of the shot-noise variance, so the noise floor is 1.
+
+Steps, for every estimate
+-------------------------
+1. Normalise by the background (noise-floor) spectrum ``B``:
+   ``y_k = S_k / B_k - 1`` (0 on average where there is no signal, with
+   standard deviation ``sigma_y = sqrt(1/M + 1/M_bg)``).
+2. Threshold (:func:`threshold_levels`): a level ``t``, then A2012's
+   "raise by x %" applied to the raw level ``B (1 + t)``.
+3. Keep the bins outside the low-frequency blind zone and below the Nyquist
+   bin (``first_bin <= k < N/2``) whose ``y`` exceeds ``t``; the thresholded
+   spectrum is ``p_k = y_k - t`` there and 0 elsewhere (subtracting ``t``
+   keeps ``p`` continuous as a bin crosses the threshold).
+4. Estimate a Doppler bin with an estimator of :data:`ESTIMATORS`; convert to
+   Hz (``x f_s / N``) and m/s (``lambda/2`` per Hz).  Homodyne detection
+   loses the sign: estimates are >= 0.
+5. Flags (:class:`Flag`); failed estimates are NaN and flagged, and counted
+   in :attr:`DopplerEstimates.availability`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+
+import numpy as np
+
+from .._validation import check_choice, check_int, check_real
+
+__all__ = [
+    "Flag",
+    "ESTIMATORS",
+    "FAIL_FLAGS",
+    "DopplerEstimates",
+    "threshold_levels",
+    "noise_floor",
+    "background_spectrum",
+    "estimate",
+    "check_estimator",
+]
+
+
+class Flag(enum.IntFlag):
+    """Quality flags of an estimate (a bit field, stored as uint8)."""
+
+    #: No bin above the threshold: the estimate is NaN.
+    NO_SIGNAL = 1
+    #: Estimate within ``edge_guard_speed`` of Nyquist: possibly aliased.
+    NEAR_NYQUIST = 2
+    #: Estimate within ``edge_guard_speed`` of the blind zone: homodyne ambiguity, RIN.
+    NEAR_ZERO = 4
+    #: A separate group of thresholded bins carries at least ``second_peak_fraction``
+    #: of the main group's power: cloud return or second peak suspected.
+    SECOND_PEAK = 8
+    #: The estimator could not produce a value: the estimate is NaN.
+    FIT_FAILED = 16
+
+
+#: Flags that make an estimate NaN.
+FAIL_FLAGS = Flag.NO_SIGNAL | Flag.FIT_FAILED
+
+#: Registry of Doppler estimators: name -> (kernel id, description).  All act
+#: on the thresholded, noise-normalised spectrum (see the module notes).
+ESTIMATORS = {
+    "median": (0, "frequency below which half the thresholded power lies, each bin's power spread evenly "
+                  "over its width (A2012's prototype)"),
+    "centroid": (1, "power-weighted mean frequency of the thresholded spectrum (CS's series instrument)"),
+    "peak": (2, "highest thresholded bin, refined with the window's own line shape from the ratio of the "
+                "larger neighbour to the peak (exact for a single tone)"),
+    "peak_parabolic": (3, "highest bin refined by a parabola through it and its neighbours "
+                          "(biased toward bin centres for the narrow rect line, up to ~0.25 bin)"),
+    "peak_gaussian": (4, "highest bin refined by a parabola through the logarithms (Gaussian line)"),
+    "ml": (5, "maximum (Whittle/Gamma) likelihood of a single line of the instrument's shape plus its "
+              "homodyne mirror over the background, position and amplitude fitted within +/-8 bins of the peak"),
+}
+
+_THR_IDS = {"sigma": 0, "snr": 1, "peak_fraction": 2}
+_WIN_IDS = {"rect": 0, "hann": 1}
+_ML_HALF_WIDTH = 8
+
+
+def check_estimator(name: str) -> int:
+    """Kernel id of a registered estimator; unknown names are rejected with the allowed list."""
+    check_choice("estimator", name, tuple(ESTIMATORS))
+    return ESTIMATORS[name][0]
+
+
+@dataclasses.dataclass(frozen=True)
+class DopplerEstimates:
+    """Speed estimates of a run, with their flags.
+
+    Attributes
+    ----------
+    speed_e : ndarray, float64
+        Estimated radial speed |v| [m/s] (homodyne: >= 0); NaN where failed.
+    frequency_e : ndarray, float64
+        Estimated Doppler frequency [Hz]; NaN where failed.
+    flags_e : ndarray, uint8
+        :class:`Flag` bit field of each estimate.
+    estimator : str
+        Name of the estimator used.
+    """
+
+    speed_e: np.ndarray
+    frequency_e: np.ndarray
+    flags_e: np.ndarray
+    estimator: str
+
+    @property
+    def n(self) -> int:
+        """Number of estimates."""
+        return int(self.speed_e.size)
+
+    @property
+    def availability(self) -> float:
+        """Fraction of estimates that are valid (not NaN) [-]."""
+        return float(np.mean(np.isfinite(self.speed_e))) if self.n else float("nan")
+
+    def flag_counts(self) -> dict:
+        """Number of estimates carrying each flag, by flag name."""
+        return {f.name: int(np.count_nonzero(self.flags_e & f.value)) for f in Flag}
+
+    def summary(self) -> dict:
+        """Mean and standard deviation of the valid speeds [m/s], availability and flag counts."""
+        ok = self.speed_e[np.isfinite(self.speed_e)]
+        return {
+            "n": self.n,
+            "n_valid": int(ok.size),
+            "availability": self.availability,
+            "mean": float(ok.mean()) if ok.size else None,
+            "std": float(ok.std(ddof=1)) if ok.size > 1 else None,
+            "flags": self.flag_counts(),
+        }
+
+
+def noise_floor(instrument) -> np.ndarray:
+    """Expected noise spectrum per one-sided bin, in units of the shot-noise level [-].
+
+    ``1 + rin_level / (1 + (f / rin_corner)^2)``: white shot noise plus an
+    optional Lorentzian relative-intensity-noise bump at 0 Hz.
+    """
+    f = instrument.frequencies_f
+    return 1.0 + instrument.rin_level / (1.0 + (f / instrument.rin_corner) ** 2)
+
+
+def background_spectrum(instrument, seed=None, *, n_blocks=None) -> np.ndarray:
+    """Background (noise-floor) spectrum measured from signal-free blocks [-].
+
+    Parameters
+    ----------
+    instrument : Instrument
+    seed : int or numpy.random.Generator or None
+        Randomness of the measurement; None returns the expected floor
+        (an infinitely long measurement).
+    n_blocks : int, optional
+        Signal-free blocks averaged M_bg; default ``instrument.background_blocks``.
+
+    Returns
+    -------
+    ndarray, shape (N/2 + 1,)
+        ``noise_floor * Gamma(k M_bg / 2, 2 / (k M_bg))`` per bin, k = 2 real
+        degrees of freedom per block (k = 1 at 0 Hz and Nyquist, whose DFT
+        values are real).  For a rectangular window this is the exact law of
+        the averaged periodogram of white Gaussian noise; a Hann window
+        correlates neighbouring bins, which this draw ignores.
+    """
+    floor = noise_floor(instrument)
+    if seed is None:
+        return floor
+    m = instrument.background_blocks if n_blocks is None else check_int("n_blocks", n_blocks, lo=1, hi=10**15)
+    rng = _rng(seed)
+    dof = np.full(floor.shape, 2.0)
+    dof[0] = dof[-1] = 1.0
+    shape = 0.5 * dof * m
+    return floor * rng.gamma(shape, 1.0 / shape)
+
+
+def threshold_levels(instrument, *, n_background=None) -> dict:
+    """The threshold rule of an instrument in words and numbers.
+
+    Returns
+    -------
+    dict
+        ``sigma_y``: standard deviation of ``y = S/B - 1`` in a signal-free bin,
+        ``sqrt(1/M + 1/M_bg)`` (M blocks per estimate, M_bg background
+        blocks); ``t``: the level before the raise (for 'peak_fraction', the
+        factor of ``max(y)``); ``raise_factor``: ``1 + x/100``.
+    """
+    m_bg = instrument.background_blocks if n_background is None else n_background
+    sigma_y = math.sqrt(1.0 / instrument.blocks_per_estimate + 1.0 / m_bg)
+    kind = instrument.threshold_kind
+    if kind == "sigma":
+        t = instrument.threshold_value * sigma_y
+    else:
+        t = instrument.threshold_value
+    return {"kind": kind, "sigma_y": sigma_y, "t": t, "raise_factor": 1.0 + instrument.threshold_raise_percent / 100}
+
+
+def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_background=None,
+             line_table=None) -> DopplerEstimates:
+    """Doppler speed of every averaged spectrum.
+
+    Parameters
+    ----------
+    spectra_ef : array_like, shape (n_estimates, N/2 + 1)
+        Averaged periodograms (see the module notes for the convention).
+    instrument : Instrument
+        Supplies the threshold rule, blind zone, guards, window and the
+        default estimator.
+    background_f : array_like, shape (N/2 + 1,), optional
+        Background spectrum; default :func:`noise_floor` (exactly known floor).
+    estimator : str, optional
+        Overrides ``instrument.estimator``; one of :data:`ESTIMATORS`.
+    n_background : int, optional
+        Blocks behind ``background_f`` for ``sigma_y`` (default
+        ``instrument.background_blocks``).
+    line_table : tuple, optional
+        ``(table, oversample)`` from :func:`cwlidar_sim.signal.spectral.line_shape_table`,
+        used by 'ml'; default: the instrument's line for constant speckle.
+
+    Returns
+    -------
+    DopplerEstimates
+    """
+    from . import _kernels as K
+    from .._config import apply_numba_threads
+
+    name = instrument.estimator if estimator is None else estimator
+    est_id = check_estimator(name)
+    spec = np.ascontiguousarray(spectra_ef, dtype=np.float64)
+    nf = instrument.n_bins
+    if spec.ndim == 1:
+        spec = spec[None, :]
+    if spec.ndim != 2 or spec.shape[1] != nf:
+        raise ValueError(f"spectra_ef must have shape (n_estimates, {nf}), got {np.shape(spectra_ef)}")
+    if not np.all(np.isfinite(spec)) or np.any(spec < 0):
+        raise ValueError("spectra_ef must be finite and >= 0")
+    bg = noise_floor(instrument) if background_f is None else np.asarray(background_f, dtype=np.float64)
+    if bg.shape != (nf,):
+        raise ValueError(f"background_f must have shape ({nf},), got {bg.shape}")
+    if not np.all(np.isfinite(bg)) or np.any(bg <= 0):
+        raise ValueError("background_f must be finite and > 0 in every bin")
+    if line_table is None:
+        from .spectral import line_shape_table
+
+        line_table = line_shape_table(instrument.n_fft, instrument.window)
+    table, over = line_table
+    thr = threshold_levels(instrument, n_background=n_background)
+    guard = instrument.edge_guard_speed / instrument.bin_speed
+    ne = spec.shape[0]
+    x = np.empty(ne)
+    flags = np.empty(ne, dtype=np.uint8)
+    apply_numba_threads()
+    K.process_kernel(spec, 1.0 / bg, instrument.first_bin, nf - 1, _THR_IDS[instrument.threshold_kind],
+                     float(instrument.threshold_value), thr["raise_factor"], thr["sigma_y"], est_id,
+                     _WIN_IDS[instrument.window], instrument.second_peak_fraction, guard, table, over,
+                     instrument.n_fft, _ML_HALF_WIDTH, x, flags)
+    freq = x * instrument.bin_width
+    return DopplerEstimates(speed_e=freq * instrument.speed_per_hz, frequency_e=freq, flags_e=flags, estimator=name)
+
+
+def _rng(seed):
+    if isinstance(seed, np.random.Generator):
+        return seed
+    from .._validation import check_seed
+
+    return np.random.default_rng(check_seed("seed", seed))

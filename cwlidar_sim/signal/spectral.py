@@ -1,0 +1,340 @@
+"""Tier 2 (`spectral`): the expected Doppler spectrum of each estimate and its speckle statistics.
+
+Signal model (shared with tier 3, :mod:`cwlidar_sim.signal.heterodyne`)
+-----------------------------------------------------------------------
+The detector signal sampled at ``f_s`` is real (homodyne detection):
+
+``x[n] = sum_s Re(a_s[n] exp(i 2 pi f_s' n / f_s)) + sigma xi[n]``
+
+with one term per range cell ``s`` at Doppler frequency ``f_s' = 2 v_s / lambda``,
+``a_s`` a circular complex-Gaussian speckle amplitude with
+``E|a_s|^2 = 2 CNR w_s`` (``w_s`` the beam weight of the cell, summing to 1)
+that decorrelates as an AR(1) process with correlation time ``tau_c``
+(``E[a(n) a*(n+d)] / E|a|^2 = rho^|d|``, ``rho = exp(-1 / (f_s tau_c))``),
+and white Gaussian shot noise ``xi`` (unit variance, ``sigma = 1``).
+
+**CNR** (carrier-to-noise ratio) is the total signal power over the noise
+power in the detection bandwidth (0 .. f_s/2, the Nyquist band), both
+measured on the real detector signal: ``CNR = E[sum_s Re(.)^2] / sigma^2 =
+sum_s w_s E|a_s|^2 / 2``.  In decibels, ``10 log10(CNR)``.
+
+Line shape (derived)
+--------------------
+For a block of N samples tapered by a window ``w_n`` the DFT at bin ``k`` of a
+unit-power complex tone at ``x`` bins, with the AR(1) amplitude, has
+
+``E|X_k|^2 / sum_n w_n^2 = G(k - x)``,
+``G(u) = sum_{d=-(N-1)}^{N-1} R_w(d) rho^|d| exp(i 2 pi u d / N) / R_w(0)``,
+
+with ``R_w(d) = sum_n w_n w_{n+d}`` the window's autocorrelation.  For the
+rectangular window and ``rho = 1`` (speckle frozen over a block)
+``R_w(d) = N - |d|`` and ``G`` is the Fejer kernel
+``G(u) = sin^2(pi u) / (N sin^2(pi u / N))`` (the periodic sinc^2), with
+``G(0) = N`` and ``sum_k G(k - x) = N`` for any x.  ``G`` is tabulated on
+``[0, N/2]`` by one FFT (:func:`line_shape_table`).
+
+The real part splits a tone into ``+f`` and ``-f`` halves of power 1/4 each
+of ``E|a|^2``, so a cell adds ``(CNR w_s / 2) [G(k - x_s) + G(k + x_s)]`` to
+the expected spectrum of bin k (the second term is the homodyne mirror: the
+spectrum sits at ``|f|`` and the sign of ``v`` is lost).  Speeds beyond
+Nyquist alias naturally through the periodicity of G.  A single-speed target
+at a bin centre thus has a per-bin signal-to-noise ratio of ``CNR N / 2``
+(CNR + 24.1 dB for N = 512).
+
+Speckle of an M-block average (derived)
+---------------------------------------
+With speckle frozen over a block, the signal power of a bin in block ``b`` is
+``|a_b|^2`` times a fixed line shape, and blocks ``j`` apart have intensity
+correlation ``|E[a_b a*_{b+j}]|^2 / E|a|^4 = r^j``, ``r = exp(-2 T_b / tau_c)``
+(``T_b = N / f_s``).  The mean of M blocks then has relative variance
+``(1 + c) / M`` with ``c = 2 sum_{j=1}^{M-1} (1 - j/M) r^j``, i.e. that of
+Gamma(M_eff, 1/M_eff) with
+
+``M_eff = M / (1 + c)``,  ``c = 2 [r / (1 - r) - r (1 - r^M) / (M (1 - r)^2)]``
+
+(:func:`speckle_looks`): ``M_eff = M`` when ``tau_c << T_b`` and
+``M_eff -> 1`` when ``tau_c >> M T_b``; in between
+``M_eff ~ M T_b / tau_c`` (the number of correlation times in the estimate).
+The correlation time is the transit time of aerosols across the beam waist,
+``tau_c = w0 / v_perp``, ``w0 = lambda r / (pi a0)`` (1.66 mm at 67.5 m: 1.7 ms
+at 1 m/s, so the prototype's 1953 blocks of 10.24 us give M_eff = 12).  The
+real transit correlation of a Gaussian beam is Gaussian in time with the
+same 1/e time; the exponential (Markov) form is used in both tiers.
+
+The draw (:func:`sample_spectra`): per estimate a signal gain
+``G_sig ~ Gamma(M_eff, 1/M_eff)`` (numpy), common to all bins ('coherent':
+exact for one speed, where every bin of a block scales with the same
+``|a_b|^2``) or one per bin ('independent': the per-bin factor of the classic
+model); then, given the signal power, the average of M blocks of a bin with
+noise is ``(noise / 2M)`` times a noncentral chi-square with 2M degrees of
+freedom (M at 0 Hz and Nyquist) and noncentrality ``2 M signal / noise``,
+drawn with Patnaik's approximation and the Wilson-Hilferty cube of a
+counter-based normal.  Every bin's mean and variance,
+``(sig + noise)`` and ``(sig^2 (1 + c) + noise^2 + 2 sig noise) / M``, equal
+those of the M-block average of tier 3.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from .._validation import check_choice, check_int, check_real
+from .processing import _rng, noise_floor
+
+__all__ = [
+    "window_samples",
+    "line_shape_table",
+    "line_shape",
+    "fejer",
+    "speckle_looks",
+    "cnr_linear",
+    "expected_spectrum",
+    "sample_spectra",
+]
+
+#: Nodes of the tabulated line shape per bin.
+OVERSAMPLE = 256
+
+
+def window_samples(n_fft: int, window: str) -> np.ndarray:
+    """Window ``w_n``, n = 0..N-1: 'rect' (ones) or 'hann' (periodic, ``sin^2(pi n / N)``)."""
+    n_fft = check_int("n_fft", n_fft, lo=2, hi=65536)
+    check_choice("window", window, ("rect", "hann"))
+    if window == "rect":
+        return np.ones(n_fft)
+    return np.sin(np.pi * np.arange(n_fft) / n_fft) ** 2
+
+
+@functools.lru_cache(maxsize=32)
+def _table(n_fft: int, window: str, rho: float, oversample: int):
+    from .._fft import rfft_rows
+
+    w = window_samples(n_fft, window)
+    # R_w(d) for d = 0..N-1 by direct sums (N^2 / 2 products, once per call)
+    r = np.array([np.dot(w[: n_fft - d], w[d:]) for d in range(n_fft)])
+    d = np.arange(n_fft)
+    c = r / r[0] * (rho**d if rho < 1.0 else 1.0)
+    m = n_fft * oversample
+    seq = np.zeros(m)
+    seq[:n_fft] = c
+    seq[m - n_fft + 1:] = c[1:][::-1]
+    g = rfft_rows(seq[None, :])[0].real.copy()
+    g.setflags(write=False)
+    return g
+
+
+def line_shape_table(n_fft: int, window: str = "rect", correlation_time: float = math.inf,
+                     sample_rate: float = 50e6, oversample: int = OVERSAMPLE):
+    """Tabulated line shape ``G(u)`` on ``u = j / oversample`` bins, ``0 <= u <= N/2``.
+
+    Parameters
+    ----------
+    n_fft : int
+        Block length N.
+    window : {'rect', 'hann'}
+    correlation_time : float
+        Speckle correlation time tau_c [s]; inf for amplitudes frozen over a block.
+    sample_rate : float
+        f_s [Hz] (only used with a finite ``correlation_time``).
+    oversample : int
+        Table nodes per bin.
+
+    Returns
+    -------
+    (table, oversample)
+        ``table[j] = G(j / oversample)`` [-], see the module notes (``G(0) = N`` for
+        rect and frozen speckle).
+    """
+    n_fft = check_int("n_fft", n_fft, lo=2, hi=65536)
+    check_choice("window", window, ("rect", "hann"))
+    oversample = check_int("oversample", oversample, lo=1, hi=4096)
+    tau = check_real("correlation_time", correlation_time, lo=0.0, lo_open=True) if math.isfinite(
+        correlation_time) else math.inf
+    rho = 1.0 if math.isinf(tau) else math.exp(-1.0 / (check_real("sample_rate", sample_rate, lo=0.0, lo_open=True)
+                                                        * tau))
+    return _table(n_fft, window, float(rho), oversample), oversample
+
+
+def line_shape(u, n_fft: int, window: str = "rect", correlation_time: float = math.inf, sample_rate: float = 50e6):
+    """Line shape ``G(u)`` at offsets ``u`` [bins] (linear interpolation in the table)."""
+    table, over = line_shape_table(n_fft, window, correlation_time, sample_rate)
+    u = np.abs(np.mod(np.asarray(u, dtype=np.float64) + 0.5 * n_fft, n_fft) - 0.5 * n_fft)
+    return np.interp(u * over, np.arange(table.size), table)
+
+
+def fejer(u, n_fft: int):
+    """Fejer kernel ``sin^2(pi u) / (N sin^2(pi u / N))`` (value N at integer multiples of N)."""
+    u = np.asarray(u, dtype=np.float64)
+    s = np.sin(np.pi * u / n_fft)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.sin(np.pi * u) ** 2 / (n_fft * s * s)
+    return np.where(np.abs(s) < 1e-12, float(n_fft), out)
+
+
+def speckle_looks(m_blocks: int, block_duration: float, correlation_time: float) -> float:
+    """Effective number of independent blocks M_eff of an M-block average (see the module notes).
+
+    Parameters
+    ----------
+    m_blocks : int
+        Blocks averaged, M; >= 1.
+    block_duration : float
+        T_b = N / f_s [s]; > 0.
+    correlation_time : float
+        Speckle amplitude correlation time tau_c [s]; > 0 or inf.
+
+    Returns
+    -------
+    float
+        ``M / (1 + c)``, in [1, M].
+    """
+    m = check_int("m_blocks", m_blocks, lo=1)
+    tb = check_real("block_duration", block_duration, lo=0.0, lo_open=True)
+    if math.isinf(correlation_time) and correlation_time > 0:
+        return 1.0
+    tau = check_real("correlation_time", correlation_time, lo=0.0, lo_open=True)
+    r = math.exp(-2.0 * tb / tau)
+    if r == 0.0 or m == 1:
+        return float(m)
+    one_r = -math.expm1(-2.0 * tb / tau)
+    c = 2.0 * (r / one_r - r * (-math.expm1(m * math.log(r))) / (m * one_r * one_r))
+    return m / (1.0 + c)
+
+
+def cnr_linear(cnr_db: float) -> float:
+    """CNR in linear units from decibels (``10**(dB/10)``); dB in [-200, 200]."""
+    return 10.0 ** (check_real("cnr_db", cnr_db, lo=-200.0, hi=200.0) / 10.0)
+
+
+def expected_spectrum(instrument, vlos_es, weight_s, cnr_db: float, *, correlation_time: float = math.inf):
+    """Expected averaged spectrum of each estimate: signal and noise parts.
+
+    Parameters
+    ----------
+    instrument : Instrument
+    vlos_es : array_like, shape (n_estimates, n_cells) or (n_cells,)
+        Radial speed of each range cell during each estimate [m/s] (signed;
+        held constant over the estimate).
+    weight_s : array_like, shape (n_cells,)
+        Beam weight of each cell [-]; >= 0, summing to 1 (the signal power
+        is ``CNR * sum(weight_s)``).
+    cnr_db : float
+        Carrier-to-noise ratio [dB], defined in the module notes.
+    correlation_time : float
+        Speckle correlation time tau_c [s] (inf: frozen).
+
+    Returns
+    -------
+    signal_ef : ndarray, shape (n_estimates, N/2 + 1)
+        Expected signal part of the averaged periodogram [units of the noise floor].
+    noise_f : ndarray, shape (N/2 + 1,)
+        Expected noise floor (shot noise 1 plus RIN) [-].
+    """
+    from . import _kernels as K
+    from .._config import apply_numba_threads
+
+    v = _as_2d("vlos_es", vlos_es)
+    w = _weights(weight_s, v.shape[1])
+    cnr = cnr_linear(cnr_db)
+    table, over = line_shape_table(instrument.n_fft, instrument.window, correlation_time, instrument.sample_rate)
+    x = v / (instrument.speed_per_hz * instrument.bin_width)
+    amp = np.broadcast_to(0.5 * cnr * w, v.shape).astype(np.float64)
+    out = np.empty((v.shape[0], instrument.n_bins))
+    apply_numba_threads()
+    K.expected_signal_kernel(np.ascontiguousarray(x), np.ascontiguousarray(amp), table, over, instrument.n_fft, out)
+    return out, noise_floor(instrument)
+
+
+def sample_spectra(signal_ef, noise_f, m_blocks: int, m_eff: float, seed, *, n_estimates=None,
+                   speckle: str = "coherent"):
+    """Draw averaged spectra (tier 2): expected spectrum times the speckle and noise statistics.
+
+    Parameters
+    ----------
+    signal_ef : array_like, shape (n_estimates, N/2 + 1) or (N/2 + 1,)
+        Expected signal spectrum (from :func:`expected_spectrum`); one row is
+        broadcast to ``n_estimates``.
+    noise_f : array_like, shape (N/2 + 1,)
+        Expected noise floor; > 0.
+    m_blocks : int
+        Blocks averaged, M.
+    m_eff : float
+        Effective independent looks of the signal, in [1, M] (:func:`speckle_looks`).
+    seed : int or numpy.random.Generator
+    n_estimates : int, optional
+        Needed when ``signal_ef`` has one row.
+    speckle : {'coherent', 'independent'}
+        Signal gain common to all bins of an estimate, or one per bin.
+
+    Returns
+    -------
+    ndarray, shape (n_estimates, N/2 + 1)
+        Averaged periodograms (module convention of
+        :mod:`cwlidar_sim.signal.processing`).
+    """
+    sig = np.asarray(signal_ef, dtype=np.float64)
+    if sig.ndim == 1:
+        sig = sig[None, :]
+    if sig.ndim != 2:
+        raise ValueError(f"signal_ef must be 1-D or 2-D, got shape {np.shape(signal_ef)}")
+    if not np.all(np.isfinite(sig)) or np.any(sig < 0):
+        raise ValueError("signal_ef must be finite and >= 0")
+    nf = sig.shape[1]
+    noise = np.asarray(noise_f, dtype=np.float64)
+    if noise.shape != (nf,) or not np.all(np.isfinite(noise)) or np.any(noise <= 0):
+        raise ValueError(f"noise_f must have shape ({nf},) with finite values > 0")
+    m = check_int("m_blocks", m_blocks, lo=1)
+    m_eff = check_real("m_eff", m_eff, lo=1.0, hi=float(m) * (1 + 1e-12))
+    check_choice("speckle", speckle, ("coherent", "independent"))
+    if n_estimates is None:
+        ne = sig.shape[0]
+    else:
+        ne = check_int("n_estimates", n_estimates, lo=1)
+        if sig.shape[0] not in (1, ne):
+            raise ValueError(f"signal_ef has {sig.shape[0]} rows; allowed: 1 or n_estimates={ne}")
+    key, gain = _speckle_draws(_rng(seed), ne, nf, m_eff, speckle)
+    out = np.empty((ne, nf))
+    _draw_rows(sig, noise, m, gain, key, 0, out)
+    return out
+
+
+def _speckle_draws(rng, ne, nf, m_eff, speckle):
+    """Stream key of the per-bin normals and the signal gains, in the order sample_spectra draws them."""
+    key = int(rng.integers(0, 2**63, dtype=np.int64))
+    gshape = (ne, 1) if speckle == "coherent" else (ne, nf)
+    return key, rng.gamma(m_eff, 1.0 / m_eff, size=gshape)
+
+
+def _draw_rows(sig, noise, m, gain_eg, key, e0, out):
+    """Rows e0 .. e0 + len(out) - 1 of a sample_spectra draw (gain_eg holds those rows only)."""
+    from . import _kernels as K
+    from .._config import apply_numba_threads
+
+    apply_numba_threads()
+    K.spectral_sample_kernel(np.ascontiguousarray(sig), noise, np.ascontiguousarray(gain_eg), float(m),
+                             np.uint64(key), e0, out)
+
+
+def _as_2d(name, a):
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] < 1:
+        raise ValueError(f"{name} must have shape (n_estimates, n_cells) or (n_cells,), got {np.shape(a)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite")
+    return arr
+
+
+def _weights(weight_s, ns):
+    w = np.asarray(weight_s, dtype=np.float64)
+    if w.shape != (ns,):
+        raise ValueError(f"weight_s must have shape ({ns},) to match the cells of vlos_es, got {w.shape}")
+    if not np.all(np.isfinite(w)) or np.any(w < 0):
+        raise ValueError("weight_s must be finite and >= 0")
+    if not 0.0 < w.sum() <= 1.0 + 1e-9:
+        raise ValueError(f"weight_s must sum to a value in (0, 1], got {w.sum()!r}")
+    return w

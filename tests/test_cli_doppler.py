@@ -1,0 +1,56 @@
+"""``cwlidar-sim doppler``: JSON report of a uniform-target run, errors as one line."""
+
+import json
+
+import pytest
+
+from cwlidar_sim.cli import main
+from cwlidar_sim.signal import PROTOTYPE_2003
+
+
+def _run(capsys, *argv):
+    rc = main(["doppler", *argv])
+    out = capsys.readouterr()
+    return rc, out
+
+
+def test_los_is_exact(capsys):
+    rc, out = _run(capsys, "--speed", "-6.5", "--cnr", "-10", "--tier", "los", "--n", "5", "--json")
+    rep = json.loads(out.out)
+    assert rc == 0 and rep["mean"] == -6.5 and rep["std"] == 0.0 and rep["availability"] == 1.0
+    assert "note" in rep
+
+
+@pytest.mark.parametrize("tier", ["spectral", "signal"])
+def test_spectral_and_signal_report(capsys, tier):
+    # a bin-centred speed at CNR -10 dB (per-bin SNR 25.6): every estimate valid, within a bin
+    v = 100 * PROTOTYPE_2003.bin_speed
+    rc, out = _run(capsys, "--speed", str(-v), "--cnr", "-10", "--tier", tier, "--estimator", "centroid",
+                   "--n", "4" if tier == "signal" else "200", "--seed", "3", "--set", "blocks_per_estimate=200",
+                   "--json")
+    rep = json.loads(out.out)
+    assert rc == 0
+    assert rep["expected"] == pytest.approx(v)  # homodyne: |V|
+    assert rep["availability"] == 1.0 and rep["n"] == rep["n_valid"]
+    assert abs(rep["mean"] - v) < 0.1 * rep["bin_speed"]
+    assert set(rep["flags"]) == {"NO_SIGNAL", "NEAR_NYQUIST", "NEAR_ZERO", "SECOND_PEAK", "FIT_FAILED"}
+    assert rep["instrument"]["blocks_per_estimate"] == 200 and rep["estimator"] == "centroid"
+
+
+def test_low_cnr_and_threshold_options(capsys):
+    rc, out = _run(capsys, "--speed", "9", "--cnr", "-70", "--n", "50", "--threshold", "5",
+                   "--threshold-raise", "10", "--json")
+    rep = json.loads(out.out)
+    assert rc == 0 and rep["availability"] < 0.2
+    assert rep["flags"]["NO_SIGNAL"] == rep["n"] - rep["n_valid"]
+    assert rep["instrument"]["threshold_raise_percent"] == 10.0
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--estimator", "mode"], "allowed: 'median'"),
+    (["--set", "nfft=3"], "unknown instrument field"),
+    (["--n", "0"], "n=0"),
+])
+def test_errors(capsys, argv, match):
+    rc, out = _run(capsys, "--speed", "5", "--cnr", "0", *argv)
+    assert rc == 2 and match in out.err

@@ -102,3 +102,27 @@ def _range_text(lo, hi, lo_open, hi_open) -> str:
     if lo is None:
         return f"{'<' if hi_open else '<='} {hi}"
     return f"{'(' if lo_open else '['}{lo}, {hi}{')' if hi_open else ']'}"
+
+
+def check_keys(cls, d, *, required=()) -> None:
+    """Reject keys of ``d`` that are not fields of the dataclass ``cls``, by name.
+
+    Parameters
+    ----------
+    cls : dataclass type
+    d : dict
+        Mapping to check (e.g. a TOML table or the argument of ``from_dict``).
+    required : iterable of str
+        Field names that must be present.
+    """
+    import dataclasses
+
+    if not isinstance(d, dict):
+        raise TypeError(f"{cls.__name__} expects a dict, got {type(d).__name__}")
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(d) - names)
+    if unknown:
+        raise ValueError(f"unknown key(s) for {cls.__name__}: {unknown}; allowed: {sorted(names)}")
+    missing = sorted(set(required) - set(d))
+    if missing:
+        raise ValueError(f"missing key(s) for {cls.__name__}: {missing}")

@@ -49,7 +49,7 @@ import math
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_real
+from .._validation import check_choice, check_int, check_keys, check_real
 
 #: Laser wavelength of the ZephIR prototype [m] (A2012).
 WAVELENGTH = 1547.615e-9
@@ -111,14 +111,7 @@ class BeamOptics:
     @classmethod
     def from_dict(cls, d: dict) -> "BeamOptics":
         """Build from a mapping; unknown keys are rejected by name, defaults fill the rest."""
-        if not isinstance(d, dict):
-            raise TypeError(f"BeamOptics.from_dict expects a dict, got {type(d).__name__}")
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(d) - names)
-        if unknown:
-            raise ValueError(f"unknown key(s) for BeamOptics: {unknown}; allowed: {sorted(names)}")
-        if "focus" not in d:
-            raise ValueError("missing key(s) for BeamOptics: ['focus']")
+        check_keys(cls, d, required=["focus"])
         return cls(**d)
 
     # -- derived quantities ----------------------------------------------

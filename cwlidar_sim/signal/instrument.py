@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_real
+from .._validation import check_choice, check_int, check_keys, check_real
 
 #: Laser wavelength of the ZephIR prototype [m] (A2012).
 WAVELENGTH = 1547.615e-9
@@ -184,8 +184,6 @@ class Instrument:
         Fields missing from ``d`` are taken from ``base`` (a preset), or from
         the class defaults (the prototype) when ``base`` is None.
         """
-        if not isinstance(d, dict):
-            raise TypeError(f"Instrument.from_dict expects a dict, got {type(d).__name__}")
         _check_keys(d)
         start = {} if base is None else base.as_dict()
         start.update(d)
@@ -291,16 +289,8 @@ class Instrument:
         return math.inf if v == 0.0 else self.waist_radius / v
 
 
-_FIELDS = None
-
-
 def _check_keys(d):
-    global _FIELDS
-    if _FIELDS is None:
-        _FIELDS = {f.name for f in dataclasses.fields(Instrument)}
-    unknown = sorted(set(d) - _FIELDS)
-    if unknown:
-        raise ValueError(f"unknown key(s) for Instrument: {unknown}; allowed: {sorted(_FIELDS)}")
+    check_keys(Instrument, d)
 
 
 #: The 2003 ZephIR prototype of A2012 (staring mode).

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from .._validation import check_real
+from .._validation import check_keys, check_real
 
 # Integral of x**4 / (1 + x**2)**(17/6) over 0..inf = B(5/2, 1/3) / 2; the
 # von Karman energy spectrum integrates to alpha_eps * L**(2/3) times this.
@@ -53,15 +53,7 @@ class MannParameters:
     @classmethod
     def from_dict(cls, d: dict) -> "MannParameters":
         """Build from a mapping; unknown keys are rejected by name."""
-        if not isinstance(d, dict):
-            raise TypeError(f"MannParameters.from_dict expects a dict, got {type(d).__name__}")
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(d) - names)
-        if unknown:
-            raise ValueError(f"unknown key(s) for MannParameters: {unknown}; allowed: {sorted(names)}")
-        missing = sorted(names - set(d))
-        if missing:
-            raise ValueError(f"missing key(s) for MannParameters: {missing}")
+        check_keys(cls, d, required=[f.name for f in dataclasses.fields(cls)])
         return cls(**d)
 
     @property

@@ -63,7 +63,10 @@ from each box's own Fourier modes (see ``_mode_variances``: for independent Gaus
 modes the sampling variance of a sum of mode powers is estimated without bias by the
 sum of the squared powers), which is far steadier than the scatter between 3 seeds;
 for the peers' doubled boxes it is the scatter between seeds / sqrt(number of seeds)
-(marked ``*``), and with 3 seeds the variance of u in a long, thin box scatters
+(marked ``*``).  Both are estimated from the realised boxes, so a set of seeds that
+happens to be low in power also gets a small standard error: treat a 2-3 sigma
+deficit in var u from 10 seeds with caution (a 200-seed check of ours at
+4096x32x32 gave var u / exp = 1.020 +- 0.014).  With 3 seeds the variance of u in a long, thin box scatters
 by tens of percent, so only the spectral ratios resolve a few percent.  Peers are
 checked in both settings (hipersim's n_cpu changes only its speed; ``--quick``
 checks the periodic setting only).  ``ours+hf``

@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_real
+from .._validation import check_choice, check_int
 
 __all__ = [
     "Flag",

@@ -19,6 +19,13 @@ P = MannParameters(alpha_eps=1.0, length_scale=33.6, gamma=3.9)
 TINY = 1e-7  # a spacing whose grid holds every k2, k3 of interest
 
 
+def _seed_moments(fields):
+    """Per-field variances of u, v, w and u-w covariance, and their mean and standard error."""
+    s = np.array([[f.u.values.var(), f.v.values.var(), f.w.values.var(), (f.u.values * f.w.values).mean()]
+                  for f in fields])
+    return s.mean(axis=0), s.std(axis=0, ddof=1) / math.sqrt(len(s))
+
+
 def _mult(n):
     m = np.full(n // 2 + 1, 2.0)
     m[0] = 1.0
@@ -44,13 +51,7 @@ def test_line_statistics_over_seeds():
     n, dx = 2048, 2.0
     k, F = line_spectra(P, n, dx)
     exp = (F * _mult(n)[:, None, None]).sum(axis=0) * k[1]
-    s = []
-    for seed in range(12):
-        line = generate_line(P, n, dx, seed, dtype=np.float64)
-        u, v, w = line.u.values, line.v.values, line.w.values
-        s.append([u.var(), v.var(), w.var(), (u * w).mean()])
-    s = np.array(s)
-    mean, sem = s.mean(axis=0), s.std(axis=0, ddof=1) / math.sqrt(len(s))
+    mean, sem = _seed_moments(generate_line(P, n, dx, seed, dtype=np.float64) for seed in range(12))
     e = np.array([exp[0, 0], exp[1, 1], exp[2, 2], exp[0, 2]])
     # Four standard errors of the seed-to-seed scatter (Student t, 11 dof: p < 0.002).
     assert np.all(np.abs(mean - e) < 4 * sem), mean / e
@@ -93,13 +94,7 @@ def test_plane_statistics_over_seeds():
     d = phi[..., [0, 1, 2, 0], [0, 1, 2, 2]]
     d[0, 0] = 0.0  # the plane's mean is zero
     exp = (d * mult[..., None]).sum(axis=(0, 1)) * dk
-    s = []
-    for seed in range(10):
-        pl = generate_plane(P, shape, spacing, seed, dtype=np.float64)
-        u, v, w = pl.u.values, pl.v.values, pl.w.values
-        s.append([u.var(), v.var(), w.var(), (u * w).mean()])
-    s = np.array(s)
-    mean, sem = s.mean(axis=0), s.std(axis=0, ddof=1) / math.sqrt(len(s))
+    mean, sem = _seed_moments(generate_plane(P, shape, spacing, seed, dtype=np.float64) for seed in range(10))
     assert np.all(np.abs(mean - exp) < 4 * sem), mean / exp
 
 

@@ -5,6 +5,19 @@ Stages, one subpackage each:
 ``turbulence``
     Mann (1998) uniform-shear spectral tensor, analytic one-point spectra, and
     periodic box, plane and line fields; HAWC2 and NetCDF interchange.
+``beam``
+    Optics of the focused beam (Rayleigh length, exact and Lorentzian
+    weighting, transfer functions) and line-of-sight sampling of a field.
+``signal``
+    The Doppler signal chain in three tiers (weighted line-of-sight average,
+    expected Doppler spectra with speckle, the 50 MHz heterodyne signal),
+    background, thresholds, estimators and quality flags.
+``sensors``
+    Virtual sensors: sonic anemometer, staring lidar.
+``analysis``
+    Spectra, the two transfer-function methods, A2012 theory, tensor fitting.
+``campaign``
+    Scenes in TOML, the runner (local or Dask), NetCDF results, figures.
 
 Conventions used throughout the package
 ---------------------------------------

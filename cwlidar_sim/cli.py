@@ -149,6 +149,103 @@ def _cmd_doppler(args) -> int:
     return 0
 
 
+def _add_campaign(sub):
+    p = sub.add_parser("run", help="run a campaign scene (TOML)",
+                       description="Run every period of a scene file and write DIR/<name>.nc.")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--dask", default=None, metavar="ADDRESS",
+                   help="run the periods on this Dask scheduler (e.g. tcp://host:8786); default: locally")
+    p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--figures", action="store_true", help="also write the figures (as 'report' does)")
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("report", help="write the figures of a campaign's results",
+                       description="Read DIR/*.nc written by 'run' or 'reproduce' and write the figures as PNG.")
+    p.add_argument("dir", metavar="DIR")
+    p.add_argument("--out", default=None, metavar="FIGDIR", help="figure folder (default DIR)")
+    p.set_defaults(func=_cmd_report)
+
+    p = sub.add_parser("reproduce", help="reproduce a published result (a2012)",
+                       description="Run a bundled scene and write its results and figures. a2012: Angelou et al. "
+                                   "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods.")
+    p.add_argument("paper", choices=("a2012",))
+    p.add_argument("--quick", action="store_true", help="shortened periods (about a minute)")
+    p.add_argument("--out", default="results", metavar="DIR", help="output folder (default: results)")
+    p.add_argument("--dask", default=None, metavar="ADDRESS")
+    p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=_cmd_reproduce)
+
+
+def _client(address):
+    if address is None:
+        return None
+    from dask.distributed import Client
+
+    return Client(address)
+
+
+def _run_and_report(scene, args, figures):
+    import os
+
+    from . import _config
+    from .campaign import run_scene
+    from .campaign.figures import make_figures
+
+    if args.threads is not None:
+        _config.set_num_threads(args.threads)
+
+    def log(line):
+        print(line, file=sys.stderr)
+
+    ds = run_scene(scene, args.out, client=_client(args.dask), progress=not args.no_progress, log=log)
+    summary = {
+        "results": os.path.join(args.out, f"{scene.name}.nc"),
+        "wall_time_s": round(ds.attrs["wall_time"], 2),
+        "rayleigh_length_m": ds.attrs["rayleigh_length"],
+        "availability": {str(p): round(float(a), 4) for p, a in zip(ds.period.values, ds.availability.values)},
+    }
+    if figures:
+        summary["figures"] = make_figures(ds, args.out)
+    print(json.dumps(summary, indent=2))
+    return 0
+
+
+def _cmd_run(args) -> int:
+    from .campaign import load_scene
+
+    return _run_and_report(load_scene(args.scene), args, args.figures)
+
+
+def _cmd_report(args) -> int:
+    import glob
+    import os
+
+    from .campaign import read_results
+    from .campaign.figures import make_figures
+
+    files = sorted(glob.glob(os.path.join(args.dir, "*.nc")))
+    if not files:
+        raise ValueError(f"no results (*.nc) in {args.dir!r}; run 'cwlidar-sim run' or 'reproduce' first")
+    out = []
+    for f in files:
+        ds = read_results(f)
+        sub = args.out or args.dir
+        if len(files) > 1:
+            sub = os.path.join(sub, os.path.splitext(os.path.basename(f))[0])
+        out.extend(make_figures(ds, sub))
+    print(json.dumps({"figures": out}, indent=2))
+    return 0
+
+
+def _cmd_reproduce(args) -> int:
+    from .campaign import bundled_scene
+
+    return _run_and_report(bundled_scene(args.paper, quick=args.quick), args, True)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="cwlidar-sim",
@@ -160,6 +257,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     _add_box(sub)
     _add_doppler(sub)
+    _add_campaign(sub)
     return parser
 
 

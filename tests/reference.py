@@ -318,3 +318,336 @@ def signal_power_average(spec_bf, m_blocks, scale):
             for k in range(nf):
                 out[e, k] += abs(complex(spec_bf[b, k])) ** 2
     return out * scale / m_blocks
+
+
+# =============================================================================
+# analysis stage (cwlidar_sim/analysis/theory.py): A2012 Eqs. 12-14
+# =============================================================================
+def mann_phi_horizontal(k1, k2, k3, alpha_eps, L, gamma):
+    """Phi_11, Phi_22, Phi_12 of the Mann tensor for arrays, numpy only.
+
+    The same formulas as :func:`mann_amplitude` (PHYSICS.md section 1, scipy's
+    hyp2f1 for the lifetime, the arctan branch made continuous with atan2),
+    vectorised; no package code.  k1 must be non-zero.
+    """
+    from scipy.special import hyp2f1
+
+    k1, k2, k3 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (k1, k2, k3)))
+    kk = k1 * k1 + k2 * k2 + k3 * k3
+    kl = np.sqrt(kk) * L
+    beta = gamma * kl ** (-2.0 / 3.0) / np.sqrt(hyp2f1(1 / 3, 17 / 6, 4 / 3, -(kl ** -2.0)))
+    k30 = k3 + beta * k1
+    k0sq = k1 * k1 + k2 * k2 + k30 * k30
+    E = alpha_eps * L ** (5 / 3) * (k0sq * L * L) ** 2 / (1 + k0sq * L * L) ** (17 / 6)
+    a = np.sqrt(E / (4 * math.pi)) / k0sq
+    kh2 = k1 * k1 + k2 * k2
+    C1 = beta * k1 * k1 * (k0sq - 2 * k30 * k30 + beta * k1 * k30) / (kk * kh2)
+    ang = np.arctan2(beta * k1 * np.sqrt(kh2), k0sq - k30 * k1 * beta)
+    C2 = k2 * k0sq / kh2**1.5 * ang
+    z1 = C1 - k2 / k1 * C2
+    z2 = k2 / k1 * C1 + C2
+    # rows of D A_iso (A_iso = a [[0, k30, -k2], [-k30, 0, k1], [k2, -k1, 0]])
+    m1 = (z1 * k2, k30 - z1 * k1, -k2 * np.ones_like(k1))
+    m2 = (-k30 + z2 * k2, -z2 * k1, k1)
+    P11 = a * a * sum(x * x for x in m1)
+    P22 = a * a * sum(x * x for x in m2)
+    P12 = a * a * sum(x * y for x, y in zip(m1, m2))
+    return P11, P22, P12
+
+
+def misaligned_reference(k1, alpha_eps, L, gamma, theta_deg, zR, h=0.03):
+    """A2012 Eqs. 12-14 at one k1 > 0 by an independent double integral.
+
+    Inner k3 integral: k3 = +-exp(v), trapezoid in v with step h over
+    [ln(min scale) - 25, ln(max scale) + 12] (the integrand is analytic in v
+    near the real axis, so the trapezoid converges exponentially).  Outer k2
+    integral: scipy.integrate.quad_vec (adaptive Gauss-Kronrod) on the pieces
+    cut at 0 and at the weight's kink k2 = -k1 cot(theta).
+    Returns (F_vs, F_vr, chi), two-sided.
+    """
+    from scipy.integrate import quad_vec
+
+    th = math.radians(theta_deg)
+    c, s = math.cos(th), math.sin(th)
+
+    def phi2(k2):
+        kh = math.hypot(k1, k2)
+        lo, hi = math.log(min(kh, 1.0 / L)) - 25.0, math.log(max(kh, 1.0 / L)) + 12.0
+        v = np.arange(lo, hi + h, h)
+        ev = np.exp(v)
+        tot = 0.0
+        for sign in (1.0, -1.0):
+            P11, P22, P12 = mann_phi_horizontal(k1, k2, sign * ev, alpha_eps, L, gamma)
+            tot += h * np.sum((c * c * P11 + s * s * P22 + 2 * c * s * P12) * ev)
+        return tot
+
+    def f(k2):
+        kn = abs(k1 * c + k2 * s)
+        p = phi2(k2)
+        return np.array([p, p * math.exp(-2 * zR * kn), p * math.exp(-zR * kn)])
+
+    cuts = sorted({0.0} | ({-k1 * c / s} if s != 0.0 and c != 0.0 else set()))
+    pieces = [(-np.inf, cuts[0])] + list(zip(cuts[:-1], cuts[1:])) + [(cuts[-1], np.inf)]
+    tot = np.zeros(3)
+    for a, b in pieces:
+        tot += quad_vec(f, a, b, epsrel=1e-9, epsabs=0.0, limit=400)[0]
+    return tuple(tot)
+
+
+# =============================================================================
+# turbulence plane generator (cwlidar_sim/turbulence/_kernels.py: chol3,
+# fill_plane_kernel)
+# =============================================================================
+def turbulence_fill_plane(phi_xy33, noise, n1_lo, scale):
+    """Reference for ``fill_plane_kernel``: one mode at a time with numpy's Cholesky.
+
+    ``phi_xy33`` holds the (positive definite) spectral matrices of all rows
+    of the plane; ``noise`` (rows, Ny//2 + 1, 3, 2) the standard normals of
+    rows n1_lo .. n1_lo + rows.  Returns the three half-spectrum rows
+    ``scale * C (a + i b)`` with C the lower Cholesky factor.
+    """
+    rows, n2h = noise.shape[:2]
+    out = np.zeros((3, rows, n2h), complex)
+    for r in range(rows):
+        for s2 in range(n2h):
+            c = np.linalg.cholesky(phi_xy33[n1_lo + r, s2])
+            z = noise[r, s2, :, 0].astype(float) + 1j * noise[r, s2, :, 1].astype(float)
+            out[:, r, s2] = scale * (c @ z)
+    return out
+
+
+# =============================================================================
+# sensors stage (cwlidar_sim/sensors)
+# =============================================================================
+def sensors_resample_a2012(x):
+    """A2012 Eqs. 5-7 on a 1-D list, as printed: partitions of 16, output i = 1..5 weights
+    samples 3(i-1)+1 .. 3(i-1)+4 (1-based) by {0.2(6-i), 1, 1, 0.2 i}, divided by 3.2."""
+    out = []
+    for p in range(len(x) // 16):
+        part = x[16 * p: 16 * p + 16]
+        for i in range(1, 6):
+            w = ((6 - i) / 5, 1.0, 1.0, i / 5)
+            acc = 0.0
+            for n in range(1, 5):
+                acc = acc + w[n - 1] * part[n + 3 * (i - 1) - 1]
+            out.append(acc / 3.2)
+    return out
+
+
+def sensors_block_average(x, m, flags=None):
+    """Block means over the finite samples of each whole block of m; (means, counts, OR of flags)."""
+    means, counts, fl = [], [], []
+    for b in range(len(x) // m):
+        vals = [v for v in x[b * m: b * m + m] if math.isfinite(v)]
+        counts.append(len(vals))
+        means.append(sum(vals) / len(vals) if vals else math.nan)
+        f = 0
+        if flags is not None:
+            for v in flags[b * m: b * m + m]:
+                f |= int(v)
+        fl.append(f)
+    return means, counts, fl
+
+
+def sensors_expected_spectrum(x_es, amp_s, window_n, rho, nf):
+    """Expected signal periodogram by its defining sums (no recurrence, no FFT, no table):
+    S[e, k] = sum_s amp_s (G(k - x_es) + G(k + x_es)),
+    G(u) = sum_{|d|<N} R_w(d) rho^|d| cos(2 pi u d / N) / R_w(0)   (G is real: R_w is even)."""
+    n = len(window_n)
+    w = np.asarray(window_n, dtype=np.float64)
+    r = np.array([sum(w[i] * w[i + d] for i in range(n - d)) for d in range(n)])
+    a = r / r[0] * np.array([rho**d for d in range(n)])
+    d = np.arange(1, n)
+
+    def g(u):
+        return a[0] + 2.0 * np.sum(a[1:] * np.cos(2.0 * math.pi * u * d / n))
+
+    ne, ns = np.shape(x_es)
+    out = np.zeros((ne, nf))
+    for e in range(ne):
+        for k in range(nf):
+            for s in range(ns):
+                out[e, k] += amp_s[s] * (g(k - x_es[e][s]) + g(k + x_es[e][s]))
+    return out
+
+
+# =============================================================================
+# turbulence box generator (cwlidar_sim/turbulence/_kernels.py: normal_at,
+# normals_kernel, fill_box_kernel): counter-based ziggurat noise and the
+# half spectrum of a small uncorrected box, one mode at a time.
+# =============================================================================
+_BOX_MASK = (1 << 64) - 1
+_BOX_GOLDEN = 0x9E3779B97F4A7C15
+
+
+def box_mix64(z):
+    """SplitMix64 finaliser on Python ints."""
+    z &= _BOX_MASK
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _BOX_MASK
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _BOX_MASK
+    return z ^ (z >> 31)
+
+
+def box_ziggurat_tables(n=256, r=3.6541528853610088):
+    """Marsaglia & Tsang (2000) layers of exp(-x^2/2): edges x_0 (virtual) .. x_n = 0.
+
+    Returns (w, k, f): x_i 2^-53, floor(2^53 x_{i+1} / x_i) and f(x_i) with f(x_n) = 1.
+    """
+    def f(x):
+        return math.exp(-0.5 * x * x)
+
+    v = r * f(r) + math.sqrt(0.5 * math.pi) * math.erfc(r / math.sqrt(2.0))
+    x = [v / f(r), r]
+    while len(x) < n:
+        x.append(math.sqrt(-2.0 * math.log(v / x[-1] + f(x[-1]))))
+    x.append(0.0)
+    w = [xi * 2.0**-53 for xi in x[:n]]
+    k = [int(x[i + 1] / x[i] * 2.0**53) for i in range(n)]
+    fy = [f(xi) for xi in x[:n]] + [1.0]
+    return w, k, fy
+
+
+_BOX_ZIG = None
+
+
+def box_normal(key, key_b, c):
+    """Normal number ``c`` of the box noise: ziggurat on SplitMix64 output ``c`` under ``key``;
+    rejected draws continue on the SplitMix64 stream started at mix64(key_b + (c + 1) G)."""
+    global _BOX_ZIG
+    if _BOX_ZIG is None:
+        _BOX_ZIG = box_ziggurat_tables()
+    w_tab, k_tab, f_tab = _BOX_ZIG
+    r = 3.6541528853610088
+    w = box_mix64(int(key) + (int(c) + 1) * _BOX_GOLDEN)
+    t = box_mix64(int(key_b) + (int(c) + 1) * _BOX_GOLDEN)
+
+    def nxt():
+        nonlocal t
+        t = (t + _BOX_GOLDEN) & _BOX_MASK
+        return box_mix64(t)
+
+    def uniform(z):
+        return ((z >> 11) + 0.5) * 2.0**-53
+
+    while True:
+        i = w & 0xFF
+        sign = -1.0 if (w >> 8) & 1 else 1.0
+        u = w >> 11
+        x = u * w_tab[i]
+        if u < k_tab[i]:
+            return sign * x
+        if i == 0:
+            while True:
+                a = -math.log(uniform(nxt())) / r
+                b = -math.log(uniform(nxt()))
+                if b + b > a * a:
+                    return sign * (r + a)
+        y = f_tab[i] + uniform(nxt()) * (f_tab[i + 1] - f_tab[i])
+        if y < math.exp(-0.5 * x * x):
+            return sign * x
+        w = nxt()
+
+
+def box_noise_keys(seed):
+    """(key, key_b) of a seed: the first two 64-bit words of numpy's SeedSequence(seed)."""
+    k = np.random.SeedSequence(seed).generate_state(2, dtype=np.uint64)
+    return int(k[0]), int(k[1])
+
+
+def box_half_spectrum(shape, spacing, seed, alpha_eps, L, gamma):
+    """Half spectrum of a zero-mean box with correction="none", by its definition.
+
+    Mode n = (n1, n2, n3), n3 = 0 .. N3//2, has flat index m = (n1 N2 + n2)(N3//2 + 1) + n3
+    and normals a_j = z(6 m + 2 j), b_j = z(6 m + 2 j + 1) (``box_normal``); its coefficients are
+    c_i = sqrt(dk1 dk2 dk3) sum_j M_ij(k_n) (a_j + i b_j) / sqrt(2) with M from ``mann_amplitude``
+    and k_n in numpy's fftfreq order.  In the planes n3 = 0 and n3 = N3/2 (even N3), of each pair
+    (n1, n2), (-n1, -n2) the one with the larger index n1 N2 + n2 is the conjugate of the other, a
+    self-conjugate mode becomes sqrt(2) times its real part; c(0) = 0.  Returns (3, N1, N2, N3//2+1).
+    """
+    N1, N2, N3 = shape
+    nh = N3 // 2 + 1
+    key, key_b = box_noise_keys(seed)
+    dk = [2.0 * math.pi / (n * d) for n, d in zip(shape, spacing)]
+    out = np.zeros((3, N1, N2, nh), complex)
+    for n1 in range(N1):
+        k1 = dk[0] * (n1 if 2 * n1 < N1 else n1 - N1)
+        for n2 in range(N2):
+            k2 = dk[1] * (n2 if 2 * n2 < N2 else n2 - N2)
+            for n3 in range(nh):
+                m = (n1 * N2 + n2) * nh + n3
+                z = [box_normal(key, key_b, 6 * m + j) for j in range(6)]
+                amp = mann_amplitude(k1, k2, dk[2] * n3, alpha_eps, L, gamma)
+                for i in range(3):
+                    out[i, n1, n2, n3] = math.sqrt(dk[0] * dk[1] * dk[2] / 2.0) * sum(
+                        amp[i][j] * complex(z[2 * j], z[2 * j + 1]) for j in range(3))
+    planes = [0] + ([N3 // 2] if N3 % 2 == 0 else [])
+    for n3 in planes:
+        for n1 in range(N1):
+            for n2 in range(N2):
+                m1, m2 = (-n1) % N1, (-n2) % N2
+                if (m1, m2) == (n1, n2):
+                    out[:, n1, n2, n3] = math.sqrt(2.0) * out[:, n1, n2, n3].real
+                elif n1 * N2 + n2 > m1 * N2 + m2:
+                    out[:, n1, n2, n3] = np.conj(out[:, m1, m2, n3])
+    out[:, 0, 0, 0] = 0.0
+    return out
+
+
+# =============================================================================
+# signal stage, fused tier-3 path and row kernels (cwlidar_sim/signal/_kernels.py:
+# block_normals, tone_tables_kernel, synth_blocks_kernel, power_sum_kernel,
+# combine_partials_kernel)
+# =============================================================================
+def signal_block_normals(key, block, n, noise_std=1.0):
+    """Reference for ``block_normals(stream_start(key, block), ...)``: the stream's
+    ``normal_pair`` sequence (exact ndtri), first n values."""
+    st = signal_stream_start(key, block)
+    out = []
+    while len(out) < n:
+        st, z0, z1 = signal_normal_pair(st)
+        out += [z0, z1]
+    return noise_std * np.array(out[:n])
+
+
+def signal_tone_tables(dtheta_es, ln, group):
+    """Reference for ``tone_tables_kernel``: exp(i q theta) by cos/sin of each angle."""
+    ne, ns = np.shape(dtheta_es)
+    rot = np.zeros((ne, ns, group), complex)
+    step = np.zeros((ne, ns, 4))
+    for e in range(ne):
+        for s in range(ns):
+            th = dtheta_es[e][s]
+            for q in range(group):
+                rot[e, s, q] = complex(math.cos(q * th), math.sin(q * th))
+            step[e, s] = (math.cos(group * th), math.sin(group * th), math.cos(ln * th), math.sin(ln * th))
+    return rot.real, rot.imag, step
+
+
+def signal_synth_blocks(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp_im_st, phase_es, dtheta_es,
+                        noise_std, window_n):
+    """Reference for ``synth_blocks_kernel``: every tone sample from cos/sin of its own phase
+    ``phase_es[e, s] + dtheta_es[e, s] (N i + n)`` (block i of estimate e), no recurrence."""
+    n = len(window_n)
+    ln = n // n_sub
+    ns = len(amp_re_st)
+    out = np.zeros((b_hi - b_lo, n))
+    for b in range(b_lo, b_hi):
+        e, i = divmod(b, m_blocks)
+        x = signal_block_normals(key, block0 + b, n, noise_std)
+        for s in range(ns):
+            for k in range(n):
+                ph = phase_es[e][s] + dtheta_es[e][s] * (n * i + k)
+                a = complex(amp_re_st[s][b * n_sub + k // ln], amp_im_st[s][b * n_sub + k // ln])
+                x[k] += (a * complex(math.cos(ph), math.sin(ph))).real
+        out[b - b_lo] = x * np.asarray(window_n)
+    return out
+
+
+def signal_power_sum(spec_bf, n_rows):
+    """Reference for ``power_sum_kernel``: sum of |X|^2 over the first n_rows rows."""
+    nf = len(spec_bf[0])
+    out = [0.0] * nf
+    for b in range(n_rows):
+        for k in range(nf):
+            out[k] += abs(complex(spec_bf[b][k])) ** 2
+    return np.array(out)

@@ -33,7 +33,7 @@ def test_spectral_and_signal_report(capsys, tier):
     assert rep["expected"] == pytest.approx(v)  # homodyne: |V|
     assert rep["availability"] == 1.0 and rep["n"] == rep["n_valid"]
     assert abs(rep["mean"] - v) < 0.1 * rep["bin_speed"]
-    assert set(rep["flags"]) == {"NO_SIGNAL", "NEAR_NYQUIST", "NEAR_ZERO", "SECOND_PEAK", "FIT_FAILED"}
+    assert set(rep["flags"]) == {"NO_SIGNAL", "NEAR_NYQUIST", "NEAR_ZERO", "SECOND_PEAK", "FIT_FAILED", "PAUSED"}
     assert rep["instrument"]["blocks_per_estimate"] == 200 and rep["estimator"] == "centroid"
 
 

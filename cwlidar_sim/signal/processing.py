@@ -65,10 +65,13 @@ class Flag(enum.IntFlag):
     SECOND_PEAK = 8
     #: The estimator could not produce a value: the estimate is NaN.
     FIT_FAILED = 16
+    #: The instrument was measuring its background (10 min every 3 h in
+    #: A2012): no estimate; set by the campaign runner, the estimate is NaN.
+    PAUSED = 32
 
 
 #: Flags that make an estimate NaN.
-FAIL_FLAGS = Flag.NO_SIGNAL | Flag.FIT_FAILED
+FAIL_FLAGS = Flag.NO_SIGNAL | Flag.FIT_FAILED | Flag.PAUSED
 
 #: Registry of Doppler estimators: name -> (kernel id, description).  All act
 #: on the thresholded, noise-normalised spectrum (see the module notes).

@@ -1,0 +1,43 @@
+"""Analysis stage: measured spectra, transfer functions, theory and tensor fits (A2012 sections V-VI).
+
+``spectra``
+    Segment-averaged one-sided periodograms (:func:`segment_spectra`),
+    log-binning (:func:`log_bins`, :func:`bin_average`), the measured
+    transfer functions of A2012's methods 1 and 2 with their sampling
+    uncertainty (:func:`transfer_functions`) and log-binned component
+    spectra (:func:`component_spectra`).  Measured spectra are *one-sided*.
+``theory``
+    exp(-2 |k| zR) (A2012 Eq. 9) and the misaligned-beam spectra of A2012
+    Eqs. 12-14 from the Mann tensor (:func:`misaligned_spectra`, two-sided).
+``fitting``
+    Least-squares fit of the Mann tensor parameters to measured one-point
+    spectra (:func:`fit_mann`).
+
+Importing this package does not import numba or scipy; they load on first use.
+"""
+
+from .fitting import MannFit, fit_mann
+from .spectra import (
+    SegmentSpectra,
+    TransferEstimate,
+    bin_average,
+    component_spectra,
+    log_bins,
+    segment_spectra,
+    transfer_functions,
+)
+from .theory import misaligned_spectra, transfer_aligned
+
+__all__ = [
+    "log_bins",
+    "bin_average",
+    "SegmentSpectra",
+    "segment_spectra",
+    "TransferEstimate",
+    "transfer_functions",
+    "component_spectra",
+    "transfer_aligned",
+    "misaligned_spectra",
+    "MannFit",
+    "fit_mann",
+]

@@ -1,0 +1,215 @@
+"""Figures of a campaign's results, after A2012 Figs. 3-8.
+
+Every function takes the results Dataset of :func:`cwlidar_sim.campaign.run_scene`
+(or :func:`cwlidar_sim.campaign.runner.read_results`) and returns a matplotlib
+Figure; :func:`make_figures` writes them all as PNG.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+
+import numpy as np
+
+__all__ = [
+    "plot_spectra",
+    "plot_transfer",
+    "plot_methods",
+    "plot_misalignment",
+    "plot_variants",
+    "make_figures",
+]
+
+
+def _plt():
+    # No backend is forced: matplotlib falls back to Agg without a display,
+    # and a notebook keeps its inline backend.
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _grid(n):
+    cols = min(n, 2)
+    rows = int(math.ceil(n / cols))
+    return rows, cols
+
+
+def _label(ds, i):
+    return (f"period {ds.period.values[i]}: U = {float(ds.mean_speed[i]):.1f} m/s, "
+            f"misalignment {float(ds.misalignment[i]):+.1f}°")
+
+
+def _best_period(ds):
+    """Index of the period with the smallest misalignment (A2012's period C)."""
+    return int(np.argmin(np.abs(ds.misalignment.values)))
+
+
+def plot_spectra(ds):
+    """Premultiplied spectra k F(k) of lidar and sonic per period (A2012 Fig. 3)."""
+    plt = _plt()
+    P = ds.sizes["period"]
+    rows, cols = _grid(P)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.5 * cols, 4 * rows), squeeze=False, sharey=True)
+    k = ds.k.values
+    for i in range(P):
+        ax = axes.flat[i]
+        ax.loglog(k, k * ds.spectrum_sonic[i], "k--", label="sonic $k F_{v_s}$")
+        ax.loglog(k, k * ds.spectrum_lidar[i], "r-", label=f"lidar $k F_{{v_r}}$ ({ds.attrs['lidar_tier']})")
+        ax.set_title(_label(ds, i), fontsize=9)
+        ax.set_xlabel("$k_1$ [rad/m]")
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("$k F(k)$ [m$^2$/s$^2$]")
+    for ax in axes.flat[P:]:
+        ax.set_visible(False)
+    axes.flat[0].legend(fontsize=8)
+    fig.suptitle("Spectra of the radial speed, 10-min segments averaged over each period")
+    fig.tight_layout()
+    return fig
+
+
+def _theory(ax, ds, i=None):
+    k = ds.k.values
+    zR = ds.attrs["rayleigh_length"]
+    ax.loglog(k, ds.transfer_theory, "k-", lw=1.5, label=f"exp(-2 k zR), zR = {zR:.2f} m")
+    if i is not None:
+        ax.loglog(k, ds.transfer_theory_cross[i], "k:", lw=1, label="Eqs. 12, 14 (misaligned)")
+
+
+def _setup(ax):
+    ax.set_ylim(1e-4, 3)
+    ax.set_xlabel("$k_1$ [rad/m]")
+    ax.grid(True, which="both", alpha=0.3)
+
+
+def plot_transfer(ds, which="ratio"):
+    """Transfer function per period, method 1 ('ratio', A2012 Fig. 4) or 2 ('cross', Fig. 5)."""
+    plt = _plt()
+    var = {"ratio": "transfer_ratio", "cross": "transfer_cross"}[which]
+    fig, ax = plt.subplots(figsize=(7, 5))
+    k = ds.k.values
+    for i in range(ds.sizes["period"]):
+        ax.loglog(k, ds[var][i], "o-", ms=3, lw=1, label=_label(ds, i))
+    _theory(ax, ds)
+    _setup(ax)
+    title = ("method 1: $F_{v_r}/F_{v_s}$" if which == "ratio"
+             else "method 2: Re$(\\chi_{v_r v_s})^2 / F_{v_s}^2$")
+    ax.set_title(title)
+    ax.set_ylabel("spectral transfer function")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def plot_methods(ds, i=None):
+    """Both methods, the noise-free tier-1 lidar and the theory for one period (A2012 Fig. 6)."""
+    plt = _plt()
+    i = _best_period(ds) if i is None else i
+    fig, ax = plt.subplots(figsize=(7, 5))
+    k = ds.k.values
+    ax.errorbar(k, ds.transfer_ratio[i], yerr=ds.transfer_ratio_sigma[i], fmt="o", ms=3, label="method 1 (ratio)")
+    ax.errorbar(k, ds.transfer_cross[i], yerr=ds.transfer_cross_sigma[i], fmt="s", ms=3, label="method 2 (cross)")
+    ax.loglog(k, ds.transfer_ratio_ideal[i], "-", color="C2", lw=1, label="method 1, noise-free tier 1")
+    _theory(ax, ds, i)
+    ax.loglog(k, ds.transfer_theory_ratio[i], "-.", color="0.4", lw=1, label="Eqs. 12, 13 (misaligned)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    _setup(ax)
+    ax.set_title(_label(ds, i))
+    ax.set_ylabel("spectral transfer function")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_misalignment(ds, theta_deg=5.0, i=None):
+    """A2012 Eqs. 12-14 at ``theta_deg`` with the tensor fitted to one period's sonic (A2012 Fig. 7)."""
+    from ..analysis import misaligned_spectra, transfer_aligned
+    from ..turbulence import MannParameters
+
+    plt = _plt()
+    i = _best_period(ds) if i is None else i
+    if "fit_alpha_eps" in ds and np.isfinite(float(ds.fit_alpha_eps[i])):
+        p = MannParameters(float(ds.fit_alpha_eps[i]), float(ds.fit_length_scale[i]), float(ds.fit_gamma[i]))
+        src = f"fitted to period {ds.period.values[i]}"
+    else:
+        p = MannParameters(ds.attrs["alpha_eps"], ds.attrs["length_scale"], ds.attrs["gamma"])
+        src = "scene parameters"
+    zR = ds.attrs["rayleigh_length"]
+    k = np.geomspace(1e-3, 3.0, 80)
+    F_vs, F_vr, chi = misaligned_spectra(k, p, theta_deg, zR)
+    fig, ax = plt.subplots(figsize=(7, 5))
+    ax.loglog(k, F_vr / F_vs, "C0-", label="$F_{v_r}/F_{v_s}$ (Eqs. 12, 13)")
+    ax.loglog(k, chi**2 / F_vs**2, "C1--", label="$\\chi^2/F_{v_s}^2$ (Eqs. 12, 14)")
+    ax.loglog(k, transfer_aligned(k, zR), "k-", lw=1, label="exp(-2 k zR)")
+    _setup(ax)
+    ax.set_title(f"misalignment {theta_deg:g}°, tensor {src}\n"
+                 f"αε$^{{2/3}}$ = {p.alpha_eps:.3g}, L = {p.length_scale:.3g} m, Γ = {p.gamma:.3g}", fontsize=9)
+    ax.set_ylabel("spectral ratio")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def _variant_groups(ds):
+    """Variant names grouped: threshold raises and estimators."""
+    variants = json.loads(ds.attrs.get("variants", "[]"))
+    thr = [v["name"] for v in variants if "threshold_raise_percent" in v]
+    est = [v["name"] for v in variants if "estimator" in v]
+    return variants, thr, est
+
+
+def plot_variants(ds, group="threshold", i=None):
+    """Both methods for processing variants of one period: raised thresholds (A2012 Fig. 8) or estimators."""
+    plt = _plt()
+    i = _best_period(ds) if i is None else i
+    variants, thr, est = _variant_groups(ds)
+    names = thr if group == "threshold" else est
+    main = (f"main ({ds.attrs['lidar_estimator']}, threshold +0 %)" if group == "threshold"
+            else f"{ds.attrs['lidar_estimator']} (main)")
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), sharey=True)
+    k = ds.k.values
+    for ax, var, title in ((axes[0], "ratio", "method 1"), (axes[1], "cross", "method 2")):
+        ax.loglog(k, ds[f"transfer_{var}"][i], "o-", ms=3, lw=1, color="k", label=main)
+        for j, n in enumerate(names):
+            vi = list(ds.variant.values).index(n)
+            v = next(x for x in variants if x["name"] == n)
+            extra = (f"threshold +{v['threshold_raise_percent']:g} %" if group == "threshold"
+                     else v["estimator"])
+            ax.loglog(k, ds[f"transfer_{var}_variant"][vi, i], "o-", ms=3, lw=1, color=f"C{j}", label=extra)
+        ax.loglog(k, ds.transfer_theory, "k:", lw=1, label="exp(-2 k zR)")
+        _setup(ax)
+        ax.set_title(f"{title}, {_label(ds, i)}", fontsize=9)
+    axes[0].set_ylabel("spectral transfer function")
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def make_figures(ds, out_dir) -> list:
+    """Write every figure as PNG into ``out_dir``; returns the paths."""
+    plt = _plt()
+    os.makedirs(out_dir, exist_ok=True)
+    figs = {
+        "spectra": lambda: plot_spectra(ds),
+        "transfer_ratio": lambda: plot_transfer(ds, "ratio"),
+        "transfer_cross": lambda: plot_transfer(ds, "cross"),
+        "methods": lambda: plot_methods(ds),
+        "misalignment_5deg": lambda: plot_misalignment(ds, 5.0),
+    }
+    _, thr, est = _variant_groups(ds)
+    if thr:
+        figs["thresholds"] = lambda: plot_variants(ds, "threshold")
+    if est:
+        figs["estimators"] = lambda: plot_variants(ds, "estimator")
+    paths = []
+    for name, make in figs.items():
+        fig = make()
+        path = os.path.join(os.fspath(out_dir), f"{name}.png")
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths

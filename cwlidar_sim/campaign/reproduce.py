@@ -1,0 +1,36 @@
+"""Bundled reproductions: ``cwlidar-sim reproduce a2012``.
+
+The scenes ship with the package (``cwlidar_sim/campaign/scenes/*.toml``).
+Quick mode keeps the physics and the geometry and shortens the record, so
+the low-wavenumber end is noisier; the full run is the reproduction.
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+
+from .scene import Scene, loads_scene
+
+__all__ = ["BUNDLED", "bundled_scene", "bundled_text"]
+
+#: Bundled scenes: name -> (file, quick-mode period duration [s]).
+BUNDLED = {"a2012": ("a2012.toml", 1200.0)}
+
+
+def bundled_text(name: str) -> str:
+    """TOML text of a bundled scene."""
+    from .._validation import check_choice
+
+    check_choice("scene", name, tuple(BUNDLED))
+    return resources.files("cwlidar_sim.campaign").joinpath("scenes", BUNDLED[name][0]).read_text(encoding="utf-8")
+
+
+def bundled_scene(name: str, *, quick: bool = False) -> Scene:
+    """A bundled scene; ``quick`` shortens every period to the quick duration (same seeds and geometry)."""
+    scene = loads_scene(bundled_text(name))
+    if quick:
+        import dataclasses
+
+        q = BUNDLED[name][1]
+        scene = scene.replace(duration=q, periods=tuple(dataclasses.replace(p, duration=None) for p in scene.periods))
+    return scene

@@ -1,0 +1,603 @@
+"""Scene files: a virtual measurement campaign described in TOML.
+
+A scene is a tree of frozen, validated dataclasses.  Every table of the TOML
+file maps onto one of them; unknown keys are rejected by name, values out of
+range are rejected with the field, the value and the allowed range, and
+:meth:`Scene.as_dict` / :meth:`Scene.from_dict` round-trip.
+
+Geometry (A2012's set-up)
+-------------------------
+The field's frame has x along the mean wind (Taylor advection at the period's
+mean speed U along +x), y lateral and z up.  The lidar stares *upwind*: its
+beam points along ``-x`` rotated by the period's misalignment angle theta about
+z (and tilted by ``lidar.elevation_deg``), so the mean radial speed toward
+the lidar is ``U cos(theta)``.  The sonic sits at the focus, shifted by
+``sonic.offset``.  Both sensors report the speed *toward the lidar*
+(positive for a lidar looking into the wind): the lidar's homodyne
+``|v|`` and the sonic's ``-n . u``.
+
+Example
+-------
+.. code-block:: toml
+
+    name = "a2012"
+    seed = 2012
+    duration = 3600.0             # s, per period
+
+    [turbulence]                  # or: fit_to = "sonic.nc"
+    alpha_eps = 0.05
+    length_scale = 20.0
+    gamma = 3.2
+
+    [lidar]
+    preset = "prototype"
+    tier = "spectral"
+    cnr_db = 10.0
+    instrument = { focus = 67.5 }
+    variants = [{ name = "raise10", threshold_raise_percent = 10.0 }]
+
+    [sonic]
+    noise_std = 0.02
+
+    [[period]]
+    name = "C"
+    mean_speed = 8.0
+    misalignment_deg = 1.2
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+
+from .._validation import check_choice, check_int, check_keys, check_real, check_seed
+
+__all__ = [
+    "FIELD_KINDS",
+    "TIERS",
+    "TurbulenceSpec",
+    "LidarSpec",
+    "SonicSpec",
+    "FieldSpec",
+    "AnalysisSpec",
+    "PeriodSpec",
+    "Scene",
+    "load_scene",
+    "loads_scene",
+]
+
+FIELD_KINDS = ("auto", "line", "plane", "box")
+TIERS = ("los", "spectral", "signal")
+
+
+def _set(obj, name, value):
+    object.__setattr__(obj, name, value)
+
+
+def _asdict(obj) -> dict:
+    """Plain dict of a spec, dropping None values (TOML has no null)."""
+    out = {}
+    for f in dataclasses.fields(obj):
+        v = getattr(obj, f.name)
+        if v is None:
+            continue
+        if dataclasses.is_dataclass(v):
+            v = v.as_dict()
+        elif isinstance(v, tuple) and v and dataclasses.is_dataclass(v[0]):
+            v = [x.as_dict() for x in v]
+        elif isinstance(v, tuple):
+            v = list(v)
+            v = [dict(x) if isinstance(x, dict) else x for x in v]
+        elif isinstance(v, dict):
+            v = dict(v)
+        out[f.name] = v
+    return out
+
+
+def _check_bool(name, value):
+    if not isinstance(value, bool):
+        raise TypeError(f"{name} must be true or false, got {value!r}")
+    return value
+
+
+def _check_str(name, value, *, allow_empty=False):
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a string, got {type(value).__name__}")
+    if not allow_empty and not value:
+        raise ValueError(f"{name} must not be empty")
+    return value
+
+
+def _check_vec3(name, value):
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise ValueError(f"{name} must be a list of 3 numbers [m], got {value!r}")
+    return tuple(check_real(f"{name}[{i}]", v, lo=-1e6, hi=1e6) for i, v in enumerate(value))
+
+
+@dataclasses.dataclass(frozen=True)
+class TurbulenceSpec:
+    """Turbulence of the scene: Mann parameters, or a sonic record to fit them to.
+
+    Parameters
+    ----------
+    alpha_eps : float, optional
+        alpha epsilon^(2/3) [m^(4/3) s^-2]; > 0.
+    length_scale : float, optional
+        Mann length scale L [m]; > 0.
+    gamma : float, optional
+        Anisotropy Gamma [-]; >= 0.
+    fit_to : str, optional
+        Path of a NetCDF sonic record (variables ``u``, ``v``, ``w`` [m/s] on
+        a dimension ``time`` with a coordinate in seconds; u along the mean
+        wind) to fit the three parameters to (relative paths are taken from
+        the scene file's folder).  Exclusive with the three parameters.
+    """
+
+    alpha_eps: float | None = None
+    length_scale: float | None = None
+    gamma: float | None = None
+    fit_to: str | None = None
+
+    def __post_init__(self):
+        given = [x is not None for x in (self.alpha_eps, self.length_scale, self.gamma)]
+        if self.fit_to is not None:
+            _check_str("turbulence.fit_to", self.fit_to)
+            if any(given):
+                raise ValueError("turbulence: give either fit_to or alpha_eps/length_scale/gamma, not both")
+            return
+        if not all(given):
+            raise ValueError("turbulence needs alpha_eps, length_scale and gamma (or fit_to)")
+        from ..turbulence.parameters import MannParameters
+
+        p = MannParameters(self.alpha_eps, self.length_scale, self.gamma)
+        _set(self, "alpha_eps", p.alpha_eps)
+        _set(self, "length_scale", p.length_scale)
+        _set(self, "gamma", p.gamma)
+
+    def params(self):
+        """The MannParameters (None when the scene fits them to a record)."""
+        if self.fit_to is not None:
+            return None
+        from ..turbulence.parameters import MannParameters
+
+        return MannParameters(self.alpha_eps, self.length_scale, self.gamma)
+
+    def as_dict(self) -> dict:
+        return _asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "TurbulenceSpec":
+        check_keys(cls, d)
+        return cls(**d)
+
+
+@dataclasses.dataclass(frozen=True)
+class LidarSpec:
+    """The staring lidar.
+
+    Parameters
+    ----------
+    preset : {'prototype', 'cs'}
+        Instrument preset (:func:`cwlidar_sim.signal.instrument.preset`).
+    instrument : dict
+        Field-by-field overrides of the preset (e.g. ``focus``,
+        ``estimator``, ``threshold_raise_percent``); validated by
+        :class:`~cwlidar_sim.signal.Instrument`.
+    tier : {'los', 'spectral', 'signal'}
+        Fidelity tier (tier 'signal' only for short records).
+    cnr_db : float
+        Carrier-to-noise ratio [dB]; in [-40, 60]: total signal power over
+        the noise power in 0 .. f_s/2 (see :mod:`cwlidar_sim.signal.spectral`).
+        A shot-noise-limited 1 W lidar at 1.55 um gives about -13 to -3 dB.
+    weighting : {'exact', 'lorentzian'}
+        Beam weighting along the line of sight.
+    span : float
+        Half-width of the modelled probe volume in Rayleigh lengths [-]; in (0, 200].
+    cell_length : float, optional
+        Range-cell length [m]; default the field's x spacing.
+    transverse_speed : float, optional
+        Aerosol speed across the beam [m/s] that sets the speckle
+        correlation time; default ``sqrt(sigma_v^2 + sigma_w^2 + (U sin theta)^2)``
+        from the turbulence and the period's misalignment.
+    elevation_deg : float
+        Beam elevation [deg]; in [-89, 89].  Non-zero needs a box field.
+    speckle : {'independent', 'coherent'}
+        Tier 2's speckle gain: one per bin (matches tier 3's error spread) or
+        one per estimate.
+    exact_background : bool
+        Use the exact noise floor instead of a measured background.
+    background_pause : bool
+        Pause 10 min every 3 h to measure the background (A2012: duty cycle
+        94.5 %); the paused estimates are NaN and flagged.
+    variants : list of dict
+        Extra processings of the same spectra, each with a ``name`` and
+        instrument overrides (e.g. ``{name = "raise10",
+        threshold_raise_percent = 10}``, ``{name = "peak", estimator = "peak"}``).
+    """
+
+    preset: str = "prototype"
+    instrument: dict = dataclasses.field(default_factory=dict)
+    tier: str = "spectral"
+    cnr_db: float = -10.0
+    weighting: str = "exact"
+    span: float = 20.0
+    cell_length: float | None = None
+    transverse_speed: float | None = None
+    elevation_deg: float = 0.0
+    speckle: str = "independent"
+    exact_background: bool = False
+    background_pause: bool = False
+    variants: tuple = ()
+
+    def __post_init__(self):
+        from ..sensors.lidar import _variant_instruments
+        from ..signal.instrument import PRESETS
+
+        check_choice("lidar.preset", self.preset, tuple(PRESETS))
+        if not isinstance(self.instrument, dict):
+            raise TypeError(f"lidar.instrument must be a table of overrides, got {type(self.instrument).__name__}")
+        self.build_instrument()
+        check_choice("lidar.tier", self.tier, TIERS)
+        _set(self, "cnr_db", check_real("lidar.cnr_db", self.cnr_db, lo=-40.0, hi=60.0))
+        check_choice("lidar.weighting", self.weighting, ("exact", "lorentzian"))
+        _set(self, "span", check_real("lidar.span", self.span, lo=0.0, hi=200.0, lo_open=True))
+        if self.cell_length is not None:
+            _set(self, "cell_length", check_real("lidar.cell_length", self.cell_length, lo=0.01, hi=100.0))
+        if self.transverse_speed is not None:
+            _set(self, "transverse_speed", check_real("lidar.transverse_speed", self.transverse_speed, lo=0.0, hi=100.0))
+        _set(self, "elevation_deg", check_real("lidar.elevation_deg", self.elevation_deg, lo=-89.0, hi=89.0))
+        check_choice("lidar.speckle", self.speckle, ("independent", "coherent"))
+        _check_bool("lidar.exact_background", self.exact_background)
+        _check_bool("lidar.background_pause", self.background_pause)
+        variants = tuple(self.variants)
+        for i, v in enumerate(variants):
+            if isinstance(v, dict) and v.get("name") == "main":
+                raise ValueError(f"lidar.variants[{i}].name 'main' is reserved for the lidar's own processing")
+        # the sensor's own check: names, and only the processing fields (the spectra stay the same)
+        _variant_instruments(self.build_instrument(), [dict(v) if isinstance(v, dict) else v for v in variants])
+        _set(self, "variants", tuple(dict(v) for v in variants))
+
+    def build_instrument(self, extra=None):
+        """The Instrument: the preset with ``instrument`` and then ``extra`` overrides applied."""
+        from ..signal.instrument import Instrument, preset
+
+        d = dict(self.instrument)
+        d.update(extra or {})
+        return Instrument.from_dict(d, base=preset(self.preset))
+
+    def as_dict(self) -> dict:
+        return _asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "LidarSpec":
+        check_keys(cls, d)
+        d = dict(d)
+        if "variants" in d:
+            if not isinstance(d["variants"], (list, tuple)):
+                raise TypeError("lidar.variants must be a list of tables")
+            d["variants"] = tuple(d["variants"])
+        return cls(**d)
+
+
+@dataclasses.dataclass(frozen=True)
+class SonicSpec:
+    """The sonic anemometer.
+
+    Parameters
+    ----------
+    rate : float
+        Sampling rate [Hz]; 32 (A2012's Metek USA-1; the 10 Hz resampling of
+        A2012 Eqs. 5-7 is defined for 32 Hz only).
+    noise_std : float
+        White noise on each component [m/s]; in [0, 10].
+    offset : (float, float, float)
+        Position relative to the lidar's focus [m].
+    """
+
+    rate: float = 32.0
+    noise_std: float = 0.0
+    offset: tuple = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        _set(self, "rate", check_real("sonic.rate", self.rate, lo=32.0, hi=32.0))
+        _set(self, "noise_std", check_real("sonic.noise_std", self.noise_std, lo=0.0, hi=10.0))
+        _set(self, "offset", _check_vec3("sonic.offset", self.offset))
+
+    def as_dict(self) -> dict:
+        return _asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "SonicSpec":
+        check_keys(cls, d)
+        return cls(**d)
+
+
+@dataclasses.dataclass(frozen=True)
+class FieldSpec:
+    """Which turbulence field to generate and its resolution.
+
+    Parameters
+    ----------
+    kind : {'auto', 'line', 'plane', 'box'}
+        'auto' picks the cheapest field the sensors need (see
+        :func:`cwlidar_sim.campaign.runner.choose_field`); the others force it
+        (a forced field that cannot hold the sensors is an error).
+    dx : float
+        Spacing along the wind [m]; in [0.05, 10].
+    dy, dz : float
+        Lateral and vertical spacing of planes and boxes [m]; in [0.1, 50].
+        A beam misaligned by theta averages across the wind too: at k1 it
+        feels lateral wavenumbers up to about ``k1 / tan(theta)``, so the
+        field holds the misaligned transfer function (A2012 Eqs. 12-14) only
+        for ``k1 < (pi / dy) tan(theta)`` (0.55 rad/m at 5 deg for 0.5 m).
+    ny, nz : int, optional
+        Points across; default: a power of two covering the sensors plus
+        four length scales (at least 32).
+    """
+
+    kind: str = "auto"
+    dx: float = 0.5
+    dy: float = 0.5
+    dz: float = 2.0
+    ny: int | None = None
+    nz: int | None = None
+
+    def __post_init__(self):
+        check_choice("field.kind", self.kind, FIELD_KINDS)
+        _set(self, "dx", check_real("field.dx", self.dx, lo=0.05, hi=10.0))
+        _set(self, "dy", check_real("field.dy", self.dy, lo=0.1, hi=50.0))
+        _set(self, "dz", check_real("field.dz", self.dz, lo=0.1, hi=50.0))
+        if self.ny is not None:
+            _set(self, "ny", check_int("field.ny", self.ny, lo=2, hi=4096))
+        if self.nz is not None:
+            _set(self, "nz", check_int("field.nz", self.nz, lo=2, hi=4096))
+
+    def as_dict(self) -> dict:
+        return _asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "FieldSpec":
+        check_keys(cls, d)
+        return cls(**d)
+
+
+@dataclasses.dataclass(frozen=True)
+class AnalysisSpec:
+    """Spectral analysis settings (A2012 section V).
+
+    Parameters
+    ----------
+    segment_duration : float
+        Length of the segments whose periodograms are averaged [s]; in [10, 86400].
+    k_min, k_max : float
+        Wavenumber band of the log-smoothed spectra [rad/m]; 0 < k_min < k_max.
+    per_decade : int
+        Log-spaced bins per decade; in [2, 100].
+    fit : bool
+        Fit the Mann parameters to each period's sonic spectra (needed for the
+        misaligned theory of A2012 Eqs. 12-14; without a fit the scene's own
+        parameters are used).
+    window : {'hann', 'none'}
+        Taper of each segment.  A2012 used none; but then the leakage of the
+        strong low-k power of both series swamps the lidar's spectrum where
+        it is 1e-3 of the sonic's (method 1 comes out 30 times too high at
+        0.7 rad/m for a noise-free lidar), so the default is Hann.
+    detrend : {'mean', 'linear'}
+        What is removed from each segment.
+    """
+
+    segment_duration: float = 600.0
+    k_min: float = 1e-3
+    k_max: float = 5.0
+    per_decade: int = 10
+    fit: bool = True
+    window: str = "hann"
+    detrend: str = "mean"
+
+    def __post_init__(self):
+        _set(self, "segment_duration", check_real("analysis.segment_duration", self.segment_duration, lo=10.0, hi=86400.0))
+        _set(self, "k_min", check_real("analysis.k_min", self.k_min, lo=0.0, hi=100.0, lo_open=True))
+        _set(self, "k_max", check_real("analysis.k_max", self.k_max, lo=self.k_min, hi=1000.0, lo_open=True))
+        _set(self, "per_decade", check_int("analysis.per_decade", self.per_decade, lo=2, hi=100))
+        _check_bool("analysis.fit", self.fit)
+        check_choice("analysis.window", self.window, ("hann", "none"))
+        check_choice("analysis.detrend", self.detrend, ("mean", "linear"))
+
+    def as_dict(self) -> dict:
+        return _asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "AnalysisSpec":
+        check_keys(cls, d)
+        return cls(**d)
+
+
+@dataclasses.dataclass(frozen=True)
+class PeriodSpec:
+    """One averaging period (A2012: four 1-h periods A-D).
+
+    Parameters
+    ----------
+    name : str
+    mean_speed : float
+        Mean wind speed U [m/s]; in [1, 30] (Taylor's hypothesis needs a
+        mean flow well above the fluctuations).
+    misalignment_deg : float
+        Mean wind direction relative to the beam [deg]; in [-45, 45].
+    duration : float, optional
+        Length [s]; default the scene's ``duration``.
+    start : float
+        Start time within the 3-h background cycle [s]; >= 0.
+    seed : int, optional
+        Seed of this period's field and noise; default derived from the
+        scene seed and the period's index.
+    """
+
+    name: str
+    mean_speed: float
+    misalignment_deg: float = 0.0
+    duration: float | None = None
+    start: float = 0.0
+    seed: int | None = None
+
+    def __post_init__(self):
+        _check_str("period.name", self.name)
+        _set(self, "mean_speed", check_real(f"period[{self.name}].mean_speed", self.mean_speed, lo=1.0, hi=30.0))
+        _set(self, "misalignment_deg",
+             check_real(f"period[{self.name}].misalignment_deg", self.misalignment_deg, lo=-45.0, hi=45.0))
+        if self.duration is not None:
+            _set(self, "duration", check_real(f"period[{self.name}].duration", self.duration, lo=10.0, hi=86400.0))
+        _set(self, "start", check_real(f"period[{self.name}].start", self.start, lo=0.0, hi=1e7))
+        if self.seed is not None:
+            _set(self, "seed", check_seed(f"period[{self.name}].seed", self.seed))
+
+    def as_dict(self) -> dict:
+        return _asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "PeriodSpec":
+        check_keys(cls, d, required=("name", "mean_speed"))
+        return cls(**d)
+
+
+_TABLES = {
+    "turbulence": TurbulenceSpec,
+    "lidar": LidarSpec,
+    "sonic": SonicSpec,
+    "field": FieldSpec,
+    "analysis": AnalysisSpec,
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+    """A virtual campaign: turbulence, instruments, field, analysis and periods.
+
+    Parameters
+    ----------
+    name : str
+        Used for the results file ``DIR/<name>.nc``; letters, digits, '-', '_'.
+    turbulence : TurbulenceSpec
+    periods : tuple of PeriodSpec
+        At least one; names unique.
+    lidar, sonic, field, analysis : specs
+        Defaults when the table is absent.
+    duration : float
+        Default period length [s]; in [10, 86400].
+    seed : int
+        Master seed; each period draws from its own child seed.
+    description : str
+    base_dir : str
+        Folder that relative paths (``turbulence.fit_to``) are taken from;
+        not stored in :meth:`as_dict`.
+    """
+
+    name: str
+    turbulence: TurbulenceSpec
+    periods: tuple
+    lidar: LidarSpec = dataclasses.field(default_factory=LidarSpec)
+    sonic: SonicSpec = dataclasses.field(default_factory=SonicSpec)
+    field: FieldSpec = dataclasses.field(default_factory=FieldSpec)
+    analysis: AnalysisSpec = dataclasses.field(default_factory=AnalysisSpec)
+    duration: float = 3600.0
+    seed: int = 0
+    description: str = ""
+    base_dir: str = dataclasses.field(default=".", compare=False)
+
+    def __post_init__(self):
+        _check_str("name", self.name)
+        if not all(c.isalnum() or c in "-_" for c in self.name):
+            raise ValueError(f"name {self.name!r} may hold only letters, digits, '-' and '_'")
+        for key, cls in _TABLES.items():
+            if not isinstance(getattr(self, key), cls):
+                raise TypeError(f"{key} must be a {cls.__name__}")
+        periods = tuple(self.periods)
+        if not periods:
+            raise ValueError("a scene needs at least one [[period]]")
+        if not all(isinstance(p, PeriodSpec) for p in periods):
+            raise TypeError("periods must be PeriodSpec instances")
+        names = [p.name for p in periods]
+        if len(set(names)) != len(names):
+            raise ValueError(f"period names must be unique, got {names}")
+        _set(self, "periods", periods)
+        _set(self, "duration", check_real("duration", self.duration, lo=10.0, hi=86400.0))
+        _set(self, "seed", check_seed("seed", self.seed))
+        _check_str("description", self.description, allow_empty=True)
+        for p in periods:
+            dur = self.period_duration(p)
+            if dur < self.analysis.segment_duration:
+                raise ValueError(f"period {p.name!r} lasts {dur} s, shorter than analysis.segment_duration = "
+                                 f"{self.analysis.segment_duration} s")
+
+    def period_duration(self, period: PeriodSpec) -> float:
+        """Length of a period [s]."""
+        return self.duration if period.duration is None else period.duration
+
+    def period_seed(self, index: int) -> int:
+        """Seed of period ``index``: its own, or a child of the scene seed."""
+        import numpy as np
+
+        p = self.periods[index]
+        if p.seed is not None:
+            return p.seed
+        child = np.random.SeedSequence(self.seed, spawn_key=(index,))
+        return int(child.generate_state(2, np.uint64)[0] >> np.uint64(1))
+
+    def as_dict(self) -> dict:
+        """Plain dict (TOML-shaped; round-trips through :meth:`from_dict`)."""
+        d = _asdict(self)
+        d.pop("base_dir", None)
+        d["period"] = d.pop("periods")
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict, *, base_dir: str = ".") -> "Scene":
+        """Build from a TOML-shaped mapping; unknown keys are rejected by name."""
+        if not isinstance(d, dict):
+            raise TypeError(f"a scene must be a table, got {type(d).__name__}")
+        allowed = {"name", "description", "seed", "duration", "period", *_TABLES}
+        unknown = sorted(set(d) - allowed)
+        if unknown:
+            raise ValueError(f"unknown key(s) in scene: {unknown}; allowed: {sorted(allowed)}")
+        for key in ("name", "turbulence", "period"):
+            if key not in d:
+                raise ValueError(f"scene is missing the required key {key!r}")
+        kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
+        for key, spec in _TABLES.items():
+            if key in d:
+                kw[key] = spec.from_dict(d[key])
+        periods = d["period"]
+        if not isinstance(periods, (list, tuple)):
+            raise TypeError("period must be an array of tables ([[period]])")
+        kw["periods"] = tuple(PeriodSpec.from_dict(p) for p in periods)
+        return cls(base_dir=base_dir, **kw)
+
+    def replace(self, **changes) -> "Scene":
+        """Copy with fields changed (validated)."""
+        return dataclasses.replace(self, **changes)
+
+    def resolve(self, path: str) -> str:
+        """A path of the scene file, relative to the scene's folder."""
+        return path if os.path.isabs(path) else os.path.join(self.base_dir, path)
+
+
+def loads_scene(text: str, *, base_dir: str = ".") -> Scene:
+    """Parse a scene from TOML text."""
+    import tomllib
+
+    try:
+        d = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"scene is not valid TOML: {e}") from None
+    return Scene.from_dict(d, base_dir=base_dir)
+
+
+def load_scene(path) -> Scene:
+    """Read a scene TOML file."""
+    path = os.fspath(path)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+    except OSError as e:
+        raise ValueError(f"cannot read scene file {path!r}: {e.strerror}") from None
+    return loads_scene(text, base_dir=os.path.dirname(os.path.abspath(path)))

@@ -1,0 +1,45 @@
+"""Virtual sensors: a sonic anemometer and a staring cw lidar sampling a turbulence field.
+
+``sonic``
+    :class:`Sonic` and :func:`sample_sonic` (three components of the total
+    wind at a point, Taylor advection), A2012's 32 Hz -> 10 Hz resampling
+    (:func:`resample_a2012`, Eqs. 5-7, with its time stamps) and the lidar's
+    50 Hz -> 10 Hz :func:`block_average`.
+``lidar``
+    :class:`StaringLidar` and :func:`measure_staring`: a record of speed
+    estimates through tier 1 (weighted line-of-sight average), tier 2 (exact
+    expected Doppler spectra from every range cell, speckle, noise,
+    processing) or tier 3 (the heterodyne signal), with processing variants
+    applied to the same spectra.
+
+Importing this package does not import numba; kernels compile on first use.
+"""
+
+from .lidar import (
+    DRAW_BLOCK,
+    SIGNAL_MAX_ESTIMATES,
+    TIERS,
+    VARIANT_KEYS,
+    LidarRecord,
+    StaringLidar,
+    expected_spectrum_exact,
+    instrument_from_spec,
+    measure_staring,
+)
+from .sonic import (
+    A2012_OUTPUTS,
+    A2012_PARTITION,
+    Sonic,
+    block_average,
+    project,
+    resample_a2012,
+    resample_a2012_times,
+    sample_sonic,
+)
+
+__all__ = [
+    "Sonic", "sample_sonic", "project", "resample_a2012", "resample_a2012_times", "block_average",
+    "A2012_PARTITION", "A2012_OUTPUTS",
+    "StaringLidar", "LidarRecord", "measure_staring", "expected_spectrum_exact", "instrument_from_spec",
+    "TIERS", "VARIANT_KEYS", "SIGNAL_MAX_ESTIMATES", "DRAW_BLOCK",
+]

@@ -1,0 +1,117 @@
+"""numba kernels of the virtual sensors (imported lazily; compile on first use).
+
+Every parallel loop runs over estimates and writes only that estimate's
+outputs; sums over range cells run in a fixed order inside one iteration, so
+results do not depend on the thread count.  Plain-Python references are in
+``tests/reference.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .._config import NJIT, NJIT_PARALLEL
+from ..beam._kernels import _interp3, _locate
+
+@numba.njit(**NJIT_PARALLEL)
+def los_cells_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n3, range_s, weight_s, time_e, U, add_mean,
+                     vlos_es, vlos_e):
+    """Line-of-sight speed of every range cell and their weighted sum, field advected at U along +x.
+
+    ``vlos_es[e, s] = n . vel(origin + range_s[s] n, time_e[e])`` and
+    ``vlos_e[e] = sum_s weight_s[s] vlos_es[e, s]``, summed in cell order with
+    the arithmetic of :func:`cwlidar_sim.beam._kernels.los_weighted_kernel`
+    (so ``vlos_e`` equals :func:`cwlidar_sim.beam.los_average` bit for bit).
+    """
+    nx, ny, nz = u.shape
+    ne = time_e.shape[0]
+    ns = range_s.shape[0]
+    ex = n3[0]
+    ey = n3[1]
+    ez = n3[2]
+    for it in numba.prange(ne):
+        shift = U * time_e[it]
+        acc = 0.0
+        for js in range(ns):
+            r = range_s[js]
+            px = origin[0] + r * ex - shift
+            py = origin[1] + r * ey
+            pz = origin[2] + r * ez
+            i0, i1, j0, j1, k0, k1, tx, ty, tz = _locate(px, py, pz, grid, nx, ny, nz, wrap_y, wrap_z)
+            a = _interp3(u, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+            b = _interp3(v, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+            c = _interp3(w, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+            if add_mean:
+                a += U
+            acc += weight_s[js] * (ex * a + ey * b + ez * c)
+            vlos_es[it, js] = ex * a + ey * b + ez * c
+        vlos_e[it] = acc
+
+
+@numba.njit(**NJIT)
+def _lag_one(x_s, amp_s, a_d, out_d):
+    """One estimate of :func:`lag_sequence_kernel`."""
+    n = out_d.shape[0]
+    ns = x_s.shape[0]
+    nsp = ((ns + 7) // 8) * 8  # padded with zero-amplitude cells
+    ya = np.zeros(nsp)
+    yb = np.zeros(nsp)
+    c2 = np.zeros(nsp)
+    cd = np.empty(n)
+    for s in range(ns):
+        # reduce to [0, N) before the cosine: exact periodicity for aliased speeds
+        x = x_s[s] - n * math.floor(x_s[s] / n)
+        c = math.cos(2.0 * math.pi * x / n)
+        ya[s] = amp_s[s]
+        yb[s] = amp_s[s] * c
+        c2[s] = 2.0 * c
+    for d in range(n):
+        if d >= 2:
+            # ya holds lag d - 2 and yb lag d - 1: overwrite ya with lag d, then swap the names
+            for s in range(nsp):
+                ya[s] = c2[s] * yb[s] - ya[s]
+            ya, yb = yb, ya
+        cur = ya if d == 0 else yb
+        # 8 fixed partial sums (cell 8 b + j goes to sum j), then a fixed tree
+        a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
+        for b in range(nsp // 8):
+            s0 = 8 * b
+            a0 += cur[s0]
+            a1 += cur[s0 + 1]
+            a2 += cur[s0 + 2]
+            a3 += cur[s0 + 3]
+            a4 += cur[s0 + 4]
+            a5 += cur[s0 + 5]
+            a6 += cur[s0 + 6]
+            a7 += cur[s0 + 7]
+        cd[d] = 2.0 * (((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7)))
+    out_d[0] = a_d[0] * cd[0]
+    for d in range(1, n):
+        out_d[d] = a_d[d] * cd[d] + a_d[n - d] * cd[n - d]
+
+
+@numba.njit(**NJIT_PARALLEL)
+def lag_sequence_kernel(x_es, amp_s, a_d, out_ed):
+    """Folded lag sequence of the expected signal spectrum (see :mod:`cwlidar_sim.sensors.lidar`).
+
+    For each estimate e, with ``theta_s = 2 pi x_s / N`` (``x_s`` the cell's
+    Doppler frequency in bins, signed, any size: aliasing is the periodicity
+    of the cosine),
+
+    ``C(d) = 2 sum_s amp_s cos(theta_s d)``, d = 0..N-1, by the Chebyshev
+    recurrence ``y_{d+1} = 2 cos(theta) y_d - y_{d-1}`` started from
+    ``y_0 = amp``, ``y_1 = amp cos(theta)`` (exact up to rounding that grows
+    at most like ``d^2 eps``), the cells updated together (a vectorisable
+    loop) and summed in 8 fixed partial sums (cell 8 b + j into sum j) and a
+    fixed tree;
+
+    ``out[e, 0] = a_0 C(0)``, ``out[e, d] = a_d C(d) + a_{N-d} C(N-d)``:
+    the lags d and d - N coincide on integer bins, so the real DFT of ``out``
+    gives ``S(k) = sum_{|d|<N} a_d C(d) exp(i 2 pi k d / N)``.
+    """
+    ne = out_ed.shape[0]
+    for e in numba.prange(ne):
+        _lag_one(x_es[e], amp_s, a_d, out_ed[e])

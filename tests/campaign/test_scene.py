@@ -1,0 +1,113 @@
+"""Scene files: validation by name, round-trip, field choice."""
+
+import dataclasses
+
+import pytest
+
+from cwlidar_sim.campaign import bundled_scene, choose_field, load_scene, loads_scene
+from cwlidar_sim.campaign.scene import LidarSpec, PeriodSpec, Scene
+
+MINIMAL = """
+name = "t"
+[turbulence]
+alpha_eps = 0.05
+length_scale = 20.0
+gamma = 3.9
+[[period]]
+name = "A"
+mean_speed = 8.0
+"""
+
+
+def test_minimal_scene_defaults():
+    s = loads_scene(MINIMAL)
+    assert s.periods[0].misalignment_deg == 0.0
+    assert s.lidar.tier == "spectral" and s.sonic.rate == 32.0
+    assert s.period_duration(s.periods[0]) == 3600.0
+
+
+def test_round_trip_bundled():
+    s = bundled_scene("a2012")
+    assert Scene.from_dict(s.as_dict()) == s
+    assert [p.name for p in s.periods] == ["A", "B", "C", "D"]
+    assert s.lidar.build_instrument().focus == 67.5
+    # A2012 Eq. 1: zR = lambda r^2 / (pi a0^2) = 5.61 m at 67.5 m
+    assert abs(s.lidar.build_instrument().rayleigh_length - 5.61) < 0.01
+
+
+def test_quick_keeps_geometry_and_seeds():
+    full, quick = bundled_scene("a2012"), bundled_scene("a2012", quick=True)
+    assert quick.duration < full.duration
+    assert [p.misalignment_deg for p in quick.periods] == [p.misalignment_deg for p in full.periods]
+    assert [quick.period_seed(i) for i in range(4)] == [full.period_seed(i) for i in range(4)]
+
+
+@pytest.mark.parametrize("text, match", [
+    ("colour = 3\n" + MINIMAL, r"unknown key\(s\) in scene: \['colour'\]"),
+    (MINIMAL.replace("gamma = 3.9", "gamma = 3.9\nwidth = 2"), r"unknown key\(s\) for TurbulenceSpec: \['width'\]"),
+    (MINIMAL + "[lidar]\ntier = 'fast'\n", r"lidar.tier"),
+    (MINIMAL + "[lidar]\ncnr_db = 500\n", r"lidar.cnr_db"),
+    (MINIMAL + "[lidar]\ninstrument = { focal = 60 }\n", r"focal"),
+    (MINIMAL + "[lidar]\nvariants = [{ name = 'x', estimator = 'mode' }]\n", r"estimator"),
+    (MINIMAL + "[lidar]\nvariants = [{ estimator = 'peak' }]\n", r"variants\[0\]"),
+    (MINIMAL + "[sonic]\nrate = 20\n", r"sonic.rate"),
+    (MINIMAL + "[field]\nkind = 'cube'\n", r"field.kind"),
+    (MINIMAL + "[analysis]\nk_min = 2.0\nk_max = 1.0\n", r"analysis.k_max"),
+    (MINIMAL.replace("mean_speed = 8.0", "mean_speed = 0.1"), r"mean_speed"),
+    (MINIMAL.replace("mean_speed = 8.0", "mean_speed = 8.0\nmisalignment = 5"), r"unknown key\(s\) for PeriodSpec: \['misalignment'\]"),
+    (MINIMAL.replace("length_scale = 20.0", "length_scale = -20.0"), r"length_scale"),
+    (MINIMAL + "[[period]]\nname = 'A'\nmean_speed = 7\n", r"unique"),
+    (MINIMAL.replace('name = "t"', 'name = "a/b"'), r"name"),
+    (MINIMAL + "duration = 100.0\n", None),
+])
+def test_bad_scenes_rejected_by_name(text, match):
+    if match is None:
+        # a period shorter than the 600 s analysis segment
+        text = MINIMAL.replace('name = "t"', 'name = "t"\nduration = 100.0')
+        match = "segment_duration"
+    with pytest.raises((ValueError, TypeError), match=match):
+        loads_scene(text)
+
+
+def test_fit_to_exclusive_and_missing_file(tmp_path):
+    with pytest.raises(ValueError, match="not both"):
+        loads_scene(MINIMAL.replace("gamma = 3.9", "gamma = 3.9\nfit_to = 'x.nc'"))
+    p = tmp_path / "s.toml"
+    p.write_text(MINIMAL.replace("alpha_eps = 0.05\nlength_scale = 20.0\ngamma = 3.9", "fit_to = 'missing.nc'"))
+    s = load_scene(p)
+    assert s.resolve(s.turbulence.fit_to) == str(tmp_path / "missing.nc")
+    from cwlidar_sim.campaign.runner import scene_params
+
+    with pytest.raises(ValueError, match="missing.nc"):
+        scene_params(s)
+
+
+def test_invalid_toml_and_missing_file(tmp_path):
+    with pytest.raises(ValueError, match="not valid TOML"):
+        loads_scene("name = ")
+    with pytest.raises(ValueError, match="cannot read scene file"):
+        load_scene(tmp_path / "nope.toml")
+
+
+def test_field_choice():
+    s = loads_scene(MINIMAL)
+    p0 = s.periods[0]
+    assert choose_field(s, p0)[0] == "line"
+    p5 = dataclasses.replace(p0, misalignment_deg=5.0)
+    assert choose_field(s, p5)[0] == "plane"
+    tilted = s.replace(lidar=LidarSpec(elevation_deg=2.0))
+    assert choose_field(tilted, p0)[0] == "box"
+    forced = s.replace(field=dataclasses.replace(s.field, kind="plane"))
+    assert choose_field(forced, p0) == ("plane", "forced by field.kind = 'plane'")
+    line = s.replace(field=dataclasses.replace(s.field, kind="line"))
+    with pytest.raises(ValueError, match="cannot hold period"):
+        choose_field(line, p5)
+
+
+def test_period_seeds_distinct_and_stable():
+    s = bundled_scene("a2012")
+    seeds = [s.period_seed(i) for i in range(4)]
+    assert len(set(seeds)) == 4
+    s2 = s.replace(periods=(dataclasses.replace(s.periods[0], seed=7),) + s.periods[1:])
+    assert s2.period_seed(0) == 7 and s2.period_seed(1) == seeds[1]
+    assert isinstance(s.periods[0], PeriodSpec)

@@ -102,6 +102,9 @@ def _add_doppler(sub):
     p.add_argument("--cells", type=int, default=8, help="range cells of the probe volume")
     p.add_argument("--speckle", choices=("coherent", "independent"), default="coherent")
     p.add_argument("--exact-background", action="store_true", help="use the exact noise floor")
+    p.add_argument("--cloud", type=float, nargs=3, default=None, metavar=("RANGE", "WEIGHT", "SPEED"),
+                   help="a cloud return: distance along the beam [m], integrated backscatter relative to the "
+                        "aerosol's per metre [m], radial speed [m/s]")
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--json", action="store_true", help="print the full report as JSON")
     p.set_defaults(func=_cmd_doppler)
@@ -137,7 +140,9 @@ def _cmd_doppler(args) -> int:
     inst = Instrument.from_dict(changes, base=inst)
     est, info = simulate_uniform(args.speed, args.cnr, instrument=inst, tier=args.tier, n=args.n, seed=args.seed,
                                  transverse_speed=args.transverse_speed, n_cells=args.cells, speckle=args.speckle,
-                                 exact_background=args.exact_background)
+                                 exact_background=args.exact_background,
+                                 **({} if args.cloud is None else dict(zip(("cloud_range", "cloud_weight", "cloud_speed"),
+                                                                           args.cloud))))
     rep = uniform_report(est, info, speed=args.speed, cnr_db=args.cnr, tier=args.tier, instrument=inst)
     if args.json:
         print(json.dumps(rep, indent=2))

@@ -40,7 +40,8 @@ def _cells(instrument, n_cells):
 def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PROTOTYPE_2003, tier: str = "spectral",
                      n: int = 100, seed: int = 0, transverse_speed: float = 1.0, n_cells: int = 8,
                      speckle: str = "coherent", estimator: str | None = None,
-                     exact_background: bool = False) -> tuple[DopplerEstimates, dict]:
+                     exact_background: bool = False, cloud_range: float | None = None,
+                     cloud_weight: float = 0.0, cloud_speed: float = 0.0) -> tuple[DopplerEstimates, dict]:
     """Simulate ``n`` consecutive estimates of a uniform target moving at ``speed`` along the beam.
 
     Parameters
@@ -68,11 +69,30 @@ def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PR
         Overrides the instrument's estimator.
     exact_background : bool
         Use the exact noise floor instead of a measured one (M_bg blocks).
+    cloud_range : float, optional
+        Distance of a cloud layer from the lidar along the beam [m]; > 0.
+        The focused beam's weighting has heavy tails (~ z_R / (pi s^2)), so
+        a cloud far beyond the focus, whose backscatter is orders of
+        magnitude above the aerosol's, adds a second Doppler peak (CS
+        discards periods with cloud base below 1600 m for this reason).
+    cloud_weight : float
+        The cloud's integrated backscatter relative to the aerosol
+        backscatter per metre [m] (``beta_cloud * depth / beta_aerosol``;
+        e.g. 1e3-1e4 per metre over 10-50 m: 1e4-5e5 m); >= 0.  The cloud
+        then carries ``w_c = phi(cloud_range - focus) * cloud_weight`` of the
+        aerosol probe volume's weight (phi: the exact weighting,
+        :func:`cwlidar_sim.beam.optics.weight_exact`), reported in the info
+        as ``cloud_fraction = w_c / (1 + w_c)``.
+    cloud_speed : float
+        The cloud's radial speed [m/s]; |v| <= 1000.
 
     Returns
     -------
     (DopplerEstimates, dict)
-        The estimates and run information (correlation time [s], M_eff [-], ...).
+        The estimates and run information (correlation time [s], M_eff [-],
+        cloud fraction, ...).  ``cnr_db`` is the aerosol's CNR; the cloud
+        adds its own power on top.  Tier 'los' returns the weighted mean of
+        target and cloud.
     """
     if not isinstance(instrument, Instrument):
         raise TypeError(f"instrument must be an Instrument, got {type(instrument).__name__}")
@@ -91,8 +111,10 @@ def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PR
 
     m_eff = speckle_looks(instrument.blocks_per_estimate, instrument.block_duration, tau)
     info = {"correlation_time": tau, "m_eff": m_eff, "n_cells": n_cells}
+    w_c, v_c = _cloud(instrument, cloud_range, cloud_weight, cloud_speed)
+    info["cloud_fraction"] = w_c / (1.0 + w_c)
     if tier == "los":
-        sp = np.full(n, v)
+        sp = np.full(n, (v + w_c * v_c) / (1.0 + w_c))
         est = DopplerEstimates(speed_e=sp, frequency_e=sp / instrument.speed_per_hz,
                                flags_e=np.zeros(n, dtype=np.uint8), estimator="los")
         info["note"] = "tier 'los' is the ideal weighted line-of-sight average: V exactly, signed"
@@ -102,6 +124,12 @@ def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PR
     bg = None if exact_background else background_spectrum(instrument, np.random.default_rng(s_bg))
     w = _cells(instrument, n_cells)
     vl = np.full(n_cells, v)
+    if w_c > 0.0:
+        # the cloud is one more cell; weights renormalised to 1, its power added to the CNR
+        w = np.append(w, w_c) / (1.0 + w_c)
+        vl = np.append(vl, v_c)
+        cnr_db = cnr_db + 10.0 * math.log10(1.0 + w_c)
+        n_cells += 1
     if tier == "spectral":
         return _spectral_chunked(instrument, vl, w, cnr_db, tau, m_eff, n, np.random.default_rng(s_sim), speckle,
                                  bg, name), info
@@ -111,6 +139,22 @@ def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PR
         spectra = simulate_signal_spectra(instrument, np.broadcast_to(vl, (n, n_cells)), w, cnr_db,
                                           np.random.default_rng(s_sim), correlation_time=tau)
     return estimate(spectra, instrument, bg, estimator=name), info
+
+
+def _cloud(instrument, cloud_range, cloud_weight, cloud_speed):
+    """Weight (relative to the aerosol probe volume) and radial speed of a cloud return."""
+    cloud_weight = check_real("cloud_weight", cloud_weight, lo=0.0, hi=1e12)
+    cloud_speed = check_real("cloud_speed", cloud_speed, lo=-1000.0, hi=1000.0)
+    if cloud_range is None:
+        if cloud_weight > 0.0:
+            raise ValueError("cloud_weight > 0 needs cloud_range [m]")
+        return 0.0, 0.0
+    cloud_range = check_real("cloud_range", cloud_range, lo=0.0, hi=1e6, lo_open=True)
+    from ..beam.optics import weight_exact
+
+    phi = float(weight_exact(cloud_range - instrument.focus, instrument.focus, instrument.wavelength,
+                             instrument.telescope_radius))
+    return phi * cloud_weight, cloud_speed
 
 
 def _spectral_chunked(instrument, vl, w, cnr_db, tau, m_eff, n, rng, speckle, bg, name, chunk=4096):
@@ -155,6 +199,7 @@ def uniform_report(est: DopplerEstimates, info: dict, *, speed, cnr_db, tier, in
         "nyquist_speed": instrument.nyquist_speed,
         "correlation_time": None if math.isinf(info["correlation_time"]) else info["correlation_time"],
         "m_eff": info["m_eff"],
+        "cloud_fraction": info.get("cloud_fraction", 0.0),
         "instrument": instrument.as_dict(),
     }
     if "note" in info:

@@ -238,3 +238,49 @@ def rfft_rows(x, out=None):
     return out
 
 
+class RowsRFFT:
+    """A single-threaded batched forward real FFT on buffers of its own, for worker threads.
+
+    A worker synthesises up to ``max_rows`` rows of length ``n`` straight into
+    :attr:`x` and transforms the first ``rows`` of them into :attr:`X` with
+    :meth:`execute`; the plans are made once (``FFTW_ESTIMATE``, one thread,
+    one per distinct ``rows``) and bound to these buffers, so a call costs
+    no planning and no copy.  Each worker owns one instance, and a row's
+    transform is computed by the same kind of plan whichever worker runs
+    it, so results do not depend on the thread count.
+
+    Parameters
+    ----------
+    max_rows : int
+        Rows of the buffers.
+    n : int
+        Row length (samples).
+    real_dtype : dtype
+        float32 or float64.
+
+    Attributes
+    ----------
+    x : ndarray, shape (max_rows, n)
+        Input rows; overwritten by :meth:`execute` (``FFTW_DESTROY_INPUT``).
+    X : ndarray, complex, shape (max_rows, n // 2 + 1)
+        ``X[r, k] = sum_j x[r, j] exp(-2j pi k j / n)`` after :meth:`execute`.
+    """
+
+    def __init__(self, max_rows: int, n: int, real_dtype=np.float32):
+        self.x = pyfftw.empty_aligned((max_rows, n), dtype=np.dtype(real_dtype))
+        self.X = pyfftw.empty_aligned((max_rows, n // 2 + 1), dtype=complex_dtype(real_dtype))
+        self._plans = {}
+
+    def execute(self, rows: int | None = None):
+        """Transform rows ``0 .. rows - 1`` (all by default); returns the view ``X[:rows]``.
+
+        Releases the GIL while FFTW runs.
+        """
+        rows = self.x.shape[0] if rows is None else rows
+        plan = self._plans.get(rows)
+        if plan is None:
+            plan = pyfftw.FFTW(self.x[:rows], self.X[:rows], axes=(1,), direction="FFTW_FORWARD",
+                               flags=("FFTW_ESTIMATE", "FFTW_DESTROY_INPUT"), threads=1)
+            self._plans[rows] = plan
+        plan.execute()
+        return self.X[:rows]

@@ -5,6 +5,12 @@ tier 2, one block of samples or one range cell in tier 3) starts from
 ``splitmix64(key ^ splitmix64(index))`` and advances as a splitmix64 sequence,
 so every number depends only on (seed, index) and never on which thread drew
 it.  Slow plain-Python references of every kernel are in ``tests/reference.py``.
+
+Threads: the ``*_rows`` and tier-3 fused kernels are serial and ``nogil``; the
+package runs them on its own threads, a task at a time
+(``processing._run_tasks``), which copes with a core taken by another process
+far better than a static ``prange`` split.  The ``prange`` kernels are kept for
+direct use and give the same bits.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ _S32 = np.uint64(32)
 _LO32 = np.uint64(0xFFFFFFFF)
 _TWO_M32 = 2.0**-32
 _TWOPI = 2.0 * math.pi
+_DBL_MAX = float(np.finfo(np.float64).max)
 
 # Estimator ids (the registry in processing.py maps names to these).
 EST_MEDIAN, EST_CENTROID, EST_PEAK, EST_PEAK_PARABOLIC, EST_PEAK_GAUSSIAN, EST_ML = 0, 1, 2, 3, 4, 5
@@ -124,6 +131,57 @@ def normal_pair_polar(state):
             return state, a * f, b * f
 
 
+# The inverse-CDF table of normal_u32 as (value, slope) pairs, so that a draw
+# reads one 16-byte entry; ``a + f * d`` with ``d`` precomputed is the same
+# IEEE arithmetic as normal_u32's ``a + f * (b - a)``, so the two agree bit
+# for bit.  Values from cells outside [_NT_LO, _NT_HI) are replaced (Acklam).
+_NT_PAIR = np.ascontiguousarray(np.stack([_NTAB[:-1], _NTAB[1:] - _NTAB[:-1]], axis=1))
+_U_NT_SHIFT = np.uint64(32 - _NT_BITS)
+_U_NT_LO = np.uint64(_NT_LO)
+_U_NT_SPAN = np.uint64(_NT_HI - _NT_LO)
+
+
+@numba.njit(**NJIT)
+def block_normals(state0, noise_std, words_w, tails_n, out_n):
+    """``out_n[:] = noise_std * z`` with z the normals of stream ``state0`` (normal_pair order).
+
+    Word w of the stream is ``mix64(state0 + (w + 1) * golden)`` (what
+    ``normal_pair`` steps through); sample 2w comes from its high 32 bits and
+    sample 2w + 1 from its low 32 bits, both by :func:`normal_u32` (an odd
+    length drops the last low half).  ``words_w`` (>= ceil(n / 2)) and
+    ``tails_n`` (>= n) are scratch.
+    """
+    nn = out_n.shape[0]
+    nw = (nn + 1) // 2
+    # counter-based words: no carried dependence, the loop vectorises
+    for w in range(nw):
+        words_w[w] = mix64(state0 + np.uint64(w + 1) * _GOLDEN)
+    # table part (every 18-bit cell index is a valid row); samples in the Acklam
+    # tails are listed without a branch and recomputed after
+    cnt = np.uint64(0)
+    for w in range(nn // 2):
+        z = words_w[w]
+        u = z >> _S32
+        i = u >> _U_NT_SHIFT
+        f = float(np.int64(u & _NT_FRAC)) * _NT_FSCALE
+        out_n[2 * w] = noise_std * (_NT_PAIR[i, 0] + f * _NT_PAIR[i, 1])
+        tails_n[cnt] = 2 * w
+        cnt += np.uint64((i - _U_NT_LO) >= _U_NT_SPAN)
+        u = z & _LO32
+        i = u >> _U_NT_SHIFT
+        f = float(np.int64(u & _NT_FRAC)) * _NT_FSCALE
+        out_n[2 * w + 1] = noise_std * (_NT_PAIR[i, 0] + f * _NT_PAIR[i, 1])
+        tails_n[cnt] = 2 * w + 1
+        cnt += np.uint64((i - _U_NT_LO) >= _U_NT_SPAN)
+    if nn % 2 == 1:
+        out_n[nn - 1] = noise_std * normal_u32(words_w[nw - 1] >> _S32)
+    for c in range(int(cnt)):
+        n = tails_n[c]
+        z = words_w[n // 2]
+        u = (z >> _S32) if n % 2 == 0 else (z & _LO32)
+        out_n[n] = noise_std * acklam((float(u) + 0.5) * _TWO_M32)
+
+
 # ---------------------------------------------------------------------------
 # line shape and expected spectrum (tier 2)
 # ---------------------------------------------------------------------------
@@ -185,6 +243,45 @@ def ncx2_wh(ms, mn, inv_mn, nu, z):
     return (mn / nu) * a * b * b * b
 
 
+@numba.njit(**NJIT)
+def spectral_sample_rows(sig_ef, noise_f, gain_eg, m_blocks, key, e0, r_lo, r_hi, out_ef):
+    """Rows ``r_lo .. r_hi - 1`` of :func:`spectral_sample_kernel` (serial, ``nogil``; each row on its own)."""
+    nf = out_ef.shape[1]
+    row_step = 0 if sig_ef.shape[0] == 1 else 1
+    coherent = gain_eg.shape[1] == 1
+    inv_noise = 1.0 / noise_f
+    nu_f = np.full(nf, 2.0 * m_blocks)
+    nu_f[0] = m_blocks
+    nu_f[nf - 1] = m_blocks
+    scale_f = np.empty(nf)
+    for k in range(nf):
+        scale_f[k] = noise_f[k] / nu_f[k]
+    z_f = np.empty(nf)
+    g_f = np.empty(nf)
+    words = np.empty((nf + 1) // 2, dtype=np.uint64)
+    tails = np.empty(nf, dtype=np.int64)
+    for e in range(r_lo, r_hi):
+        block_normals(stream_start(key, e0 + e), 1.0, words, tails, z_f)
+        if coherent:
+            g = gain_eg[e, 0]
+            for k in range(nf):
+                g_f[k] = g
+        else:
+            for k in range(nf):
+                g_f[k] = gain_eg[e, k]
+        sig = sig_ef[e * row_step]
+        out = out_ef[e]
+        for k in range(nf):
+            nu = nu_f[k]
+            lam = nu * (sig[k] * g_f[k]) * inv_noise[k]
+            a = nu + lam
+            cc = 2.0 * (a + lam) / (9.0 * a * a)
+            b = 1.0 - cc + z_f[k] * math.sqrt(cc)
+            if b < 0.0:
+                b = 0.0
+            out[k] = scale_f[k] * a * b * b * b
+
+
 @numba.njit(**NJIT_PARALLEL)
 def spectral_sample_kernel(sig_ef, noise_f, gain_eg, m_blocks, key, e0, out_ef):
     """Tier 2 speckle draw: ``out[e, k]`` = averaged periodogram of M blocks.
@@ -193,26 +290,22 @@ def spectral_sample_kernel(sig_ef, noise_f, gain_eg, m_blocks, key, e0, out_ef):
     speckle factor, Gamma(M_eff, 1/M_eff)) has 1 column (common to the bins
     of an estimate, 'coherent') or ``nf`` columns ('independent').  Bins 0
     and N/2 of a real signal are real: M real degrees of freedom, not 2M.
-    Row e uses random stream ``e0 + e`` (so a run may be drawn in chunks).
+    Row e uses random stream ``e0 + e`` (so a run may be drawn in chunks):
+    bin 2w takes the high and bin 2w + 1 the low 32 bits of the stream's
+    word w (``normal_pair`` order), by :func:`normal_u32`.
+
+    The value of a bin is :func:`ncx2_wh`; :func:`spectral_sample_rows`
+    repeats its arithmetic operation for operation (so the bits are the
+    same) with the per-bin constants hoisted and the normals of a row drawn
+    first (:func:`block_normals`), so that the bin loop vectorises.  The
+    package calls spectral_sample_rows from its own threads
+    (``processing._run_tasks``); this prange form is kept for direct use.
     """
-    ne, nf = out_ef.shape
-    row_step = 0 if sig_ef.shape[0] == 1 else 1
-    gain_step = 0 if gain_eg.shape[1] == 1 else 1
-    inv_noise = 1.0 / noise_f
-    for e in numba.prange(ne):
-        es = e * row_step
-        state = stream_start(key, e0 + e)
-        z = np.uint64(0)
-        for k in range(nf):
-            if k % 2 == 0:
-                state = state + _GOLDEN
-                z = mix64(state)
-                zn = normal_u32(z >> _S32)
-            else:
-                zn = normal_u32(z & _LO32)
-            g = gain_eg[e, k * gain_step]
-            nu = m_blocks if (k == 0 or k == nf - 1) else 2.0 * m_blocks
-            out_ef[e, k] = ncx2_wh(sig_ef[es, k] * g, noise_f[k], inv_noise[k], nu, zn)
+    ne = out_ef.shape[0]
+    n_chunk = 32
+    for c in numba.prange((ne + n_chunk - 1) // n_chunk):
+        spectral_sample_rows(sig_ef, noise_f, gain_eg, m_blocks, key, e0, c * n_chunk,
+                             min(ne, (c + 1) * n_chunk), out_ef)
 
 
 # ---------------------------------------------------------------------------
@@ -401,24 +494,73 @@ def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, sig
     return x, flags
 
 
+@numba.njit(**NJIT)
+def process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y, est_id, win_id,
+                 second_frac, guard_bins, table, oversample, n_fft, ml_half, r_lo, r_hi, out_x_e, out_flags_e):
+    """Rows ``r_lo .. r_hi - 1`` of :func:`process_kernel` (serial, ``nogil``)."""
+    shat = np.empty(spec_ef.shape[1])
+    for e in range(r_lo, r_hi):
+        x, fl = process_one(spec_ef[e], inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y,
+                            est_id, win_id, second_frac, guard_bins, table, oversample, n_fft, ml_half, shat)
+        out_x_e[e] = x
+        out_flags_e[e] = fl
+
+
 @numba.njit(**NJIT_PARALLEL)
 def process_kernel(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y, est_id, win_id,
                    second_frac, guard_bins, table, oversample, n_fft, ml_half, out_x_e, out_flags_e):
-    """:func:`process_one` over every estimate (rows of ``spec_ef``)."""
-    ne, nf = spec_ef.shape
+    """:func:`process_one` over every estimate (rows of ``spec_ef``).
+
+    The package calls :func:`process_rows` from its own threads
+    (``processing._run_tasks``); this prange form is kept for direct use.
+    """
+    ne = spec_ef.shape[0]
     n_chunk = 64
     for c in numba.prange((ne + n_chunk - 1) // n_chunk):
-        shat = np.empty(nf)
-        for e in range(c * n_chunk, min(ne, (c + 1) * n_chunk)):
-            x, fl = process_one(spec_ef[e], inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y,
-                                est_id, win_id, second_frac, guard_bins, table, oversample, n_fft, ml_half, shat)
-            out_x_e[e] = x
-            out_flags_e[e] = fl
+        process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y, est_id, win_id,
+                     second_frac, guard_bins, table, oversample, n_fft, ml_half, c * n_chunk,
+                     min(ne, (c + 1) * n_chunk), out_x_e, out_flags_e)
+
+
+@numba.njit(**NJIT)
+def valid_spectra_rows(spec_ef, r_lo, r_hi):
+    """True when every value of rows ``r_lo .. r_hi - 1`` is finite and >= 0 (one pass, no temporaries)."""
+    nf = spec_ef.shape[1]
+    ok = True
+    for e in range(r_lo, r_hi):
+        row = spec_ef[e]
+        for k in range(nf):
+            v = row[k]
+            # NaN fails both comparisons
+            ok &= (v >= 0.0) & (v <= _DBL_MAX)
+    return ok
 
 
 # ---------------------------------------------------------------------------
 # tier 3: heterodyne signal
 # ---------------------------------------------------------------------------
+@numba.njit(**NJIT)
+def ar1_cell(key, s, step0, rho, std, first_re, first_im, out_re_t, out_im_t):
+    """AR(1) amplitudes of range cell ``s`` for steps ``step0 .. step0 + len - 1`` (see ar1_amplitudes_kernel)."""
+    nt = out_re_t.shape[0]
+    inno = math.sqrt(max(0.0, 1.0 - rho * rho))
+    ckey = mix64(np.uint64(key) ^ mix64(np.uint64(s) + _GOLDEN))
+    sd = std * math.sqrt(0.5)
+    ar = first_re
+    ai = first_im
+    for t in range(nt):
+        st = stream_start(ckey, step0 + t)
+        st, z0, z1 = normal_pair(st)
+        if step0 + t == 0:
+            ar = sd * z0
+            ai = sd * z1
+        else:
+            ar = rho * ar + inno * sd * z0
+            ai = rho * ai + inno * sd * z1
+        out_re_t[t] = ar
+        out_im_t[t] = ai
+
+
 @numba.njit(**NJIT_PARALLEL)
 def ar1_amplitudes_kernel(key, step0, rho, std_s, first_re_s, first_im_s, out_re_ts, out_im_ts):
     """AR(1) complex-Gaussian speckle amplitudes of each range cell.
@@ -428,24 +570,9 @@ def ar1_amplitudes_kernel(key, step0, rho, std_s, first_re_s, first_im_s, out_re
     ``step0 == 0``: the first step is drawn from the stationary law).  The
     innovation of global step t of cell s comes from stream (cell s, step t).
     """
-    nt, ns = out_re_ts.shape
-    inno = math.sqrt(max(0.0, 1.0 - rho * rho))
+    ns = out_re_ts.shape[1]
     for s in numba.prange(ns):
-        ckey = mix64(np.uint64(key) ^ mix64(np.uint64(s) + _GOLDEN))
-        sd = std_s[s] * math.sqrt(0.5)
-        ar = first_re_s[s]
-        ai = first_im_s[s]
-        for t in range(nt):
-            st = stream_start(ckey, step0 + t)
-            st, z0, z1 = normal_pair(st)
-            if step0 + t == 0:
-                ar = sd * z0
-                ai = sd * z1
-            else:
-                ar = rho * ar + inno * sd * z0
-                ai = rho * ai + inno * sd * z1
-            out_re_ts[t, s] = ar
-            out_im_ts[t, s] = ai
+        ar1_cell(key, s, step0, rho, std_s[s], first_re_s[s], first_im_s[s], out_re_ts[:, s], out_im_ts[:, s])
 
 
 @numba.njit(**NJIT_PARALLEL)
@@ -460,6 +587,11 @@ def synth_kernel(key, block0, n_sub, amp_re_ts, amp_im_ts, phase0_bs, dtheta_bs,
     restarted at each sub-step, with the cells interleaved so that their
     independent recurrences pipeline.  Noise of global block b comes from
     stream b (Marsaglia's polar method).
+
+    The package now synthesises with :func:`synth_blocks_kernel` (table
+    normals, vectorised tones, fused with the FFT); this unfused form is
+    kept as a second, independent implementation of the same signal model
+    (it is checked against the plain-Python reference in the tests).
     """
     nb, nn = out_bn.shape
     ns = dtheta_bs.shape[1]
@@ -506,7 +638,10 @@ def synth_kernel(key, block0, n_sub, amp_re_ts, amp_im_ts, phase0_bs, dtheta_bs,
 
 @numba.njit(**NJIT_PARALLEL)
 def power_average_kernel(spec_bf, m_blocks, scale, out_ef):
-    """``out[e, k] = scale / M * sum_b |X[e M + b, k]|^2`` (blocks summed in order)."""
+    """``out[e, k] = scale / M * sum_b |X[e M + b, k]|^2`` (blocks summed in order).
+
+    The unfused form of :func:`power_sum_kernel` + :func:`combine_partials_kernel`.
+    """
     ne, nf = out_ef.shape
     for e in numba.prange(ne):
         for k in range(nf):
@@ -517,3 +652,150 @@ def power_average_kernel(spec_bf, m_blocks, scale, out_ef):
                 out_ef[e, k] += v.real * v.real + v.imag * v.imag
         for k in range(nf):
             out_ef[e, k] *= scale / m_blocks
+
+
+# ---------------------------------------------------------------------------
+# tier 3, fused path: one block at a time into a worker's FFT input buffer
+# ---------------------------------------------------------------------------
+#: Samples per group of the tone loop: the tone's phasor is stepped once per
+#: group and the samples of a group come from a table of ``exp(i j theta)``,
+#: so the inner loop has no carried dependence and vectorises.
+TONE_GROUP = 32
+
+
+@numba.njit(**NJIT)
+def tone_tables_kernel(dtheta_es, ln, rot_re_esq, rot_im_esq, step_es4):
+    """Rotation factors of each cell's tone in each estimate (speeds are constant over an estimate).
+
+    ``rot[e, s, q] = exp(i q dtheta)`` for q < G = :data:`TONE_GROUP` by the
+    complex recurrence (error O(G * 1e-16)); ``step[e, s] = (cos G dtheta,
+    sin G dtheta, cos L dtheta, sin L dtheta)`` from their own cos/sin, L the
+    sub-step length.
+    """
+    ne, ns = dtheta_es.shape
+    for e in range(ne):
+        for s in range(ns):
+            th = dtheta_es[e, s]
+            c1 = math.cos(th)
+            s1 = math.sin(th)
+            rr = 1.0
+            ri = 0.0
+            for q in range(TONE_GROUP):
+                rot_re_esq[e, s, q] = rr
+                rot_im_esq[e, s, q] = ri
+                rr, ri = rr * c1 - ri * s1, rr * s1 + ri * c1
+            step_es4[e, s, 0] = math.cos(TONE_GROUP * th)
+            step_es4[e, s, 1] = math.sin(TONE_GROUP * th)
+            step_es4[e, s, 2] = math.cos(ln * th)
+            step_es4[e, s, 3] = math.sin(ln * th)
+
+
+@numba.njit(**NJIT)
+def add_tones(n_sub, amp_re_j, amp_im_j, phase0, rot_re_q, rot_im_q, step_4, acc_n):
+    """``acc_n[n] += Re(a_j exp(i (phase0 + dtheta n)))``, ``a_j`` constant over sub-step j of L = len / n_sub.
+
+    The phasor ``exp(i (phase0 + dtheta n0))`` starts from cos/sin of
+    ``phase0`` (exact re-anchoring at every block) and is rotated by
+    ``exp(i L dtheta)`` from sub-step to sub-step; ``z = a_j exp(i (phase0 +
+    dtheta n))`` is rotated by ``exp(i G dtheta)`` (G = :data:`TONE_GROUP`)
+    from group to group of G samples, and within a group sample ``n + q`` is
+    ``Re(z exp(i q dtheta))`` with the factors of ``rot_*_q``
+    (:func:`tone_tables_kernel`), so the inner loop has no carried
+    dependence and vectorises.  All in float64: after the at most ``len``
+    rotations of a block the rounding error is O(len * 1e-16) of the amplitude.
+    """
+    nn = acc_n.shape[0]
+    ln = nn // n_sub
+    ng = ln // TONE_GROUP
+    cg = step_4[0]
+    sg = step_4[1]
+    cl = step_4[2]
+    sl = step_4[3]
+    pr = math.cos(phase0)
+    pi = math.sin(phase0)
+    for j in range(n_sub):
+        ar = amp_re_j[j]
+        ai = amp_im_j[j]
+        zr = ar * pr - ai * pi
+        zi = ar * pi + ai * pr
+        n0 = j * ln
+        # whole groups: a constant trip count over a slice (indices provably >= 0),
+        # which the compiler vectorises
+        for gi in range(ng):
+            seg = acc_n[n0 + gi * TONE_GROUP:n0 + (gi + 1) * TONE_GROUP]
+            for q in range(TONE_GROUP):
+                seg[q] += zr * rot_re_q[q] - zi * rot_im_q[q]
+            zr, zi = zr * cg - zi * sg, zr * sg + zi * cg
+        seg = acc_n[n0 + ng * TONE_GROUP:n0 + ln]
+        for q in range(seg.shape[0]):
+            seg[q] += zr * rot_re_q[q] - zi * rot_im_q[q]
+        pr, pi = pr * cl - pi * sl, pr * sl + pi * cl
+
+
+@numba.njit(**NJIT)
+def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp_im_st, phase_es, dtheta_es,
+                        rot_re_esq, rot_im_esq, step_es4, noise_std, window_n, use_window, acc_n, words_w, tails_n,
+                        out_bn):
+    """Real heterodyne samples of blocks ``b_lo .. b_hi - 1`` of a chunk into rows 0.. of ``out_bn`` (float32).
+
+    The signal of :func:`synth_kernel`, ``x[n] = noise_std * xi[n] + sum_s
+    Re(a_s e^{i (phase0_s + dtheta_s n)})``, windowed.  Chunk block b is
+    global block ``block0 + b``, block ``i = b mod M`` of the chunk's
+    estimate ``e = b // M``, and starts at Doppler phase ``phase0_s =
+    (phase_es[e, s] + dtheta_es[e, s] N i) mod 2 pi``; tone tables from
+    :func:`tone_tables_kernel`; noise from stream ``block0 + b``
+    (:func:`block_normals`: table normals, where synth_kernel uses the
+    polar method); amplitudes ``amp_*_st[s, b n_sub + j]``, j < n_sub.
+    Cells are added in order in float64 (:func:`add_tones`), then the window
+    is applied and the sum rounded to float32.  Every block depends only on
+    its own inputs, so the result does not depend on how blocks are split
+    between calls or threads (serial and ``nogil``: worker threads call it
+    on disjoint blocks).  ``acc_n``, ``words_w``, ``tails_n`` are scratch
+    (lengths N, ceil(N/2), N).
+    """
+    nn = acc_n.shape[0]
+    ns = phase_es.shape[1]
+    for b in range(b_lo, b_hi):
+        block_normals(stream_start(key, block0 + b), noise_std, words_w, tails_n, acc_n)
+        t0 = b * n_sub
+        e = b // m_blocks
+        i = b - e * m_blocks
+        for s in range(ns):
+            ph0 = (phase_es[e, s] + dtheta_es[e, s] * (nn * i)) % _TWOPI
+            add_tones(n_sub, amp_re_st[s, t0:t0 + n_sub], amp_im_st[s, t0:t0 + n_sub], ph0, rot_re_esq[e, s],
+                      rot_im_esq[e, s], step_es4[e, s], acc_n)
+        r = b - b_lo
+        if use_window:
+            for n in range(nn):
+                out_bn[r, n] = np.float32(acc_n[n] * window_n[n])
+        else:
+            for n in range(nn):
+                out_bn[r, n] = np.float32(acc_n[n])
+
+
+@numba.njit(**NJIT)
+def power_sum_kernel(spec_bf, n_rows, out_f):
+    """``out_f[k] = sum_{b < n_rows} |X[b, k]|^2`` in float64, rows summed in order."""
+    nf = out_f.shape[0]
+    for k in range(nf):
+        out_f[k] = 0.0
+    for b in range(n_rows):
+        for k in range(nf):
+            v = spec_bf[b, k]
+            re = np.float64(v.real)
+            im = np.float64(v.imag)
+            out_f[k] += re * re + im * im
+
+
+@numba.njit(**NJIT)
+def combine_partials_kernel(partial_erf, factor, out_ef):
+    """``out[e, k] = factor * sum_r partial[e, r, k]`` (r in order)."""
+    ne, nr, nf = partial_erf.shape
+    for e in range(ne):
+        for k in range(nf):
+            out_ef[e, k] = 0.0
+        for r in range(nr):
+            for k in range(nf):
+                out_ef[e, k] += partial_erf[e, r, k]
+        for k in range(nf):
+            out_ef[e, k] *= factor

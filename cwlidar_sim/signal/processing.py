@@ -33,6 +33,9 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -237,7 +240,6 @@ def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_bac
     DopplerEstimates
     """
     from . import _kernels as K
-    from .._config import apply_numba_threads
 
     name = instrument.estimator if estimator is None else estimator
     est_id = check_estimator(name)
@@ -247,7 +249,15 @@ def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_bac
         spec = spec[None, :]
     if spec.ndim != 2 or spec.shape[1] != nf:
         raise ValueError(f"spectra_ef must have shape (n_estimates, {nf}), got {np.shape(spectra_ef)}")
-    if not np.all(np.isfinite(spec)) or np.any(spec < 0):
+    ne = spec.shape[0]
+    n_tasks = -(-ne // _ROWS_PER_TASK)
+    ok = np.ones(n_tasks, dtype=bool)
+
+    def check(t):
+        ok[t] = K.valid_spectra_rows(spec, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK))
+
+    _run_tasks(n_tasks, check)
+    if not ok.all():
         raise ValueError("spectra_ef must be finite and >= 0")
     bg = noise_floor(instrument) if background_f is None else np.asarray(background_f, dtype=np.float64)
     if bg.shape != (nf,):
@@ -261,14 +271,17 @@ def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_bac
     table, over = line_table
     thr = threshold_levels(instrument, n_background=n_background)
     guard = instrument.edge_guard_speed / instrument.bin_speed
-    ne = spec.shape[0]
     x = np.empty(ne)
     flags = np.empty(ne, dtype=np.uint8)
-    apply_numba_threads()
-    K.process_kernel(spec, 1.0 / bg, instrument.first_bin, nf - 1, _THR_IDS[instrument.threshold_kind],
-                     float(instrument.threshold_value), thr["raise_factor"], thr["sigma_y"], est_id,
-                     _WIN_IDS[instrument.window], instrument.second_peak_fraction, guard, table, over,
-                     instrument.n_fft, _ML_HALF_WIDTH, x, flags)
+    inv_bg = 1.0 / bg
+    args = (instrument.first_bin, nf - 1, _THR_IDS[instrument.threshold_kind], float(instrument.threshold_value),
+            thr["raise_factor"], thr["sigma_y"], est_id, _WIN_IDS[instrument.window],
+            instrument.second_peak_fraction, guard, table, over, instrument.n_fft, _ML_HALF_WIDTH)
+
+    def run(t):
+        K.process_rows(spec, inv_bg, *args, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK), x, flags)
+
+    _run_tasks(n_tasks, run)
     freq = x * instrument.bin_width
     return DopplerEstimates(speed_e=freq * instrument.speed_per_hz, frequency_e=freq, flags_e=flags, estimator=name)
 
@@ -279,3 +292,73 @@ def _rng(seed):
     from .._validation import check_seed
 
     return np.random.default_rng(check_seed("seed", seed))
+
+
+# ---------------------------------------------------------------------------
+# threads of the signal chain
+# ---------------------------------------------------------------------------
+#: Rows (estimates) per task of the row-wise kernels: about 0.1-0.5 ms of work.
+_ROWS_PER_TASK = 256
+
+_pool_lock = threading.Lock()
+_pool = None  # (thread count, ThreadPoolExecutor), made on first use
+_in_pool = threading.local()
+
+
+def _forget_pool():
+    # a forked child inherits the executor but not its threads
+    global _pool, _pool_lock
+    _pool = None
+    _pool_lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool)
+
+
+def _executor(nthreads):
+    global _pool
+    with _pool_lock:
+        if _pool is None or _pool[0] != nthreads:
+            if _pool is not None:
+                _pool[1].shutdown(wait=False)
+            _pool = (nthreads, ThreadPoolExecutor(nthreads, thread_name_prefix="cwlidar-signal"))
+        return _pool[1]
+
+
+def _run_tasks(n_tasks, fn):
+    """Call ``fn(t)`` for t = 0 .. n_tasks - 1 on the signal chain's threads.
+
+    ``fn`` must depend on ``t`` only and call ``nogil`` kernels.  Tasks are
+    handed out one at a time (dynamic scheduling), so a thread that another
+    process keeps off its core for a while only takes fewer tasks; with the
+    cores to ourselves this matches numba's static prange, and under load it
+    degrades to the throughput of the cores actually available, where a
+    static split waits for the slowest thread (and OpenMP threads spin).
+    Results never depend on which thread ran a task, hence on the thread
+    count.  Called from one of these threads, it runs the tasks inline.
+    """
+    from .._config import get_num_threads
+
+    nthreads = min(get_num_threads(), n_tasks)
+    if nthreads <= 1 or getattr(_in_pool, "active", False):
+        for t in range(n_tasks):
+            fn(t)
+        return
+    lock = threading.Lock()
+    it = iter(range(n_tasks))
+
+    def worker():
+        _in_pool.active = True
+        try:
+            while True:
+                with lock:
+                    t = next(it, None)
+                if t is None:
+                    return
+                fn(t)
+        finally:
+            _in_pool.active = False
+
+    for f in [_executor(nthreads).submit(worker) for _ in range(nthreads)]:
+        f.result()

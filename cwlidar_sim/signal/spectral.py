@@ -311,11 +311,18 @@ def _speckle_draws(rng, ne, nf, m_eff, speckle):
 def _draw_rows(sig, noise, m, gain_eg, key, e0, out):
     """Rows e0 .. e0 + len(out) - 1 of a sample_spectra draw (gain_eg holds those rows only)."""
     from . import _kernels as K
-    from .._config import apply_numba_threads
+    from .processing import _ROWS_PER_TASK, _run_tasks
 
-    apply_numba_threads()
-    K.spectral_sample_kernel(np.ascontiguousarray(sig), noise, np.ascontiguousarray(gain_eg), float(m),
-                             np.uint64(key), e0, out)
+    sig = np.ascontiguousarray(sig)
+    gain_eg = np.ascontiguousarray(gain_eg)
+    key = np.uint64(key)
+    ne = out.shape[0]
+
+    def run(t):
+        K.spectral_sample_rows(sig, noise, gain_eg, float(m), key, e0, t * _ROWS_PER_TASK,
+                               min(ne, (t + 1) * _ROWS_PER_TASK), out)
+
+    _run_tasks(-(-ne // _ROWS_PER_TASK), run)
 
 
 def _as_2d(name, a):

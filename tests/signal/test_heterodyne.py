@@ -7,7 +7,7 @@ import pytest
 
 from cwlidar_sim import _config
 from cwlidar_sim._fft import rfft_rows
-from cwlidar_sim.signal import PROTOTYPE_2003, simulate_signal_spectra, synthesize_samples
+from cwlidar_sim.signal import PROTOTYPE_2003, simulate_signal_spectra, synthesize_samples, window_samples
 from cwlidar_sim.signal import _kernels as K
 
 import reference  # noqa: E402
@@ -96,3 +96,129 @@ def test_bad_input():
         simulate_signal_spectra(SMALL, [1.0], [1.0], 0.0, 1, correlation_time=-1.0)
     with pytest.raises(ValueError, match="vlos_es"):
         simulate_signal_spectra(SMALL, [[np.nan]], [1.0], 0.0, 1)
+
+
+# ---------------------------------------------------------------------------
+# the fused path (block_normals, tone tables, synth_blocks_kernel, partial power sums)
+# ---------------------------------------------------------------------------
+def test_block_normals_against_reference_and_normal_pair():
+    words = np.empty(40, dtype=np.uint64)
+    tails = np.empty(80, dtype=np.int64)
+    for n in (64, 63, 80):
+        out = np.empty(n)
+        K.block_normals(np.uint64(K.stream_start(np.uint64(77), 12)), 0.7, words, tails, out)
+        # the kernel's normals interpolate an ndtri table: |dz| < 1e-4, times noise_std = 0.7
+        assert np.allclose(out, reference.signal_block_normals(77, 12, n, 0.7), rtol=0, atol=0.7e-4)
+        # and they are normal_pair's numbers, bit for bit (tiers 2 and 3 share the generator)
+        st = K.stream_start(np.uint64(77), 12)
+        pairs = []
+        for _ in range((n + 1) // 2):
+            # keep the state a uint64 (a Python int below 2**63 would be typed int64)
+            st, z0, z1 = K.normal_pair(np.uint64(st))
+            pairs += [z0, z1]
+        assert np.array_equal(out, 0.7 * np.array(pairs[:n]))
+
+
+def test_block_normals_are_standard_normal():
+    n_blocks, n = 2048, 512
+    z = np.empty((n_blocks, n))
+    words = np.empty(n // 2, dtype=np.uint64)
+    tails = np.empty(n, dtype=np.int64)
+    for b in range(n_blocks):
+        K.block_normals(np.uint64(K.stream_start(np.uint64(3), b)), 1.0, words, tails, z[b])
+    z = z.ravel()
+    size = z.size
+    # moments of N(0, 1): sd of the sample mean 1/sqrt(n), of the mean of z^2 sqrt(2/n), of z^4 sqrt(96/n)
+    assert abs(z.mean()) < 4.5 / math.sqrt(size)
+    assert abs(np.mean(z**2) - 1) < 4.5 * math.sqrt(2 / size)
+    assert abs(np.mean(z**4) - 3) < 4.5 * math.sqrt(96 / size)
+    # tails (the Acklam branch beyond |z| = 2.66): binomial counts within 4.5 sd
+    from scipy.special import ndtr
+
+    for c in (2.0, 3.0, 4.0):
+        p = 2 * ndtr(-c)
+        k = np.count_nonzero(np.abs(z) > c)
+        assert abs(k - p * size) < 4.5 * math.sqrt(p * (1 - p) * size), c
+
+
+def test_tone_tables_against_reference():
+    dth = np.array([[0.3, -2.9, 3.1], [1e-4, 1.7, -0.6]])
+    rr = np.empty((2, 3, K.TONE_GROUP))
+    ri = np.empty((2, 3, K.TONE_GROUP))
+    st = np.empty((2, 3, 4))
+    K.tone_tables_kernel(dth, 40, rr, ri, st)
+    ref_r, ref_i, ref_s = reference.signal_tone_tables(dth, 40, K.TONE_GROUP)
+    # complex recurrence over G = 32 steps: a few ulp per step
+    assert np.allclose(rr, ref_r, rtol=0, atol=1e-13) and np.allclose(ri, ref_i, rtol=0, atol=1e-13)
+    assert np.allclose(st, ref_s, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("n, n_sub", [(80, 2), (80, 5), (64, 1)])
+def test_synth_blocks_against_reference(n, n_sub):
+    # L = 40 (one group of 32 and a remainder), L = 16 (remainder only), L = 64 (two whole groups)
+    rng = np.random.default_rng(11)
+    ns, m, ne = 3, 3, 3
+    nb = m * ne
+    are = rng.normal(size=(ns, nb * n_sub))
+    aim = rng.normal(size=(ns, nb * n_sub))
+    phase = rng.uniform(0, 2 * np.pi, (ne, ns))
+    dth = rng.uniform(-3.1, 3.1, (ne, ns))
+    win = np.sin(np.pi * np.arange(n) / n) ** 2
+    rr = np.empty((ne, ns, K.TONE_GROUP))
+    ri = np.empty((ne, ns, K.TONE_GROUP))
+    st = np.empty((ne, ns, 4))
+    K.tone_tables_kernel(dth, n // n_sub, rr, ri, st)
+    out = np.empty((5, n), dtype=np.float32)
+    acc, words, tails = np.empty(n), np.empty(n // 2, dtype=np.uint64), np.empty(n, dtype=np.int64)
+    # blocks 2..6 of the chunk span three estimates
+    K.synth_blocks_kernel(np.uint64(5), 7, 2, 7, m, n_sub, are, aim, phase, dth, rr, ri, st, 0.7, win, True,
+                          acc, words, tails, out)
+    ref = reference.signal_synth_blocks(5, 7, 2, 7, m, n_sub, are, aim, phase, dth, 0.7, win)
+    # table normals (|dz| < 1e-4, times 0.7), float32 rounding of |x| < 10 (6e-7), rotations (1e-13)
+    assert np.allclose(out, ref, rtol=0, atol=1e-4)
+
+
+def test_power_sum_and_combine_against_reference():
+    rng = np.random.default_rng(2)
+    X = rfft_rows(rng.normal(size=(7, 64)).astype(np.float32))
+    p = np.empty(33)
+    K.power_sum_kernel(X, 5, p)
+    assert np.allclose(p, reference.signal_power_sum(X, 5), rtol=1e-12)
+    part = rng.uniform(size=(2, 3, 33))
+    out = np.empty((2, 33))
+    K.combine_partials_kernel(part, 0.25, out)
+    assert np.allclose(out, 0.25 * part.sum(axis=1), rtol=1e-13)
+
+
+def test_synthesized_samples_are_the_transformed_ones():
+    inst = SMALL.replace(window="hann")
+    v = np.array([[3.0, 8.0], [4.0, 9.5], [5.0, 2.0]])
+    kw = dict(correlation_time=3e-6)
+    x = synthesize_samples(inst, v, [0.4, 0.6], 2.0, 9, **kw)
+    spec = simulate_signal_spectra(inst, v, [0.4, 0.6], 2.0, 9, **kw)
+    p = np.abs(rfft_rows(x).astype(np.complex128)) ** 2 / np.sum(window_samples(64, "hann") ** 2)
+    mean = p.reshape(3, 50, 33).mean(axis=1)
+    # the same float32 samples through two FFTW float32 plans: relative rounding ~1e-6 per bin
+    assert np.allclose(spec, mean, rtol=1e-4, atol=0)
+
+
+def test_fused_path_deterministic_over_threads_tasks_and_chunks():
+    # N = 2048: tasks of 16 blocks, M = 40 -> three tasks per estimate (16, 16, 8);
+    # tau_c = 4 us -> sub-steps of L = 4 samples (n_sub = 512) with a Hann window
+    inst = PROTOTYPE_2003.replace(n_fft=2048, blocks_per_estimate=40, window="hann")
+    v = np.linspace(2, 14, 9).reshape(3, 3)
+    w = [0.2, 0.3, 0.5]
+    kw = dict(correlation_time=4e-6)
+    old = _config.get_num_threads()
+    res = []
+    try:
+        for nt, chunk in ((1, 1 << 22), (2, 1), (3, 5 * 40 * 2048)):
+            _config.set_num_threads(nt)
+            res.append(simulate_signal_spectra(inst, v, w, -3.0, 21, chunk_samples=chunk, **kw))
+            res.append(synthesize_samples(inst, v, w, -3.0, 21, **kw))
+    finally:
+        _config.set_num_threads(old)
+    for a, b in zip(res[:2], res[2:4]):
+        assert np.array_equal(a, b)
+    for a, b in zip(res[:2], res[4:]):
+        assert np.array_equal(a, b)

@@ -149,3 +149,50 @@ def test_bad_inputs():
         sample_spectra(np.zeros(257), np.ones(257), 10, 20.0, 0)
     with pytest.raises(ValueError, match="speckle"):
         sample_spectra(np.zeros(257), np.ones(257), 10, 2.0, 0, speckle="x")
+
+
+def test_draw_and_estimate_identical_over_threads_and_chunks():
+    """Row tasks on the package's threads give the bits of the prange kernels, for any thread count."""
+    from cwlidar_sim import _config
+    from cwlidar_sim.signal import _kernels as K
+    from cwlidar_sim.signal import estimate
+    from cwlidar_sim.signal.processing import _ROWS_PER_TASK, threshold_levels
+    from cwlidar_sim.signal.spectral import _draw_rows, _speckle_draws, line_shape_table
+
+    inst = P.replace(n_fft=64, blocks_per_estimate=40)
+    ne = 2 * _ROWS_PER_TASK + 37  # three tasks, the last one short
+    v = np.linspace(2.0, 12.0, ne)[:, None] + np.array([0.0, 0.3])
+    sig, noise = expected_spectrum(inst, v, [0.5, 0.5], -8.0)
+    old = _config.get_num_threads()
+    draws, ests = [], []
+    try:
+        for nt in (1, 2, 3):
+            _config.set_num_threads(nt)
+            for speckle in ("coherent", "independent"):
+                draws.append(sample_spectra(sig, noise, 40, 6.0, 17, speckle=speckle))
+            ests.append(estimate(draws[-2], inst))
+    finally:
+        _config.set_num_threads(old)
+    for i in range(2, 6):
+        assert np.array_equal(draws[i], draws[i % 2])
+    for e in ests[1:]:
+        assert np.array_equal(e.speed_e, ests[0].speed_e, equal_nan=True)
+        assert np.array_equal(e.flags_e, ests[0].flags_e)
+    # the same rows drawn in two chunks, and by the prange kernel
+    key, gain = _speckle_draws(np.random.default_rng(17), ne, inst.n_bins, 6.0, "coherent")
+    a = np.empty((ne, inst.n_bins))
+    _draw_rows(sig[:300], noise, 40, gain[:300], key, 0, a[:300])
+    _draw_rows(sig[300:], noise, 40, gain[300:], key, 300, a[300:])
+    b = np.empty_like(a)
+    K.spectral_sample_kernel(sig, noise, gain, 40.0, np.uint64(key), 0, b)
+    assert np.array_equal(a, draws[0]) and np.array_equal(b, draws[0])
+    # the estimates against the prange processing kernel
+    x = np.empty(ne)
+    fl = np.empty(ne, dtype=np.uint8)
+    thr = threshold_levels(inst)
+    table, over = line_shape_table(64, "rect")
+    K.process_kernel(a, 1.0 / noise, inst.first_bin, inst.n_bins - 1, 0, float(inst.threshold_value),
+                     thr["raise_factor"], thr["sigma_y"], 0, 0, inst.second_peak_fraction,
+                     inst.edge_guard_speed / inst.bin_speed, table, over, 64, 8, x, fl)
+    assert np.array_equal(x * inst.bin_width * inst.speed_per_hz, ests[0].speed_e, equal_nan=True)
+    assert np.array_equal(fl, ests[0].flags_e)

@@ -21,12 +21,16 @@ only.  In each child:
    ("baseline": Python, the libraries and the warm-up);
 3. time "tensor set-up + first box" end to end (seed 1);
 4. ours only: drop the first box and time a second box with the same parameters
-   and a different seed (seed 2); the tensor set-up is cached in-process.
+   and a different seed (seed 2); the tensor set-up is cached in-process;
+5. ours only, after the memory figures are taken: drop the box and time the FFT
+   floor (below) in the same process, so that "second box / floor" can also be
+   taken from two timings made back to back under one machine load.
 
 The peak RSS reported is absolute (it includes the interpreter and the libraries);
 "increment" is the peak minus the baseline of step 2.  Times are the minimum over
 ``--repeats`` fresh children (3 in full mode, 1 with ``--quick``); peak RSS is the
-maximum over them.
+maximum over them.  The children run in rounds -- ours, the floor, then each peer,
+and again -- so that a change in the load of a shared machine reaches all of them.
 
 Peer settings.  "periodic" is the like-for-like setting: a box periodic in all three
 directions, as ours is, which is also each peer's fastest setting (mannrs
@@ -357,18 +361,34 @@ def child_time(task):
         sampler.__exit__()
         res["peak_tree_rss_sampled"] = sampler.peak
         res["tree_has_children"] = sampler.saw_children
+    if task.get("floor_too"):
+        # The FFT floor right after the second box, in the same process
+        # (after the memory figures are taken), so that their ratio is
+        # measured under one machine load.
+        del obj, arrs
+        gc.collect()
+        res["t_floor_same_child"] = _time_floor(shape, 3)["t_floor"]
     return res
 
 
 def child_floor(task):
     """Three FFTW threaded inverse real 3-D FFTs (u, v, w), planning excluded."""
     from cwlidar_sim._config import set_num_threads
-    from cwlidar_sim._fft import irfft3_floor
 
     shape = tuple(task["shape"])
     nthreads = os.cpu_count() or 1
     set_num_threads(nthreads)
     res = {"generator": "floor", "threads": nthreads, "rss_after_imports": current_rss()}
+    res.update(_time_floor(shape, task.get("repeats", 3)))
+    res["peak_rss"] = peak_rss()
+    return res
+
+
+def _time_floor(shape, repeats):
+    """Minimum over ``repeats`` of three FFTW threaded inverse real 3-D FFTs (planning excluded)."""
+    from cwlidar_sim._fft import irfft3_floor
+
+    nthreads = os.cpu_count() or 1
     runs = [irfft3_floor(shape, np.float32, threads=nthreads) for _ in range(3)]
     bufs = [r.__self__.input_array.view(np.float32) for r in runs]
 
@@ -379,16 +399,13 @@ def child_floor(task):
             b.fill(1.0)
 
     times = []
-    for _ in range(task.get("repeats", 3)):
+    for _ in range(repeats):
         refill()
         t0 = time.perf_counter()
         for r in runs:
             r()
         times.append(time.perf_counter() - t0)
-    res["t_all"] = times
-    res["t_floor"] = min(times)
-    res["peak_rss"] = peak_rss()
-    return res
+    return {"t_all": times, "t_floor": min(times)}
 
 
 def _box_stats_direct(arrs, spacing, k_mid, k_hf):
@@ -668,20 +685,18 @@ def measure_shape(shape, spacing, peer_settings, repeats, do_accuracy, seeds, se
     label = shape_label(shape, spacing)
     res = {"label": label, "shape": list(shape), "spacing": list(spacing), "output_bytes": output_bytes(shape)}
 
-    def best(task, n):
-        runs = []
-        for i in range(n):
-            r = spawn(task)
-            if "error" in r:
-                log(f"  [{label}] {task['generator']} run {i + 1}: ERROR {r['error'][:400]}")
-            runs.append(r)
+    def best(runs):
         ok = [r for r in runs if "error" not in r]
         if not ok:
             return {"error": runs[-1].get("error"), "runs": runs}
         agg = {"runs": runs, "n_runs": len(ok)}
-        for key in ("t_first", "t_second"):
+        for key in ("t_first", "t_second", "t_floor_same_child"):
             if key in ok[0]:
                 agg[key] = min(r[key] for r in ok)
+        if "t_floor_same_child" in ok[0]:
+            # Second box and floor timed back to back in one process: the
+            # ratio of each pair sees one machine load.
+            agg["second_over_floor_paired"] = sorted(r["t_second"] / r["t_floor_same_child"] for r in ok)
         for key in ("peak_rss", "peak_rss_first", "peak_tree_rss_sampled"):
             if key in ok[0]:
                 agg[key] = max(r[key] for r in ok)
@@ -692,17 +707,30 @@ def measure_shape(shape, spacing, peer_settings, repeats, do_accuracy, seeds, se
         return agg
 
     base = {"shape": list(shape), "spacing": list(spacing)}
-    log(f"[{label}] ours x{repeats}")
-    res["ours"] = best(dict(base, kind="time", generator="ours"), repeats)
-    log(f"[{label}] floor")
-    fl = spawn(dict(base, kind="floor", generator="floor", repeats=3))
-    if "error" in fl:
-        log(f"  floor ERROR {fl['error'][:400]}")
+    # Rounds: each round runs every generator once (and the floor), so that
+    # a change of machine load (other jobs) hits all of them alike; each
+    # time is the minimum over the rounds.
+    names = ["ours", "floor"] + list(peer_settings)
+    runs = {n: [] for n in names}
+    for rnd in range(repeats):
+        for n in names:
+            log(f"[{label}] round {rnd + 1}/{repeats}: {n}")
+            if n == "floor":
+                task = dict(base, kind="floor", generator="floor", repeats=3)
+            else:
+                task = dict(base, kind="time", generator=n, floor_too=(n == "ours"))
+            r = spawn(task)
+            if "error" in r:
+                log(f"  [{label}] {n} round {rnd + 1}: ERROR {r['error'][:400]}")
+            runs[n].append(r)
+    res["ours"] = best(runs["ours"])
+    fl_ok = [r for r in runs["floor"] if "error" not in r]
+    if fl_ok:
+        fl = dict(min(fl_ok, key=lambda r: r["t_floor"]), runs=runs["floor"])
+    else:
+        fl = {"error": runs["floor"][-1].get("error"), "runs": runs["floor"]}
     res["floor"] = fl
-    res["peers"] = {}
-    for s in peer_settings:
-        log(f"[{label}] {s} x{repeats}")
-        res["peers"][s] = best(dict(base, kind="time", generator=s), repeats)
+    res["peers"] = {s: best(runs[s]) for s in peer_settings}
 
     # ratios
     o = res["ours"]
@@ -733,6 +761,10 @@ def measure_shape(shape, spacing, peer_settings, repeats, do_accuracy, seeds, se
     if "t_floor" in fl and "t_second" in o:
         rt["ours_second/floor"] = o["t_second"] / fl["t_floor"]
         rt["ours_first/floor"] = o["t_first"] / fl["t_floor"]
+    if "second_over_floor_paired" in o:
+        pr = o["second_over_floor_paired"]
+        rt["ours_second/floor_paired_median"] = pr[len(pr) // 2]
+        rt["ours_second/floor_paired_min"] = pr[0]
     if "peak_rss" in o:
         rt["ours_peak/output"] = o["peak_rss"] / res["output_bytes"]
         rt["ours_increment/output"] = o["peak_increment"] / res["output_bytes"]
@@ -803,6 +835,10 @@ def print_tables(results):
         if "ours_second/floor" in rt:
             log(f"  ours second box / FFT floor: {rt['ours_second/floor']:.2f}   target <= 2"
                 f"   (first box / floor: {rt['ours_first/floor']:.2f})")
+        if "ours_second/floor_paired_median" in rt:
+            pr = ", ".join(f"{x:.2f}" for x in r["ours"]["second_over_floor_paired"])
+            log(f"  ours second box / FFT floor timed in the same process, per run: {pr}"
+                f"   (median {rt['ours_second/floor_paired_median']:.2f})")
         if "ours_peak/output" in rt:
             log(f"  ours peak / output: absolute {rt['ours_peak/output']:.2f}, increment "
                 f"{rt['ours_increment/output']:.2f}   target < 2")
@@ -922,9 +958,11 @@ def main(argv=None):
                                                                   for k, o in v[2].items()})
                           for s, v in PEER_SETTINGS.items() if s in settings},
         "protocol": (
-            "each timing in a fresh subprocess; imports, then a 64x8x8 warm-up box (excludes numba JIT-cache "
+            "each timing in a fresh subprocess, in rounds (ours, floor, each peer; repeated); imports, then a "
+            "64x8x8 warm-up box (excludes numba JIT-cache "
             "load, lazy imports, hipersim pool start), then timed tensor set-up + first box (seed 1); ours also "
-            "a second box (seed 2) after dropping the first. Times: min over repeats; peak RSS "
+            "a second box (seed 2) after dropping the first, and then the floor in the same process "
+            "(t_floor_same_child). Times: min over repeats; peak RSS "
             "(getrusage ru_maxrss, absolute, includes interpreter + libraries): max over repeats; "
             "peak_increment = peak - RSS after imports and warm-up. Floor: 3 FFTW threaded c2r 3-D FFTs, "
             "planning excluded, min of 3. Output bytes = 3*Nx*Ny*Nz*4."

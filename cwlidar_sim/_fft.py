@@ -284,3 +284,134 @@ class RowsRFFT:
             self._plans[rows] = plan
         plan.execute()
         return self.X[:rows]
+
+
+# ---------------------------------------------------------------------------
+# Dynamic scheduling on long-lived threads (for the box generator).
+# ---------------------------------------------------------------------------
+import itertools as _itertools  # noqa: E402
+import threading as _threading  # noqa: E402
+
+_pool_lock = _threading.Lock()
+_pool = None
+_pool_size = 0
+_in_pool = _threading.local()
+
+
+def _mark_pool_thread():
+    _in_pool.flag = True
+
+
+def _get_pool(n):
+    # Starting a thread costs about 0.6 ms on the 2-core VMs this runs on;
+    # a box makes eight parallel passes, so its threads are kept between
+    # calls (idle threads cost nothing; a new thread count gets a new pool).
+    global _pool, _pool_size
+    from concurrent.futures import ThreadPoolExecutor
+
+    with _pool_lock:
+        if _pool is None or _pool_size != n:
+            old = _pool
+            _pool = ThreadPoolExecutor(n, thread_name_prefix="cwlidar_sim", initializer=_mark_pool_thread)
+            _pool_size = n
+            if old is not None:
+                old.shutdown(wait=False)
+        return _pool
+
+
+def run_dynamic(tasks, worker_fn) -> None:
+    """Run ``worker_fn(w, task)`` for every task, each thread taking the next free task.
+
+    For tasks whose result does not depend on the worker that runs them
+    (each writes its own part of the output, and any plan or scratch keyed
+    by ``w`` computes the same numbers whoever builds it), so the outcome is
+    the same for any thread count and any interleaving.  Unlike
+    :func:`cwlidar_sim._config.run_static` a thread held up by another
+    process does not leave its share of the tasks waiting, and the threads
+    (``get_num_threads()`` of them) live on between calls.  Called from one
+    of those threads it runs serially.
+    """
+    tasks = list(tasks)
+    n = get_num_threads()
+    nthreads = min(n, len(tasks))
+    if nthreads <= 1 or getattr(_in_pool, "flag", False):
+        for t in tasks:
+            worker_fn(0, t)
+        return
+    counter = _itertools.count()  # next() on it is atomic under the GIL
+
+    def run(w):
+        for i in iter(lambda: next(counter), None):
+            if i >= len(tasks):
+                return
+            worker_fn(w, tasks[i])
+
+    pool = _get_pool(n)
+    for f in [pool.submit(run, w) for w in range(nthreads)]:
+        f.result()
+
+
+def new_plan_store():
+    """A plan store for :func:`irfftn_inplace_shared`, to be dropped after use.
+
+    Plans pin the arrays they were last given, so keep the store only for
+    the duration of one group of transforms (e.g. the u, v, w of one box).
+    """
+    return _PlanBook()
+
+
+def _c2r2_pass(spec, real, book, worker, lo, hi):
+    # 2-D c2r over the last two axes of slabs lo..hi of a 3-D half spectrum.
+    s_in = spec[lo:hi]
+    s_out = real[lo:hi]
+    key = ("c2r2", s_in.shape, s_in.strides, s_out.strides, s_in.dtype.str)
+    plan = book.get(
+        worker,
+        key,
+        lambda: pyfftw.FFTW(s_in, s_out, axes=(1, 2), direction="FFTW_BACKWARD", flags=_FLAGS, threads=1),
+    )
+    plan.update_arrays(s_in, s_out)
+    plan.execute()
+
+
+def irfftn_inplace_shared(spec, n_last: int, plans):
+    """:func:`irfftn_inplace` with the plans of a caller-held store, 3-D in two passes.
+
+    Same arguments and result as :func:`irfftn_inplace` (to rounding).  Two
+    differences, both for speed:
+
+    * transforms of several arrays of one shape and dtype (the u, v, w of a
+      box) plan once instead of once each: building the FFTW_ESTIMATE plans
+      costs about a tenth of a 4096 x 32 x 32 transform;
+    * a 3-D array is transformed in two passes instead of three: batched
+      1-D c2c transforms along axis 0 (chunked along axis 1), then batched
+      2-D c2r transforms over axes 1 and 2 of each slab (chunked along
+      axis 0; a slab is small enough to stay in cache while both of its
+      axes are done).  A quarter faster at 4096 x 32 x 32.
+
+    Chunks depend on the shape only and each is planned single-threaded, so
+    the result is bit-for-bit the same for any thread count (but not the
+    same bits as :func:`irfftn_inplace`, whose passes differ); threads take
+    chunks as they come free (:func:`run_dynamic`).
+
+    Parameters
+    ----------
+    spec, n_last
+        As for :func:`irfftn_inplace`.
+    plans
+        Store from :func:`new_plan_store`.
+    """
+    if not spec.flags.c_contiguous:
+        raise ValueError("spec must be C-contiguous")
+    nh = n_last // 2 + 1
+    if spec.shape[-1] != nh:
+        raise ValueError(f"spec.shape[-1]={spec.shape[-1]} does not match n_last={n_last} (expected {nh})")
+    if spec.ndim != 3:
+        return irfftn_inplace(spec, n_last)
+    rdt = np.float32 if spec.dtype == np.complex64 else np.float64
+    real = spec.view(rdt)[..., :n_last]
+    tasks = _chunks(spec.shape[1], spec.size // spec.shape[1])
+    run_dynamic(tasks, lambda w, t: _c2c_pass(spec, 0, plans, w, t[0], t[1], 1))
+    tasks = _chunks(spec.shape[0], spec.size // spec.shape[0])
+    run_dynamic(tasks, lambda w, t: _c2r2_pass(spec, real, plans, w, t[0], t[1]))
+    return real

@@ -488,10 +488,10 @@ def box_mix64(z):
     return z ^ (z >> 31)
 
 
-def box_ziggurat_tables(n=256, r=3.6541528853610088):
+def box_ziggurat_tables(n=256, r=3.6541528853610088, bits=53):
     """Marsaglia & Tsang (2000) layers of exp(-x^2/2): edges x_0 (virtual) .. x_n = 0.
 
-    Returns (w, k, f): x_i 2^-53, floor(2^53 x_{i+1} / x_i) and f(x_i) with f(x_n) = 1.
+    Returns (w, k, f): x_i 2^-bits, floor(2^bits x_{i+1} / x_i) and f(x_i) with f(x_n) = 1.
     """
     def f(x):
         return math.exp(-0.5 * x * x)
@@ -501,8 +501,8 @@ def box_ziggurat_tables(n=256, r=3.6541528853610088):
     while len(x) < n:
         x.append(math.sqrt(-2.0 * math.log(v / x[-1] + f(x[-1]))))
     x.append(0.0)
-    w = [xi * 2.0**-53 for xi in x[:n]]
-    k = [int(x[i + 1] / x[i] * 2.0**53) for i in range(n)]
+    w = [xi * 2.0**-bits for xi in x[:n]]
+    k = [int(x[i + 1] / x[i] * 2.0**bits) for i in range(n)]
     fy = [f(xi) for xi in x[:n]] + [1.0]
     return w, k, fy
 
@@ -510,15 +510,21 @@ def box_ziggurat_tables(n=256, r=3.6541528853610088):
 _BOX_ZIG = None
 
 
+def box_first_word(key, c):
+    """The 64-bit word normal ``c`` starts from: SplitMix64 output c under ``key``."""
+    return box_mix64(int(key) + (int(c) + 1) * _BOX_GOLDEN)
+
+
 def box_normal(key, key_b, c):
-    """Normal number ``c`` of the box noise: ziggurat on SplitMix64 output ``c`` under ``key``;
-    rejected draws continue on the SplitMix64 stream started at mix64(key_b + (c + 1) G)."""
+    """Normal number ``c`` of the box noise: ziggurat (bits 0-7 layer, bit 8 sign, bits 11-63
+    position) on ``box_first_word``; rejected draws continue on the SplitMix64 stream started at
+    mix64(key_b + (c + 1) G)."""
     global _BOX_ZIG
     if _BOX_ZIG is None:
         _BOX_ZIG = box_ziggurat_tables()
     w_tab, k_tab, f_tab = _BOX_ZIG
     r = 3.6541528853610088
-    w = box_mix64(int(key) + (int(c) + 1) * _BOX_GOLDEN)
+    w = box_first_word(key, c)
     t = box_mix64(int(key_b) + (int(c) + 1) * _BOX_GOLDEN)
 
     def nxt():
@@ -554,15 +560,32 @@ def box_noise_keys(seed):
     return int(k[0]), int(k[1])
 
 
+def _box_chol_lower(a):
+    """Lower Cholesky factor of a symmetric positive semi-definite 3x3 matrix, column by column;
+    a pivot <= 1e-12 of the largest diagonal entry gives a zero column."""
+    c = [[0.0] * 3 for _ in range(3)]
+    eps = 1e-12 * max(a[i][i] for i in range(3))
+    for j in range(3):
+        d = a[j][j] - sum(c[j][q] ** 2 for q in range(j))
+        if d <= eps:
+            continue
+        c[j][j] = math.sqrt(d)
+        for i in range(j + 1, 3):
+            c[i][j] = (a[i][j] - sum(c[i][q] * c[j][q] for q in range(j))) / c[j][j]
+    return c
+
+
 def box_half_spectrum(shape, spacing, seed, alpha_eps, L, gamma):
     """Half spectrum of a zero-mean box with correction="none", by its definition.
 
     Mode n = (n1, n2, n3), n3 = 0 .. N3//2, has flat index m = (n1 N2 + n2)(N3//2 + 1) + n3
     and normals a_j = z(6 m + 2 j), b_j = z(6 m + 2 j + 1) (``box_normal``); its coefficients are
     c_i = sqrt(dk1 dk2 dk3) sum_j M_ij(k_n) (a_j + i b_j) / sqrt(2) with M from ``mann_amplitude``
-    and k_n in numpy's fftfreq order.  In the planes n3 = 0 and n3 = N3/2 (even N3), of each pair
-    (n1, n2), (-n1, -n2) the one with the larger index n1 N2 + n2 is the conjugate of the other, a
-    self-conjugate mode becomes sqrt(2) times its real part; c(0) = 0.  Returns (3, N1, N2, N3//2+1).
+    and (k1, k2) in numpy's fftfreq order, k3 = n3 dk3.  In the z-Nyquist plane (even N3) M is
+    the lower Cholesky factor of (Phi(k1, k2, pi/dz) + Phi(k1, k2, -pi/dz)) / 2 (a zero pivot
+    gives a zero column).  In the planes n3 = 0 and n3 = N3/2, of each pair (n1, n2), (-n1, -n2)
+    the one with the larger index n1 N2 + n2 is the conjugate of the other, a self-conjugate mode
+    becomes sqrt(2) times its real part; c(0) = 0.  Returns (3, N1, N2, N3//2+1).
     """
     N1, N2, N3 = shape
     nh = N3 // 2 + 1
@@ -576,7 +599,12 @@ def box_half_spectrum(shape, spacing, seed, alpha_eps, L, gamma):
             for n3 in range(nh):
                 m = (n1 * N2 + n2) * nh + n3
                 z = [box_normal(key, key_b, 6 * m + j) for j in range(6)]
-                amp = mann_amplitude(k1, k2, dk[2] * n3, alpha_eps, L, gamma)
+                if N3 % 2 == 0 and n3 == nh - 1:
+                    amp = _box_chol_lower(np.mean([np.dot(a, np.transpose(a)) for a in (
+                        np.array(mann_amplitude(k1, k2, sg * dk[2] * n3, alpha_eps, L, gamma)) for sg in (1, -1))],
+                        axis=0))
+                else:
+                    amp = mann_amplitude(k1, k2, dk[2] * n3, alpha_eps, L, gamma)
                 for i in range(3):
                     out[i, n1, n2, n3] = math.sqrt(dk[0] * dk[1] * dk[2] / 2.0) * sum(
                         amp[i][j] * complex(z[2 * j], z[2 * j + 1]) for j in range(3))

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+import reference
 
 from cwlidar_sim import _config
 from cwlidar_sim.turbulence import (
@@ -13,6 +14,7 @@ from cwlidar_sim.turbulence import (
     expected_box_covariance,
     generate_box,
     one_point_spectra,
+    spectral_tensor,
 )
 
 P = MannParameters(alpha_eps=1.0, length_scale=33.6, gamma=3.9)
@@ -197,3 +199,226 @@ def test_bad_types():
         generate_box(P, (8.5, 8, 8), (1, 1, 1), 0)
     with pytest.raises(TypeError, match="dtype"):
         generate_box(P, (8, 8, 8), (1, 1, 1), 0, dtype=np.int32)
+
+
+# ---------------------------------------------------------------------------
+# Counter-based noise of the box (ziggurat on SplitMix64 counters) and the
+# tabulated amplitudes.
+# ---------------------------------------------------------------------------
+def _keys(seed):
+    return tuple(np.uint64(k) for k in reference.box_noise_keys(seed))
+
+
+def test_normals_bit_equal_to_reference_including_rejection_paths():
+    from cwlidar_sim.turbulence import _kernels as K
+
+    key, key_b = reference.box_noise_keys(11)
+    _, k_tab, _ = reference.box_ziggurat_tables()
+    # Counters whose first word fails the ziggurat's fast test (wedge) or
+    # lands in the base layer's tail, found with the reference's own hash.
+    wedge, tail = [], []
+    for c in range(60000):
+        w = reference.box_first_word(key, c)
+        if (w >> 11) >= k_tab[w & 0xFF]:
+            (tail if w & 0xFF == 0 else wedge).append(c)
+    assert len(wedge) >= 100 and len(tail) >= 5
+    tail = tail[:10]
+    counters = list(range(200)) + wedge[:100] + tail + [2**40 + 3, 2**62 + 1, 2**64 - 1]
+    got = np.array([K.normal_at(np.uint64(key), np.uint64(key_b), np.uint64(c)) for c in counters])
+    ref = np.array([reference.box_normal(key, key_b, c) for c in counters])
+    assert np.array_equal(got, ref)
+    assert np.all(np.abs(ref[300:300 + len(tail)]) > 3.654)  # the tail draws do come from the tail
+    block = np.empty(200)
+    K.normals_kernel(np.uint64(key), np.uint64(key_b), np.uint64(0), block)
+    assert np.array_equal(block, ref[:200])
+
+
+def _normals(seed, n, c0=0):
+    from cwlidar_sim.turbulence import _kernels as K
+
+    z = np.empty(n)
+    K.normals_kernel(*_keys(seed), np.uint64(c0), z)
+    return z
+
+
+def test_normals_moments_ks_and_tails_match_standard_normal():
+    from scipy.special import ndtr
+    from scipy.stats import kstest
+
+    n = 1_000_000
+    z = _normals(3, n, c0=10**9)
+    # Sampling distributions under N(0, 1): sd of the mean 1/sqrt(n), of the
+    # mean of z^2 sqrt(2/n), of z^3 sqrt(15/n), of z^4 sqrt((105 - 9)/n);
+    # each within 5 standard deviations.
+    assert abs(z.mean()) < 5 / math.sqrt(n)
+    assert abs(np.mean(z**2) - 1) < 5 * math.sqrt(2 / n)
+    assert abs(np.mean(z**3)) < 5 * math.sqrt(15 / n)
+    assert abs(np.mean(z**4) - 3) < 5 * math.sqrt(96 / n)
+    # Kolmogorov: P(sqrt(n) D > x) ~ 2 exp(-2 x^2) = 1e-6 at x = 2.69.
+    assert kstest(z, "norm").statistic < 2.69 / math.sqrt(n)
+    # Tail counts (binomial, within 5 sd), including beyond the ziggurat's
+    # base-layer edge r = 3.654, whose samples come from the tail algorithm.
+    for thr in (2.0, 3.0, 3.6541528853610088):
+        p = 2 * ndtr(-thr)
+        count = np.count_nonzero(np.abs(z) > thr)
+        assert abs(count - n * p) < 5 * math.sqrt(n * p * (1 - p)), (thr, count, n * p)
+
+
+def test_neighbouring_counters_are_independent():
+    n = 1_000_000
+    z = _normals(4, n)
+    other = _normals(5, n)  # same counters, next seed
+    # For independent N(0, 1) pairs the sample correlation of z (and of
+    # z^2 - 1) has sd 1/sqrt(n): bound 4/sqrt(n).  Lags 1..12 span the six
+    # normals of a mode and its neighbours.
+    bound = 4 / math.sqrt(n)
+    q = z**2 - 1
+    for lag in range(1, 13):
+        assert abs(np.corrcoef(z[:-lag], z[lag:])[0, 1]) < bound, lag
+        assert abs(np.corrcoef(q[:-lag], q[lag:])[0, 1]) < bound, lag
+    assert abs(np.corrcoef(z, other)[0, 1]) < bound
+    assert abs(np.corrcoef(q, other**2 - 1)[0, 1]) < bound
+
+
+def test_atan2_poly_matches_the_c_library():
+    import numba
+
+    from cwlidar_sim.turbulence import _kernels as K
+
+    @numba.njit
+    def run(y, x, out):
+        for i in range(y.shape[0]):
+            out[i] = K.atan2_poly(y[i], x[i])
+
+    rng = np.random.default_rng(0)
+    y = rng.standard_normal(100_000) * 10.0 ** rng.uniform(-8, 8, 100_000)
+    x = rng.standard_normal(100_000) * 10.0 ** rng.uniform(-8, 8, 100_000)
+    y = np.concatenate([y, [0.0, -0.0, 0.0, 1.0, -1.0, 2.0, 2.0, 1e-300]])
+    x = np.concatenate([x, [-1.0, -1.0, 1.0, 0.0, 0.0, 2.0, -2.0, -1.0]])
+    out = np.empty_like(y)
+    run(y, x, out)
+    ref = np.arctan2(y, x)
+    assert np.all(np.signbit(out) == np.signbit(ref))
+    # Degree-7 polynomial: 7.6e-13 on the reduced interval (measured on a
+    # fine grid when it was chosen), plus a few roundings in the reduction.
+    assert np.max(np.abs(out - ref) / np.maximum(np.abs(ref), 1e-300)) < 2e-12
+
+
+def test_box_params_match_the_plain_python_tensor():
+    from cwlidar_sim.turbulence import _kernels as K
+    from cwlidar_sim.turbulence import box as box_mod
+
+    shape, spacing = (4096, 32, 32), (2.0, 2.0, 2.0)
+    ftab, fbase = box_mod._lifetime_nodes_table(P, shape, spacing)
+    rng = np.random.default_rng(1)
+    n = [rng.integers(-m // 2, m // 2, 150) for m in shape]
+    n[0][:10] = 0  # k1 = 0 takes its own branch
+    k = np.stack([ni * 2 * math.pi / (m * d) for ni, m, d in zip(n, shape, spacing)], axis=1)
+    k = k[np.any(k != 0, axis=1)]
+    par = np.empty((len(k), 5))
+    K.box_params_many(k[:, 0], k[:, 1], k[:, 2], P.length_scale, P.gamma, ftab, fbase, par)
+    pre = math.sqrt(P.alpha_eps / (4 * math.pi)) * P.length_scale ** (17 / 6)
+    worst = 0.0
+    for (k1, k2, k3), p in zip(k, par):
+        m = np.empty((3, 3))
+        K.matrix_from_params(*p, k1, k2, m)
+        ref = np.array(reference.mann_amplitude(k1, k2, k3, P.alpha_eps, P.length_scale, P.gamma))
+        worst = max(worst, np.abs(pre * m - ref).max() / np.abs(ref).max())
+    # Tabulated lifetime (3.6e-7), y^(-17/12) (9e-9) and atan2 (1e-14) move
+    # M by at most a few times 3.6e-7 of its largest entry.
+    assert worst < 2e-6, worst
+
+
+@pytest.mark.parametrize("shape, spacing", [((6, 5, 4), (2.0, 3.0, 1.5)), ((5, 6, 3), (4.0, 2.0, 2.5))])
+def test_box_half_spectrum_equals_plain_python_reference(shape, spacing):
+    # Mode by mode: which normals feed which mode and component, the mirror
+    # (k1, -k2, k3) sharing of amplitudes, the Hermitian planes n3 = 0 and
+    # Nyquist (a non-Hermitian plane, as in mannrs, would show here as
+    # (c(k) + c(-k)*) / 2), the zero mean and the scale.
+    box = generate_box(P, shape, spacing, 77, correction="none", dtype=np.float64)
+    ref = reference.box_half_spectrum(shape, spacing, 77, P.alpha_eps, P.length_scale, P.gamma)
+    for i, c in enumerate("uvw"):
+        got = np.fft.rfftn(box[c].values) / math.prod(shape)
+        # Amplitudes from tables (box_params: < 2e-6 of the largest entry of
+        # M); the largest mode is a few rms: 1e-5 of the rms is ample.
+        tol = 1e-5 * math.sqrt(np.mean(np.abs(ref[i]) ** 2))
+        assert np.max(np.abs(got - ref[i])) < tol, c
+
+
+def test_box_bit_identical_for_1_2_3_threads_over_several_chunks():
+    from cwlidar_sim.turbulence import box as box_mod
+
+    shape, spacing = (512, 32, 16), (2.0, 2.0, 2.0)
+    assert len(box_mod._chunk_rows(shape)) >= 3  # several tasks to share out
+    old = _config.get_num_threads()
+    boxes = []
+    try:
+        for n in (1, 2, 3):
+            _config.set_num_threads(n)
+            box_mod._setup.cache_clear()  # the cell integrals and spectra run threaded too
+            boxes.append(generate_box(P, shape, spacing, 5, hf_compensation=True))
+    finally:
+        _config.set_num_threads(old)
+    for b in boxes[1:]:
+        for comp in "uvw":
+            assert np.array_equal(b[comp].values, boxes[0][comp].values)
+
+
+def test_kz0_and_nyquist_planes_carry_their_expected_power():
+    # With correction="none" every mode has E|c(k)|^2 = s(k) = Phi_ii(k)
+    # dk1 dk2 dk3 (c = DFT / N), the public tensor's value; the z-Nyquist
+    # plane stands for k3 = +-pi/dz and holds the average of the two (a
+    # Hermitian pair (k, -k) needs one variance for both).  In a Hermitian
+    # plane the pair (k, -k) holds one complex Gaussian twice, so the pair's
+    # whitened power |c|^2/s summed over both is 2 Exp(1) (mean 2, variance
+    # 4); a self-conjugate mode sqrt(2) Re c gives chi^2_1 (mean 1, variance
+    # 2).  Over the plane's n modes: mean n, variance 2 n.  A plane left
+    # non-Hermitian (mannrs's defect) loses half its power through the real
+    # transform: mean n / 2.
+    shape, spacing = (128, 16, 16), (4.0, 4.0, 4.0)
+    N1, N2, N3 = shape
+    dk = [2 * math.pi / (n * d) for n, d in zip(shape, spacing)]
+    k1 = 2 * math.pi * np.fft.fftfreq(N1, spacing[0])
+    k2 = 2 * math.pi * np.fft.fftfreq(N2, spacing[1])
+    boxes = [generate_box(P, shape, spacing, s, correction="none", dtype=np.float64) for s in range(4)]
+    for n3 in (0, N3 // 2):
+        k3 = 2 * math.pi * np.fft.fftfreq(N3, spacing[2])[n3]
+        K1, K2 = np.meshgrid(k1, k2, indexing="ij")
+        phi = spectral_tensor(K1, K2, np.full_like(K1, k3), P)
+        if n3 == N3 // 2:
+            phi = 0.5 * (phi + spectral_tensor(K1, K2, np.full_like(K1, -k3), P))
+        for i, c in enumerate("uvw"):
+            s = phi[..., i, i] * dk[0] * dk[1] * dk[2]
+            # Modes without this component (w along the k3 axis: divergence)
+            # and the box mean (zero) hold nothing to test.
+            keep = s > 1e-12 * s.max()
+            keep[0, 0] &= n3 != 0
+            n = len(boxes) * np.count_nonzero(keep)
+            power = [np.abs(np.fft.rfftn(b[c].values)[:, :, n3] / math.prod(shape)) ** 2 for b in boxes]
+            got = sum((p[keep] / s[keep]).sum() for p in power)
+            z = (got - n) / math.sqrt(2 * n)
+            assert abs(z) < 4, (n3, c, got / n, z)
+            # The half-power defect would sit sqrt(n / 8) (about 32) sd below.
+            assert 0.5 * n > 8 * math.sqrt(2 * n)
+
+
+def test_shared_plan_inverse_fft_matches_numpy_for_any_thread_count():
+    from cwlidar_sim import _fft
+
+    rng = np.random.default_rng(2)
+    old = _config.get_num_threads()
+    try:
+        for shape in [(40, 12, 10), (45, 9, 7), (16, 6)]:
+            x = rng.standard_normal(shape)
+            outs = []
+            for n in (1, 2, 3):
+                _config.set_num_threads(n)
+                spec = _fft.empty_halfspectrum(shape, np.float64)
+                spec[...] = np.fft.rfftn(x)  # Hermitian where it must be
+                plans = _fft.new_plan_store()
+                outs.append(_fft.irfftn_inplace_shared(spec, shape[-1], plans).copy())
+            # Unnormalised inverse: N x; double-precision round-off only.
+            np.testing.assert_allclose(outs[0], x * math.prod(shape), rtol=0, atol=1e-10 * math.prod(shape))
+            assert all(np.array_equal(outs[0], o) for o in outs[1:])
+    finally:
+        _config.set_num_threads(old)

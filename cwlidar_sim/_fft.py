@@ -287,9 +287,10 @@ class RowsRFFT:
 
 
 # ---------------------------------------------------------------------------
-# Dynamic scheduling on long-lived threads (for the box generator).
+# Dynamic scheduling on long-lived threads (box generator and signal chain).
 # ---------------------------------------------------------------------------
 import itertools as _itertools  # noqa: E402
+import os as _os  # noqa: E402
 import threading as _threading  # noqa: E402
 
 _pool_lock = _threading.Lock()
@@ -300,6 +301,17 @@ _in_pool = _threading.local()
 
 def _mark_pool_thread():
     _in_pool.flag = True
+
+
+def _forget_pool():
+    # a forked child inherits the executor but not its threads
+    global _pool, _pool_lock, _pool_size
+    _pool, _pool_size = None, 0
+    _pool_lock = _threading.Lock()
+
+
+if hasattr(_os, "register_at_fork"):
+    _os.register_at_fork(after_in_child=_forget_pool)
 
 
 def _get_pool(n):

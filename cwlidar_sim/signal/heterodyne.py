@@ -24,7 +24,7 @@ Implementation notes
   own FFT input buffer, transforms them with a plan bound to that buffer and
   sums ``|X_k|^2`` in float64; an estimate's partial sums are added in task
   order.  Tasks are handed out one at a time to the package's threads
-  (``processing._run_tasks``), so a core taken by another process slows the
+  (``processing._run_tasks`` on ``_fft.run_dynamic``), so a core taken by another process slows the
   run down to the cores left instead of stalling it.
 * Samples (``_kernels.synth_blocks_kernel``): per block, the shot noise from
   the block's counter-based stream (splitmix64 words, inverse-CDF table

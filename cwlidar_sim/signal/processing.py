@@ -33,9 +33,6 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
-import os
-import threading
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -300,32 +297,6 @@ def _rng(seed):
 #: Rows (estimates) per task of the row-wise kernels: about 0.1-0.5 ms of work.
 _ROWS_PER_TASK = 256
 
-_pool_lock = threading.Lock()
-_pool = None  # (thread count, ThreadPoolExecutor), made on first use
-_in_pool = threading.local()
-
-
-def _forget_pool():
-    # a forked child inherits the executor but not its threads
-    global _pool, _pool_lock
-    _pool = None
-    _pool_lock = threading.Lock()
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_forget_pool)
-
-
-def _executor(nthreads):
-    global _pool
-    with _pool_lock:
-        if _pool is None or _pool[0] != nthreads:
-            if _pool is not None:
-                _pool[1].shutdown(wait=False)
-            _pool = (nthreads, ThreadPoolExecutor(nthreads, thread_name_prefix="cwlidar-signal"))
-        return _pool[1]
-
-
 def _run_tasks(n_tasks, fn):
     """Call ``fn(t)`` for t = 0 .. n_tasks - 1 on the signal chain's threads.
 
@@ -338,27 +309,6 @@ def _run_tasks(n_tasks, fn):
     Results never depend on which thread ran a task, hence on the thread
     count.  Called from one of these threads, it runs the tasks inline.
     """
-    from .._config import get_num_threads
+    from .._fft import run_dynamic
 
-    nthreads = min(get_num_threads(), n_tasks)
-    if nthreads <= 1 or getattr(_in_pool, "active", False):
-        for t in range(n_tasks):
-            fn(t)
-        return
-    lock = threading.Lock()
-    it = iter(range(n_tasks))
-
-    def worker():
-        _in_pool.active = True
-        try:
-            while True:
-                with lock:
-                    t = next(it, None)
-                if t is None:
-                    return
-                fn(t)
-        finally:
-            _in_pool.active = False
-
-    for f in [_executor(nthreads).submit(worker) for _ in range(nthreads)]:
-        f.result()
+    run_dynamic(range(n_tasks), lambda _w, t: fn(t))

@@ -109,6 +109,21 @@ def sample_points_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_tc, range_s, t
             vlos_ts[it, js] = ex * a + ey * b + ez * c
 
 
+@numba.njit(inline="always", **NJIT)
+def los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, r, ex, ey, ez, shift, U, add_mean):
+    """``n . vel`` at range ``r`` along the beam, the field shifted by ``shift`` = U t along x."""
+    px = origin[0] + r * ex - shift
+    py = origin[1] + r * ey
+    pz = origin[2] + r * ez
+    i0, i1, j0, j1, k0, k1, tx, ty, tz = _locate(px, py, pz, grid, nx, ny, nz, wrap_y, wrap_z)
+    a = _interp3(u, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+    b = _interp3(v, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+    c = _interp3(w, i0, i1, j0, j1, k0, k1, tx, ty, tz)
+    if add_mean:
+        a += U
+    return ex * a + ey * b + ez * c
+
+
 @numba.njit(**NJIT_PARALLEL)
 def los_weighted_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_tc, range_s, weight_s, time_t, U, add_mean, vlos_t):
     """Weighted line-of-sight speed ``vlos_t[t] = sum_s weight_s[s] n(t) . vel(origin + range_s[s] n(t), t)``.
@@ -125,17 +140,8 @@ def los_weighted_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_tc, range_s, we
         shift = U * time_t[it]
         acc = 0.0
         for js in range(n_s):
-            r = range_s[js]
-            px = origin[0] + r * ex - shift
-            py = origin[1] + r * ey
-            pz = origin[2] + r * ez
-            i0, i1, j0, j1, k0, k1, tx, ty, tz = _locate(px, py, pz, grid, nx, ny, nz, wrap_y, wrap_z)
-            a = _interp3(u, i0, i1, j0, j1, k0, k1, tx, ty, tz)
-            b = _interp3(v, i0, i1, j0, j1, k0, k1, tx, ty, tz)
-            c = _interp3(w, i0, i1, j0, j1, k0, k1, tx, ty, tz)
-            if add_mean:
-                a += U
-            acc += weight_s[js] * (ex * a + ey * b + ez * c)
+            acc += weight_s[js] * los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, range_s[js],
+                                            ex, ey, ez, shift, U, add_mean)
         vlos_t[it] = acc
 
 

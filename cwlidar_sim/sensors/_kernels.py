@@ -14,7 +14,7 @@ import numba
 import numpy as np
 
 from .._config import NJIT, NJIT_PARALLEL
-from ..beam._kernels import _interp3, _locate
+from ..beam._kernels import los_point
 
 @numba.njit(**NJIT_PARALLEL)
 def los_cells_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n3, range_s, weight_s, time_e, U, add_mean,
@@ -36,18 +36,10 @@ def los_cells_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n3, range_s, weight_
         shift = U * time_e[it]
         acc = 0.0
         for js in range(ns):
-            r = range_s[js]
-            px = origin[0] + r * ex - shift
-            py = origin[1] + r * ey
-            pz = origin[2] + r * ez
-            i0, i1, j0, j1, k0, k1, tx, ty, tz = _locate(px, py, pz, grid, nx, ny, nz, wrap_y, wrap_z)
-            a = _interp3(u, i0, i1, j0, j1, k0, k1, tx, ty, tz)
-            b = _interp3(v, i0, i1, j0, j1, k0, k1, tx, ty, tz)
-            c = _interp3(w, i0, i1, j0, j1, k0, k1, tx, ty, tz)
-            if add_mean:
-                a += U
-            acc += weight_s[js] * (ex * a + ey * b + ez * c)
-            vlos_es[it, js] = ex * a + ey * b + ez * c
+            vl = los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, range_s[js], ex, ey, ez, shift, U,
+                           add_mean)
+            acc += weight_s[js] * vl
+            vlos_es[it, js] = vl
         vlos_e[it] = acc
 
 

@@ -93,16 +93,8 @@ def sample_points_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_tc, range_s, t
         ez = n_tc[it, 2]
         shift = U * time_t[it]
         for js in range(n_s):
-            r = range_s[js]
-            px = origin[0] + r * ex - shift
-            py = origin[1] + r * ey
-            pz = origin[2] + r * ez
-            i0, i1, j0, j1, k0, k1, tx, ty, tz = _locate(px, py, pz, grid, nx, ny, nz, wrap_y, wrap_z)
-            a = _interp3(u, i0, i1, j0, j1, k0, k1, tx, ty, tz)
-            b = _interp3(v, i0, i1, j0, j1, k0, k1, tx, ty, tz)
-            c = _interp3(w, i0, i1, j0, j1, k0, k1, tx, ty, tz)
-            if add_mean:
-                a += U
+            a, b, c = vel_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, range_s[js], ex, ey, ez, shift,
+                                U, add_mean)
             vel_tsc[it, js, 0] = a
             vel_tsc[it, js, 1] = b
             vel_tsc[it, js, 2] = c
@@ -110,8 +102,8 @@ def sample_points_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_tc, range_s, t
 
 
 @numba.njit(inline="always", **NJIT)
-def los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, r, ex, ey, ez, shift, U, add_mean):
-    """``n . vel`` at range ``r`` along the beam, the field shifted by ``shift`` = U t along x."""
+def vel_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, r, ex, ey, ez, shift, U, add_mean):
+    """(u, v, w) at range ``r`` along the beam, the field shifted by ``shift`` = U t along x."""
     px = origin[0] + r * ex - shift
     py = origin[1] + r * ey
     pz = origin[2] + r * ez
@@ -121,6 +113,13 @@ def los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, r, ex, ey, ez, 
     c = _interp3(w, i0, i1, j0, j1, k0, k1, tx, ty, tz)
     if add_mean:
         a += U
+    return a, b, c
+
+
+@numba.njit(inline="always", **NJIT)
+def los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, r, ex, ey, ez, shift, U, add_mean):
+    """``n . vel`` at range ``r`` along the beam (see :func:`vel_point`)."""
+    a, b, c = vel_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, r, ex, ey, ez, shift, U, add_mean)
     return ex * a + ey * b + ez * c
 
 

@@ -44,8 +44,6 @@ LIDAR_BLOCK = 5
 SONIC_DELAY = 1.0 / 64.0
 #: Background cycle of the prototype: a pause of this length [s] every period [s].
 PAUSE_LENGTH, PAUSE_EVERY = 600.0, 10800.0
-#: Longest period the 'signal' tier (50 MHz samples) may run [s].
-SIGNAL_TIER_MAX_DURATION = 60.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -270,9 +268,13 @@ def run_period(scene: Scene, index: int, params, *, status=None) -> dict:
     period = scene.periods[index]
     U = period.mean_speed
     T = scene.period_duration(period)
-    if scene.lidar.tier == "signal" and T > SIGNAL_TIER_MAX_DURATION:
-        raise ValueError(f"lidar.tier = 'signal' simulates every 50 MHz sample; period {period.name!r} lasts {T} s, "
-                         f"allowed: <= {SIGNAL_TIER_MAX_DURATION} s (use 'spectral' for campaigns)")
+    if scene.lidar.tier == "signal":
+        from ..sensors import SIGNAL_MAX_ESTIMATES
+
+        longest = SIGNAL_MAX_ESTIMATES / scene.lidar.build_instrument().estimate_rate
+        if T > longest:
+            raise ValueError(f"lidar.tier = 'signal' simulates every 50 MHz sample; period {period.name!r} lasts "
+                             f"{T} s, allowed: <= {longest:g} s (use 'spectral' for campaigns)")
     seeds = np.random.SeedSequence(scene.period_seed(index)).spawn(3)
     s_field, s_sonic, s_lidar = (int(s.generate_state(1, np.uint64)[0] >> np.uint64(1)) for s in seeds)
     t0 = time.perf_counter()

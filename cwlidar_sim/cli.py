@@ -41,23 +41,28 @@ def _add_box(sub):
 
 
 def _cmd_box(args) -> int:
+    import os
+
     from . import _config
+    from ._preflight import preflight
     from .turbulence import MannParameters, generate_box, write_hawc2, write_netcdf
     from .turbulence.stats import box_report, plot_box_spectra
 
     if args.threads is not None:
         _config.set_num_threads(args.threads)
     params = MannParameters(args.alpha_eps, args.length_scale, args.gamma)
+    # before generating: the box's folder is writable, NetCDF imports, the disk holds 3 components
+    itemsize = 4 if args.dtype == "float32" else 8
+    need = 3 * itemsize * args.shape[0] * args.shape[1] * args.shape[2]
+    preflight(os.path.dirname(os.path.abspath(args.out)), need, engine=args.format == "netcdf")
+    if args.plot:
+        preflight(os.path.dirname(os.path.abspath(args.plot)), 0.0, engine=False)
     box = generate_box(
         params, tuple(args.shape), tuple(args.spacing), args.seed,
         correction=args.correction, hf_compensation=args.hf_compensation,
         keep_mean=args.keep_mean, sigma_u=args.sigma_u, dtype=args.dtype,
         progress=not args.no_progress and args.shape[0] * args.shape[1] * args.shape[2] >= 1 << 22,
     )
-    import os
-
-    out_dir = os.path.dirname(os.path.abspath(args.out))
-    os.makedirs(out_dir, exist_ok=True)
     if args.format == "netcdf":
         write_netcdf(box, args.out)
     else:
@@ -65,7 +70,6 @@ def _cmd_box(args) -> int:
     if args.stats:
         print(json.dumps(box_report(box), indent=2))
     if args.plot:
-        os.makedirs(os.path.dirname(os.path.abspath(args.plot)), exist_ok=True)
         plot_box_spectra(box, args.plot)
     return 0
 
@@ -185,11 +189,19 @@ def _add_campaign(sub):
 
 
 def _client(address):
+    """A Dask client for ``address`` (checked first: an unreachable scheduler is a one-line error in seconds)."""
     if address is None:
         return None
     from dask.distributed import Client
 
-    return Client(address)
+    from ._preflight import PreflightError, check_scheduler
+
+    check_scheduler(address)
+    try:
+        return Client(address, timeout=10)
+    except (OSError, TimeoutError) as e:
+        raise PreflightError(f"dask scheduler {address} did not answer as a scheduler ({e}); "
+                             f"fix: check the address or run without --dask") from None
 
 
 def _run_and_report(scene, args, figures):
@@ -198,6 +210,7 @@ def _run_and_report(scene, args, figures):
     from . import _config
     from .campaign import run_scene
     from .campaign.figures import make_figures
+    from .campaign.store import estimate_bytes, preflight
 
     if args.threads is not None:
         _config.set_num_threads(args.threads)
@@ -205,10 +218,23 @@ def _run_and_report(scene, args, figures):
     def log(line):
         print(line, file=sys.stderr)
 
-    ds = run_scene(scene, args.out, client=_client(args.dask), progress=not args.no_progress, log=log)
+    # every check before the first period: folder, engine, disk, scheduler
+    preflight(args.out, estimate_bytes(scene), scheduler=args.dask)
+    client = _client(args.dask)
+    try:
+        ds = run_scene(scene, args.out, client=client, progress=not args.no_progress, log=log)
+    except KeyboardInterrupt:
+        print(f"cwlidar-sim {args.command}: interrupted; the finished periods are kept in "
+              f"{os.path.join(args.out, scene.name + '.periods')}; run the same command again to resume",
+              file=sys.stderr)
+        return 130
+    finally:
+        if client is not None:
+            client.close()
     summary = {
         "results": os.path.join(args.out, f"{scene.name}.nc"),
         "wall_time_s": round(ds.attrs["wall_time"], 2),
+        "periods_reused": json.loads(ds.attrs["periods_reused"]),
         "rayleigh_length_m": ds.attrs["rayleigh_length"],
         "availability": {str(p): round(float(a), 4) for p, a in zip(ds.period.values, ds.availability.values)},
     }
@@ -275,9 +301,14 @@ def main(argv=None) -> int:
     try:
         return int(args.func(args) or 0)
     except (ValueError, TypeError) as exc:
-        # Bad input: one clear line, not a traceback.
+        # Bad input, or a run that cannot write its results: one clear line, not a traceback.
         print(f"cwlidar-sim {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        # Writing failed mid-run (e.g. a full disk): what was finished is on disk.
+        print(f"cwlidar-sim {args.command}: error: {exc}; finished results are kept, run again to resume",
+              file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -6,8 +6,9 @@ See :mod:`cwlidar_sim.campaign.scene` for the scene file,
 """
 
 from .reproduce import bundled_scene
-from .runner import choose_field, plan_field, read_results, run_scene
+from .runner import choose_field, plan_field, run_scene
 from .scene import Scene, load_scene, loads_scene
+from .store import PreflightError, ResultsWriteError, read_results, write_results
 
 __all__ = ["Scene", "load_scene", "loads_scene", "run_scene", "read_results", "choose_field", "plan_field",
-           "bundled_scene"]
+           "bundled_scene", "PreflightError", "ResultsWriteError", "write_results"]

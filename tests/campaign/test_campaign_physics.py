@@ -13,7 +13,7 @@ import pytest
 
 from cwlidar_sim.analysis import segment_spectra, transfer_aligned
 from cwlidar_sim.campaign import loads_scene, run_scene
-from cwlidar_sim.campaign.runner import _cells
+from cwlidar_sim.campaign.staring import _cells
 
 PARAMS = """
 [turbulence]

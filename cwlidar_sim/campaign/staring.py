@@ -1,0 +1,372 @@
+"""The staring lidar against a sonic (A2012): one period's simulation and its results.
+
+Pipeline of one period
+----------------------
+1. Field: the cheapest one the sensors need (:func:`cwlidar_sim.campaign.runner.choose_field`):
+   a line along x when the beam is aligned with the wind and the sonic sits on
+   it, a horizontal plane when the beam is horizontal, a box otherwise.  Its
+   length covers ``U * duration`` plus the sensors' extent along x, so no
+   turbulence is seen twice.
+2. Sonic at 32 Hz (total wind, Taylor advection), projected on the beam as
+   the speed toward the lidar, resampled to 10 Hz by A2012 Eqs. 5-7.  Its
+   sampling starts 1/64 s after the lidar's so that both 10 Hz series are
+   centred on ``0.05 + 0.1 j`` s.
+3. Staring lidar at 50 Hz through the chosen tier, block-averaged by 5 to
+   10 Hz; estimates inside a background pause are NaN and flagged PAUSED.
+4. Spectra of 10-min segments averaged over the period and log-smoothed on a
+   common wavenumber grid (``k = 2 pi f / U``), both transfer functions
+   (A2012 Eqs. 8 and 11), the theory exp(-2 k zR) and the misaligned theory
+   of A2012 Eqs. 12-14 with the Mann parameters fitted to the sonic.
+5. :func:`period_dataset`: the period as a one-period xarray.Dataset.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+
+from .runner import RESULTS_VERSION, plan_field, generate_field
+from .scene import Scene
+
+__all__ = ["run_period", "period_dataset", "LIDAR_BLOCK", "SONIC_DELAY", "PAUSE_LENGTH", "PAUSE_EVERY"]
+
+#: The lidar's 50 Hz estimates are block-averaged by this to 10 Hz (A2012).
+LIDAR_BLOCK = 5
+#: Sonic sampling starts this late [s] so its 10 Hz centres match the lidar's.
+SONIC_DELAY = 1.0 / 64.0
+#: Background cycle of the prototype: a pause of this length [s] every period [s].
+PAUSE_LENGTH, PAUSE_EVERY = 600.0, 10800.0
+
+
+def _transverse_speed(scene, period, params):
+    if scene.lidar.transverse_speed is not None:
+        return scene.lidar.transverse_speed
+    from ..turbulence import covariances
+
+    c = covariances(params)
+    return math.sqrt(c.vv + c.ww + (period.mean_speed * math.sin(math.radians(period.misalignment_deg))) ** 2)
+
+
+def _lidar(scene, plan, params, period, extra=None):
+    from ..sensors import StaringLidar
+
+    spec = scene.lidar
+    inst = spec.build_instrument(extra)
+    az = 180.0 + period.misalignment_deg
+    return StaringLidar(
+        instrument=inst, position=tuple(float(x) for x in plan.lidar_position), azimuth_deg=az,
+        elevation_deg=spec.elevation_deg, tier=spec.tier, weighting=spec.weighting, span=spec.span,
+        cell_length=spec.cell_length or plan.spacing[0], cnr_db=spec.cnr_db,
+        transverse_speed=_transverse_speed(scene, period, params), speckle=spec.speckle,
+        exact_background=spec.exact_background,
+    )
+
+
+def run_period(scene: Scene, index: int, params, *, status=None):
+    """Simulate and analyse one period of a staring scene.
+
+    Parameters
+    ----------
+    scene : Scene
+    index : int
+        Period index.
+    params : MannParameters
+        Turbulence of the field.
+    status : callable, optional
+        Called with a short text at each stage (progress display).
+
+    Returns
+    -------
+    xarray.Dataset
+        The period's results with a ``period`` dimension of length 1 (see
+        :func:`period_dataset`); picklable, so periods can run on Dask workers.
+    """
+    from ..analysis import log_bins, transfer_functions
+    from ..sensors import Sonic, block_average, measure_staring, resample_a2012, sample_sonic
+    from ..signal.processing import Flag
+
+    say = status or (lambda s: None)
+    period = scene.periods[index]
+    U = period.mean_speed
+    T = scene.period_duration(period)
+    if scene.lidar.tier == "signal":
+        from ..sensors import SIGNAL_MAX_ESTIMATES
+
+        longest = SIGNAL_MAX_ESTIMATES / scene.lidar.build_instrument().estimate_rate
+        if T > longest:
+            raise ValueError(f"lidar.tier = 'signal' simulates every 50 MHz sample; period {period.name!r} lasts "
+                             f"{T} s, allowed: <= {longest:g} s (use 'spectral' for campaigns)")
+    seeds = np.random.SeedSequence(scene.period_seed(index)).spawn(3)
+    s_field, s_sonic, s_lidar = (int(s.generate_state(1, np.uint64)[0] >> np.uint64(1)) for s in seeds)
+    t0 = time.perf_counter()
+    plan = plan_field(scene, index, params)
+    say(f"{period.name}: {plan.kind} field {plan.shape}")
+    field = generate_field(plan, params, s_field)
+    t_field = time.perf_counter() - t0
+
+    # --- sonic: 32 Hz, 16-sample partitions -> 10 Hz ---------------------
+    n10 = int(math.floor(T / 0.5 + 1e-9)) * 5
+    n32 = n10 // 5 * 16
+    t32 = SONIC_DELAY + np.arange(n32) / 32.0
+    sonic = Sonic(position=tuple(float(x) for x in plan.sonic_position), rate=32.0, noise_std=scene.sonic.noise_std)
+    say(f"{period.name}: sonic")
+    vel_tc = sample_sonic(field, sonic, t32, U, seed=s_sonic, wrap=plan.wrap)
+    vs32 = -(vel_tc @ plan.direction)
+    vs10 = resample_a2012(vs32)
+    comp10_tc = resample_a2012(vel_tc)
+
+    # --- lidar: 50 Hz -> 10 Hz -------------------------------------------
+    n50 = n10 * LIDAR_BLOCK
+    t50 = (np.arange(n50) + 0.5) / 50.0
+    lidar = _lidar(scene, plan, params, period)
+    variants = [dict(v) for v in scene.lidar.variants]
+    say(f"{period.name}: lidar ({scene.lidar.tier})")
+    t1 = time.perf_counter()
+    rec = measure_staring(field, lidar, t50, U, s_lidar, variants=variants or None, wrap=plan.wrap)
+    t_lidar = time.perf_counter() - t1
+    del field
+    paused = np.zeros(n50, dtype=bool)
+    if scene.lidar.background_pause:
+        paused = np.mod(period.start + t50, PAUSE_EVERY) < PAUSE_LENGTH
+
+    def lidar_series(speed_e, flags_e):
+        speed = np.array(speed_e, dtype=np.float64)
+        flags = np.array(flags_e, dtype=np.uint8)
+        speed[paused] = np.nan
+        flags[paused] |= np.uint8(Flag.PAUSED)
+        mean10, nvalid10, flags10 = block_average(speed, LIDAR_BLOCK, flags)
+        return speed, flags, mean10, nvalid10, flags10
+
+    speed50, flags50, vr10, nvalid10, flags10 = lidar_series(rec.speed_e, rec.flags_e)
+    ideal50 = -np.asarray(rec.vlos_e, dtype=np.float64)
+    ideal10 = block_average(ideal50, LIDAR_BLOCK)[0]
+
+    # --- analysis ----------------------------------------------------------
+    say(f"{period.name}: analysis")
+    a = scene.analysis
+    k_edges = log_bins(a.k_min, a.k_max, a.per_decade)
+
+    def tf(vr):
+        try:
+            return transfer_functions(vr, vs10, fs=10.0, U=U, k_edges=k_edges, segment_duration=a.segment_duration,
+                                      window=a.window, detrend=a.detrend)
+        except ValueError as e:
+            if "no usable segment" not in str(e):
+                raise
+            return _empty_transfer(k_edges, U, n10, a.segment_duration)
+
+    main = tf(vr10)
+    ideal = tf(ideal10)
+    var_out = {}
+    for v in variants:
+        sp, fl = rec.variants[v["name"]]
+        _, fl50, v10, _, _ = lidar_series(sp, fl)
+        var_out[v["name"]] = {"tf": tf(v10), "lidar_10hz": v10, "flag_counts": _flag_counts(fl50),
+                              "availability": float(np.mean(np.isfinite(v10)))}
+    fit = None
+    if a.fit:
+        from ..analysis import component_spectra, fit_mann
+
+        say(f"{period.name}: fitting the tensor to the sonic")
+        kf = log_bins(a.k_min, min(a.k_max, math.pi * 10.0 / U), a.per_decade)
+        u10 = comp10_tc[:, 0]
+        ks, F11, F22, F33, F13, nk = component_spectra(u10, comp10_tc[:, 1], comp10_tc[:, 2], fs=10.0, U=U,
+                                                       k_edges=kf, segment_duration=a.segment_duration)
+        # n_k gives chi-square-based uncertainties (the residual-variance ones understate Gamma's 2.5-fold)
+        fit = fit_mann(ks, F11, F22, F33, F13, n_k=nk)
+    result = {
+        "index": index, "name": period.name, "U": U, "theta": period.misalignment_deg, "duration": T,
+        "plan": plan, "field_seed": s_field,
+        "sonic_velocity": vel_tc.astype(np.float32), "sonic_10hz": vs10, "sonic_components_10hz": comp10_tc,
+        "lidar_speed": speed50.astype(np.float32), "lidar_flags": flags50, "lidar_ideal": ideal50.astype(np.float32),
+        "lidar_10hz": vr10, "lidar_10hz_valid": nvalid10, "lidar_10hz_flags": flags10, "ideal_10hz": ideal10,
+        "tf": main, "tf_ideal": ideal, "variants": var_out, "fit": fit,
+        "flag_counts": _flag_counts(flags50), "availability": float(np.mean(np.isfinite(speed50))),
+        "availability_10hz": float(np.mean(np.isfinite(vr10))),
+        "lidar_info": dict(rec.info), "timing": {"field": t_field, "lidar": t_lidar,
+                                                  "total": time.perf_counter() - t0},
+    }
+    return period_dataset(scene, params, result)
+
+
+def _empty_transfer(k_edges, U, n10, segment_duration):
+    """All-NaN transfer functions of a period with no usable segment (every one gapped)."""
+    from ..analysis import TransferEstimate
+
+    nk = len(k_edges) - 1
+    nan = np.full(nk, np.nan)
+    e = np.asarray(k_edges)
+    return TransferEstimate(k_k=np.sqrt(e[:-1] * e[1:]), k_edges=e, F_r_k=nan, F_s_k=nan, chi_k=nan + 0j, T1_k=nan,
+                            T2_k=nan, coherence_k=nan, n_k=np.zeros(nk), sigma_T1_k=nan, sigma_T2_k=nan,
+                            n_segments=0, n_rejected=int(n10 // round(segment_duration * 10.0)), n_interpolated=0,
+                            U=U)
+
+
+def _flag_counts(flags):
+    from ..signal.processing import Flag
+
+    return {f.name: int(np.count_nonzero(flags & np.uint8(f.value))) for f in Flag}
+
+
+def period_dataset(scene: Scene, params, r: dict):
+    """One period's results as an xarray.Dataset (see the variables' ``long_name`` and ``units``).
+
+    Dimensions: ``period`` (length 1); ``k`` (wavenumber bin centres
+    [rad/m]); ``variant`` (extra processings); ``time_32hz``, ``time_50hz``,
+    ``time_10hz`` (sample times within the period [s]); ``component`` (u, v,
+    w); ``flag`` (quality flags).  :func:`cwlidar_sim.campaign.store.combine_periods`
+    joins the periods of a scene along ``period``.
+    """
+    import xarray as xr
+
+    from ..analysis import misaligned_spectra, transfer_aligned
+    from ..signal.processing import Flag
+
+    inst = scene.lidar.build_instrument()
+    zR = inst.rayleigh_length
+    tf, tf_ideal = r["tf"], r["tf_ideal"]
+    k = np.asarray(tf.k_k)
+    vnames = [v["name"] for v in scene.lidar.variants]
+    flags = [f.name for f in Flag]
+    n32, n50, n10 = r["sonic_velocity"].shape[0], r["lidar_speed"].shape[0], r["sonic_10hz"].shape[0]
+    coords = {
+        "period": ("period", np.array([r["name"]], dtype=object)),
+        "k": ("k", k, {"units": "rad m-1", "long_name": "wavenumber k1 = 2 pi f / U (log-bin centre)"}),
+        "k_lower": ("k", np.asarray(tf.k_edges)[:-1], {"units": "rad m-1"}),
+        "k_upper": ("k", np.asarray(tf.k_edges)[1:], {"units": "rad m-1"}),
+        "variant": ("variant", np.array(vnames, dtype=object)),
+        "component": ("component", np.array(["u", "v", "w"], dtype=object)),
+        "flag": ("flag", np.array(flags, dtype=object)),
+        "time_32hz": ("time_32hz", SONIC_DELAY + np.arange(n32) / 32.0, {"units": "s"}),
+        "time_50hz": ("time_50hz", (np.arange(n50) + 0.5) / 50.0, {"units": "s"}),
+        "time_10hz": ("time_10hz", 0.05 + 0.1 * np.arange(n10), {"units": "s"}),
+    }
+    spec_units = "m2 s-2 (rad m-1)-1"
+
+    def pk(x, dtype=np.float64):
+        """One period's array with the leading ``period`` axis."""
+        return np.asarray(x, dtype=dtype)[None]
+
+    # theory with the period's fitted (else the scene's) parameters
+    p = r["fit"].params if r["fit"] is not None and r["fit"].success else params
+    F_vs, F_vr, chi = misaligned_spectra(k, p, r["theta"], zR)
+    PK = ("period", "k")
+    dv = {
+        "transfer_ratio": (PK, pk(tf.T1_k), {"units": "1", "long_name": "method 1: F_vr / F_vs (A2012 Eq. 8)"}),
+        "transfer_cross": (PK, pk(tf.T2_k),
+                           {"units": "1", "long_name": "method 2: Re(chi_vr_vs)^2 / F_vs^2 (A2012 Eq. 11)"}),
+        "transfer_ratio_sigma": (PK, pk(tf.sigma_T1_k),
+                                 {"units": "1", "long_name": "1-sigma sampling uncertainty of transfer_ratio"}),
+        "transfer_cross_sigma": (PK, pk(tf.sigma_T2_k),
+                                 {"units": "1", "long_name": "1-sigma sampling uncertainty of transfer_cross"}),
+        "transfer_ratio_ideal": (PK, pk(tf_ideal.T1_k),
+                                 {"units": "1", "long_name": "method 1 with the noise-free tier-1 line-of-sight average"}),
+        "transfer_cross_ideal": (PK, pk(tf_ideal.T2_k),
+                                 {"units": "1", "long_name": "method 2 with the noise-free tier-1 line-of-sight average"}),
+        "transfer_theory": (("k",), transfer_aligned(k, zR),
+                            {"units": "1", "long_name": "exp(-2 k zR) (A2012 Eq. 9), beam along the wind"}),
+        "transfer_theory_cells": (("k",), np.abs(_cells(scene).transfer(k)) ** 2,
+                                  {"units": "1", "long_name": "|phi_hat(k)|^2 of the simulated probe volume (the "
+                                   "lidar's range cells and weights: exact or Lorentzian weighting, clipped at "
+                                   "the telescope and the span), beam along the wind"}),
+        "transfer_theory_ratio": (PK, pk(F_vr / F_vs),
+                                  {"units": "1", "long_name": "F_vr / F_vs at the period's misalignment (A2012 Eqs. 12-13)"}),
+        "transfer_theory_cross": (PK, pk(chi**2 / F_vs**2),
+                                  {"units": "1", "long_name": "chi^2 / F_vs^2 at the period's misalignment (A2012 Eqs. 12, 14)"}),
+        "spectrum_sonic": (PK, pk(tf.F_s_k),
+                           {"units": spec_units, "long_name": "one-sided wavenumber spectrum of the sonic's radial speed"}),
+        "spectrum_lidar": (PK, pk(tf.F_r_k),
+                           {"units": spec_units, "long_name": "one-sided wavenumber spectrum of the lidar's speed"}),
+        "cross_spectrum_real": (PK, pk(np.real(tf.chi_k)),
+                                {"units": spec_units, "long_name": "Re of the lidar x sonic cross-spectrum"}),
+        "cross_spectrum_imag": (PK, pk(np.imag(tf.chi_k)),
+                                {"units": spec_units, "long_name": "Im of the lidar x sonic cross-spectrum"}),
+        "n_segments": (("period",), pk(tf.n_segments, np.int64),
+                       {"units": "1", "long_name": "10-min segments used in the lidar-sonic spectra"}),
+        "n_segments_rejected": (("period",), pk(tf.n_rejected, np.int64),
+                                {"units": "1", "long_name": "segments dropped for gaps (e.g. background pause)"}),
+        "n_k": (PK, pk(tf.n_k), {"units": "1", "long_name": "raw periodogram values averaged into each bin"}),
+        "mean_speed": (("period",), pk(r["U"]), {"units": "m s-1"}),
+        "misalignment": (("period",), pk(r["theta"]),
+                         {"units": "degree", "long_name": "mean wind direction minus beam direction"}),
+        "duration": (("period",), pk(r["duration"]), {"units": "s"}),
+        "field_kind": (("period",), np.array([r["plan"].kind], dtype=object)),
+        "field_shape": (("period",), np.array(["x".join(map(str, r["plan"].shape))], dtype=object)),
+        "field_seed": (("period",), pk(r["field_seed"], np.int64)),
+        "availability": (("period",), pk(r["availability"]),
+                         {"units": "1", "long_name": "fraction of valid 50 Hz lidar estimates"}),
+        "availability_10hz": (("period",), pk(r["availability_10hz"]), {"units": "1"}),
+        "flag_count": (("period", "flag"), pk([r["flag_counts"][f] for f in flags], np.int64),
+                       {"units": "1", "long_name": "50 Hz estimates carrying each quality flag"}),
+        "correlation_time": (("period",), pk(r["lidar_info"].get("correlation_time", np.nan)),
+                             {"units": "s", "long_name": "speckle correlation time"}),
+        "sonic_velocity": (("period", "time_32hz", "component"), pk(r["sonic_velocity"], np.float32),
+                           {"units": "m s-1", "long_name": "sonic wind (U + u, v, w) at 32 Hz"}),
+        "sonic_10hz": (("period", "time_10hz"), pk(r["sonic_10hz"]),
+                       {"units": "m s-1", "long_name": "sonic speed toward the lidar, A2012 Eqs. 5-7 to 10 Hz"}),
+        "lidar_speed": (("period", "time_50hz"), pk(r["lidar_speed"], np.float32),
+                        {"units": "m s-1", "long_name": "lidar speed estimate at 50 Hz (NaN: failed, see lidar_flags)"}),
+        "lidar_flags": (("period", "time_50hz"), pk(r["lidar_flags"], np.uint8),
+                        {"long_name": "quality flags (bit field)", "flag_masks": [int(f.value) for f in Flag],
+                         "flag_meanings": " ".join(flags)}),
+        "lidar_ideal": (("period", "time_50hz"), pk(r["lidar_ideal"], np.float32),
+                        {"units": "m s-1", "long_name": "tier-1 weighted line-of-sight speed toward the lidar (A2012 Eq. 2)"}),
+        "lidar_10hz": (("period", "time_10hz"), pk(r["lidar_10hz"]),
+                       {"units": "m s-1", "long_name": "lidar speed, 50 Hz block-averaged by 5 over valid estimates"}),
+        "lidar_10hz_valid": (("period", "time_10hz"), pk(r["lidar_10hz_valid"], np.int16),
+                             {"units": "1", "long_name": "valid 50 Hz estimates in each 10 Hz block"}),
+    }
+    if vnames:
+        var = [r["variants"][n] for n in vnames]
+        VPK = ("variant", "period", "k")
+        dv["transfer_ratio_variant"] = (VPK, np.stack([pk(v["tf"].T1_k) for v in var]),
+                                        {"units": "1", "long_name": "method 1 for each processing variant"})
+        dv["transfer_cross_variant"] = (VPK, np.stack([pk(v["tf"].T2_k) for v in var]),
+                                        {"units": "1", "long_name": "method 2 for each processing variant"})
+        dv["availability_variant"] = (("variant", "period"), np.array([[v["availability"]] for v in var]),
+                                      {"units": "1", "long_name": "fraction of valid 10 Hz lidar samples"})
+        dv["lidar_10hz_variant"] = (("variant", "period", "time_10hz"), np.stack([pk(v["lidar_10hz"]) for v in var]),
+                                    {"units": "m s-1"})
+    if scene.analysis.fit:
+        f = r["fit"]
+        for name, units in (("alpha_eps", "m4/3 s-2"), ("length_scale", "m"), ("gamma", "1")):
+            dv[f"fit_{name}"] = (("period",), pk(getattr(f.params, name) if f else np.nan),
+                                 {"units": units, "long_name": f"Mann {name} fitted to the sonic spectra"})
+            dv[f"fit_{name}_std"] = (("period",), pk(f.std[name] if f else np.nan),
+                                     {"units": units, "long_name": f"1-sigma uncertainty of fit_{name}"})
+    from .. import __version__
+
+    attrs = {
+        "title": f"cwlidar_sim campaign {scene.name}",
+        "results_version": RESULTS_VERSION,
+        "sensor": "staring",
+        "rayleigh_length": float(zR),
+        "rayleigh_length_units": "m",
+        "focus": float(inst.focus),
+        "lidar_tier": scene.lidar.tier,
+        "lidar_estimator": inst.estimator,
+        "cnr_db": float(scene.lidar.cnr_db),
+        "alpha_eps": params.alpha_eps, "length_scale": params.length_scale, "gamma": params.gamma,
+        "scene": json.dumps(scene.as_dict()),
+        "variants": json.dumps([dict(v) for v in scene.lidar.variants]),
+        "spectrum_convention": "one-sided in k1 = 2 pi f / U: variance = integral of F dk over 0..inf",
+        "cwlidar_sim_version": __version__,
+        # one period's own (combine_periods gathers them into maps by period name)
+        "period_index": int(r["index"]),
+        "field_reason": r["plan"].reason,
+        "timing": json.dumps(r["timing"]),
+    }
+    return xr.Dataset(data_vars=dv, coords=coords, attrs=attrs)
+
+
+def _cells(scene):
+    from ..sensors import StaringLidar
+
+    spec = scene.lidar
+    return StaringLidar(instrument=spec.build_instrument(), weighting=spec.weighting, span=spec.span,
+                        cell_length=spec.cell_length or scene.field.dx).cells()
+
+

@@ -1,0 +1,182 @@
+"""Results on disk: checks before a run, one file per finished period, resuming, the scene's file.
+
+A run writes each period's results as soon as the period finishes, to
+``DIR/<scene>.periods/<index>_<period>.nc`` (a complete one-period results
+file), atomically: a temporary file in the same folder, then a rename, so a
+file that exists is whole.  The scene's file ``DIR/<scene>.nc`` is then
+assembled from the period files alone, whether they were computed by this
+run or by an earlier one that was interrupted: a resumed run gives the same
+bits as an uninterrupted one.
+
+A stored period is reused only when its ``scene_key`` (a hash of the scene,
+the turbulence parameters, the period's index, the package version and the
+results version) matches; anything else about the scene changed, and the
+period is computed again.
+
+Before the first period starts, :func:`preflight` checks what would make the
+end of a long run fail: the folder is writable, the NetCDF engine imports,
+the disk holds the estimated size, and a Dask scheduler answers.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+
+from .._preflight import PreflightError, ResultsWriteError, check_scheduler, preflight
+
+__all__ = ["PreflightError", "ResultsWriteError", "preflight", "check_scheduler", "scene_key",
+           "estimate_bytes", "PeriodStore", "combine_periods", "write_results", "read_results"]
+
+#: The one NetCDF engine the package writes and reads with.
+ENGINE = "h5netcdf"
+
+
+def estimate_bytes(scene) -> float:
+    """Rough size of a staring scene's results [bytes]: the raw series dominate.
+
+    Per second of period: sonic 32 Hz x 3 float32, lidar 50 Hz x (float32
+    speed + uint8 flags + float32 ideal), 10 Hz series in float64 (sonic,
+    three components, lidar, ideal, valid counts, one per processing variant).
+    """
+    per_s = 32 * 3 * 4 + 50 * (4 + 1 + 4) + 10 * (8 * (6 + len(scene.lidar.variants)) + 2)
+    return sum(per_s * scene.period_duration(p) for p in scene.periods) + 1e6
+
+
+def scene_key(scene, params, index: int) -> str:
+    """Identity of period ``index`` of ``scene`` with turbulence ``params`` (hex digest)."""
+    from .. import __version__
+    from .runner import RESULTS_VERSION
+
+    blob = json.dumps({"scene": scene.as_dict(), "params": [params.alpha_eps, params.length_scale, params.gamma],
+                       "index": int(index), "version": __version__, "results_version": RESULTS_VERSION},
+                      sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+def _atomic_write(ds, path) -> None:
+    """Write ``ds`` to ``path`` via a temporary file in the same folder and a rename."""
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".nc")
+    os.close(fd)
+    try:
+        ds.to_netcdf(tmp, engine=ENGINE)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; the result gets the usual permissions
+        os.replace(tmp, path)
+    except BaseException as e:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if isinstance(e, OSError):
+            raise ResultsWriteError(e.errno, f"cannot write {path!r}: {e.strerror or e}") from None
+        raise
+
+
+def _for_netcdf(ds):
+    """A copy with object (string) arrays as fixed str, which NetCDF stores as strings."""
+    ds = ds.copy()
+    for name, var in ds.variables.items():
+        if var.dtype == object:
+            ds[name] = var.astype(str)
+    return ds
+
+
+def write_results(ds, path) -> None:
+    """Write a results Dataset to NetCDF (h5netcdf) atomically; object arrays are stored as strings."""
+    _atomic_write(_for_netcdf(ds), path)
+
+
+def read_results(path):
+    """Read a results file written by :func:`cwlidar_sim.campaign.run_scene` (loaded into memory)."""
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path, engine=ENGINE) as ds:
+            return ds.load()
+    except (OSError, ValueError) as e:
+        raise ValueError(f"cannot read results file {os.fspath(path)!r}: {e}") from None
+
+
+class PeriodStore:
+    """The per-period files of one scene in ``DIR/<scene>.periods/``.
+
+    Parameters
+    ----------
+    out_dir : str or path
+        The run's output folder.
+    scene : Scene
+    params : MannParameters
+        Turbulence of the scene's fields (part of each period's identity).
+    """
+
+    def __init__(self, out_dir, scene, params):
+        self.folder = os.path.join(os.fspath(out_dir), f"{scene.name}.periods")
+        self.scene = scene
+        self.keys = [scene_key(scene, params, i) for i in range(len(scene.periods))]
+
+    def path(self, index: int) -> str:
+        """File of period ``index``."""
+        return os.path.join(self.folder, f"{index:03d}_{self.scene.periods[index].name}.nc")
+
+    def load(self, index: int):
+        """The stored Dataset of period ``index`` if it is whole and of this scene, else None."""
+        p = self.path(index)
+        if not os.path.isfile(p):
+            return None
+        try:
+            ds = read_results(p)
+        except ValueError:
+            return None
+        return ds if ds.attrs.get("scene_key") == self.keys[index] else None
+
+    def save(self, index: int, ds):
+        """Write period ``index`` atomically and return it as read back (the bits the scene's file gets)."""
+        os.makedirs(self.folder, exist_ok=True)
+        ds = ds.assign_attrs(scene_key=self.keys[index])
+        write_results(ds, self.path(index))
+        return read_results(self.path(index))
+
+
+#: Attributes that belong to one period; :func:`combine_periods` gathers them into JSON maps.
+PERIOD_ATTRS = ("period_index", "scene_key", "field_reason", "timing")
+
+
+def combine_periods(datasets, *, fill=None):
+    """One Dataset from one-period Datasets, concatenated along ``period`` in index order.
+
+    Variables without a ``period`` dimension (theory on ``k``) are taken from
+    the first; series of shorter periods are padded (floats with NaN,
+    integers with 0, or ``fill[name]``).  Per-period attributes become JSON
+    maps keyed by period name (``field_reasons``, ``timing``).
+    """
+    import numpy as np
+    import xarray as xr
+
+    # fixed-width strings read back from files would be cut to the first period's width
+    datasets = [d.copy() for d in sorted(datasets, key=lambda d: int(d.attrs["period_index"]))]
+    for d in datasets:
+        for name, var in d.variables.items():
+            if var.dtype.kind in "US":
+                d[name] = var.astype(object)
+    fill = dict(fill or {})
+    for name, var in datasets[0].data_vars.items():
+        if "period" in var.dims and name not in fill and var.dtype != object:
+            fill[name] = 0 if np.issubdtype(var.dtype, np.integer) else np.nan
+    out = xr.concat(datasets, dim="period", data_vars="minimal", coords="minimal", compat="override",
+                    join="outer", fill_value=fill, combine_attrs="override")
+    # concat's outer join may promote padded integers to float; restore the first period's types
+    for name, var in datasets[0].data_vars.items():
+        if var.dtype.kind in "iub" and out[name].dtype != var.dtype:
+            out[name] = out[name].astype(var.dtype, keep_attrs=True)
+    attrs = {k: v for k, v in datasets[0].attrs.items() if k not in PERIOD_ATTRS}
+    names = [str(d.period.values[0]) for d in datasets]
+    attrs["field_reasons"] = json.dumps({n: d.attrs.get("field_reason", "") for n, d in zip(names, datasets)})
+    attrs["timing"] = json.dumps({n: json.loads(d.attrs.get("timing", "{}")) for n, d in zip(names, datasets)})
+    out.attrs = attrs
+    return out

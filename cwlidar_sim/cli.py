@@ -277,6 +277,91 @@ def _cmd_reproduce(args) -> int:
     return _run_and_report(bundled_scene(args.paper, quick=args.quick), args, True)
 
 
+def _add_sweep(sub):
+    p = sub.add_parser("campaign", help="run a campaign: a scene swept over its fields (TOML), on Dask",
+                       description="Expand a campaign file into tasks (sweep points x replicas) and run them on a "
+                                   "local Dask cluster sized to the machine, or on --scheduler. Each finished task is "
+                                   "written at once; re-running resumes (done tasks skipped, failed ones retried).")
+    p.add_argument("campaign", help="campaign file (TOML)")
+    p.add_argument("--out", default=None, metavar="DIR", help="campaign folder (required unless --dry-run)")
+    p.add_argument("--dry-run", action="store_true", help="list the tasks with estimated time and memory; run nothing")
+    p.add_argument("--workers", type=int, default=None, help="local cluster workers (default: sized to the machine)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:8786)")
+    p.add_argument("--local", action="store_true", help="run the tasks in this process, one after the other")
+    p.add_argument("--memory-limit", type=float, default=None, metavar="GB", help="memory per worker [GB]")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--json", action="store_true", help="--dry-run: print the tasks as JSON")
+    p.set_defaults(func=_cmd_campaign)
+
+    p = sub.add_parser("campaign-report", help="merge a campaign's task results and draw the sweep figures",
+                       description="Merge DIR/tasks/*.nc into DIR/campaign.nc (sweep dimensions as coordinates) and "
+                                   "write DIR/figures/sweep_*.png.")
+    p.add_argument("dir", metavar="DIR")
+    p.add_argument("--keep-series", action="store_true", help="keep the raw time series in campaign.nc")
+    p.set_defaults(func=_cmd_campaign_report)
+
+
+def _cmd_campaign(args) -> int:
+    import os
+
+    from ._preflight import PreflightError, check_scheduler
+    from .campaign.batch import dry_run, plan_cluster, run_campaign
+    from .campaign.sweep import load_campaign
+
+    spec = load_campaign(args.campaign)
+    if args.memory_limit is not None and not args.memory_limit > 0:
+        raise ValueError(f"--memory-limit {args.memory_limit} GB must be > 0")
+    if args.dry_run:
+        rows = dry_run(spec)
+        plan = plan_cluster(len(rows), max(r["est_memory_gb"] for r in rows) * 1e9, args.workers)
+        total = sum(r["est_seconds"] for r in rows)
+        if args.json:
+            print(json.dumps({"tasks": rows, "cluster": plan, "est_seconds_total": total}, indent=2))
+            return 0
+        print(f"{'task_id':16}  {'est s':>7}  {'mem GB':>6}  label")
+        for r in rows:
+            print(f"{r['task_id']:16}  {r['est_seconds']:7.1f}  {r['est_memory_gb']:6.2f}  {r['label']}")
+        print(f"{len(rows)} tasks, {total:.0f} s of work on one core; local cluster {plan['workers']} workers x "
+              f"{plan['threads']} threads ({plan['why']}): about {total / plan['workers']:.0f} s")
+        return 0
+    if args.out is None:
+        raise ValueError("--out DIR is required (or --dry-run)")
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+
+    def log(line):
+        print(line, file=sys.stderr)
+
+    try:
+        summary = run_campaign(spec, args.out, workers=args.workers, scheduler=args.scheduler, local=args.local,
+                               memory_limit=None if args.memory_limit is None else args.memory_limit * 1e9,
+                               progress=not args.no_progress, log=log)
+    except KeyboardInterrupt:
+        print(f"cwlidar-sim campaign: interrupted; finished tasks are kept in {os.path.join(args.out, 'tasks')}; "
+              f"run the same command again to resume", file=sys.stderr)
+        return 130
+    except OSError as e:
+        if "connect" in str(e).lower() or isinstance(e, TimeoutError):
+            raise PreflightError(f"dask scheduler {args.scheduler} did not answer ({e}); fix: check the address") from None
+        raise
+    print(json.dumps(summary, indent=2))
+    return 1 if summary["failed"] else 0
+
+
+def _cmd_campaign_report(args) -> int:
+    import os
+
+    from .campaign.batch import merge_campaign, sweep_figures
+    from .campaign.store import write_results
+
+    merged = merge_campaign(args.dir, keep_series=args.keep_series)
+    path = os.path.join(args.dir, "campaign.nc")
+    write_results(merged, path)
+    figs = sweep_figures(merged, os.path.join(args.dir, "figures"))
+    print(json.dumps({"merged": path, "dims": dict(merged.sizes), "figures": figs}, indent=2))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="cwlidar-sim",
@@ -289,6 +374,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_box(sub)
     _add_doppler(sub)
     _add_campaign(sub)
+    _add_sweep(sub)
     return parser
 
 

@@ -1,0 +1,434 @@
+"""Run a campaign's tasks on a Dask cluster, keep each as it finishes, resume, merge.
+
+Layout of a campaign folder ``DIR``:
+
+* ``campaign.json``: the campaign file's content and its tasks (id, values,
+  replica, seed);
+* ``index.json``: per task, ``done`` or ``failed`` (with the error), its wall
+  time and the digest of its scene; rewritten atomically after every task;
+* ``tasks/<task_id>.nc``: each finished task's results (a scene results file,
+  as :func:`cwlidar_sim.campaign.run_scene` writes), written atomically by the
+  driver, so workers need no shared file system;
+* ``campaign.nc`` and ``figures/``: written by :func:`merge_campaign`.
+
+Re-running the same command skips the tasks whose result is on disk for the
+same scene, retries the failed ones and computes the rest.  A task that
+raises is recorded and the campaign goes on.  A task whose memory estimate
+(:func:`cwlidar_sim.campaign.sweep.estimate_task`) exceeds a worker's memory
+is refused before it starts.
+
+Threads: each worker runs one task at a time with ``threads`` numba/FFTW
+threads, and ``workers x threads`` never exceeds the cores (results are
+bit-identical for any split, so this only changes speed).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+
+from .._preflight import preflight
+from .sweep import CampaignSpec, _digest, estimate_task, expand
+
+__all__ = ["run_campaign", "merge_campaign", "plan_cluster", "dry_run", "CampaignIndex"]
+
+
+def _cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def _total_memory() -> float:
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 8e9
+
+
+def plan_cluster(n_tasks: int, task_memory: float, workers=None, *, cores=None, memory=None) -> dict:
+    """Workers x threads for a local cluster: every core busy, none oversubscribed, memory respected.
+
+    Parameters
+    ----------
+    n_tasks : int
+        Tasks to run (more workers than tasks would idle).
+    task_memory : float
+        Largest task's memory estimate [bytes].
+    workers : int, optional
+        Requested workers; default ``min(cores, n_tasks)`` capped by memory.
+    cores, memory : optional
+        The machine's cores and memory [bytes] (default: this machine's).
+
+    Returns
+    -------
+    dict
+        ``workers``, ``threads`` (per worker), ``memory_limit`` (per worker
+        [bytes]) and ``why``.
+    """
+    cores = cores or _cores()
+    memory = memory or _total_memory()
+    if workers is not None:
+        if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= 4 * cores:
+            raise ValueError(f"--workers {workers!r} is out of range; allowed: 1..{4 * cores} ({cores} cores)")
+        w, why = workers, f"{workers} workers as asked"
+    else:
+        by_mem = max(1, int(0.8 * memory // max(task_memory, 1.0)))
+        w = max(1, min(cores, max(n_tasks, 1), by_mem))
+        why = (f"min({cores} cores, {n_tasks} tasks, {by_mem} tasks of "
+               f"{task_memory / 1e9:.2f} GB in 80 % of {memory / 1e9:.1f} GB)")
+    return {"workers": w, "threads": max(1, cores // w), "memory_limit": 0.8 * memory / w, "why": why}
+
+
+def dry_run(spec: CampaignSpec) -> list[dict]:
+    """One row per task: id, label, estimated seconds (one worker's share of cores) and memory."""
+    rows = []
+    for t in expand(spec):
+        est = estimate_task(t.scene)
+        rows.append({"task_id": t.task_id, "label": t.label(), "values": t.values, "replica": t.replica,
+                     "seed": t.seed, "periods": len(t.scene.periods),
+                     "sim_hours": sum(t.scene.period_duration(p) for p in t.scene.periods) / 3600.0,
+                     "est_seconds": round(est["seconds"], 1), "est_memory_gb": round(est["memory_bytes"] / 1e9, 3)})
+    return rows
+
+
+def _write_json(path, obj) -> None:
+    """Write JSON atomically (key order kept: a sweep table's first key names its dimension)."""
+    tmp = f"{path}.tmp-{os.getpid()}"
+    with open(tmp, "w", encoding="utf-8") as fh:
+        json.dump(obj, fh, indent=1, default=str)
+    os.replace(tmp, path)
+
+
+class CampaignIndex:
+    """``DIR/index.json``: the state of every task, rewritten atomically on each change."""
+
+    def __init__(self, out_dir):
+        self.path = os.path.join(os.fspath(out_dir), "index.json")
+        self.entries = {}
+        if os.path.isfile(self.path):
+            try:
+                with open(self.path, encoding="utf-8") as fh:
+                    self.entries = json.load(fh).get("tasks", {})
+            except (OSError, ValueError):
+                self.entries = {}
+
+    def record(self, task, status, **info) -> None:
+        self.entries[task.task_id] = {"status": status, "values": task.values, "replica": task.replica,
+                                      "seed": task.seed, "scene_digest": _digest(task.scene.as_dict()), **info}
+        _write_json(self.path, {"tasks": self.entries})
+
+    def is_done(self, task, result_path) -> bool:
+        e = self.entries.get(task.task_id)
+        return (e is not None and e.get("status") == "done" and e.get("scene_digest") == _digest(task.scene.as_dict())
+                and os.path.isfile(result_path))
+
+
+def _run_task(scene, threads):
+    """Worker side: one task's scene, all periods, in memory (the driver writes it)."""
+    from .. import _config
+    from .runner import run_scene
+
+    _config.set_num_threads(int(threads))
+    return run_scene(scene, None, progress=False)
+
+
+def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, client=None, local=False,
+                 memory_limit=None, progress=True, log=None, on_task=None) -> dict:
+    """Run (or resume) every task of a campaign.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    out_dir : str or path
+        Campaign folder (created).
+    workers : int, optional
+        Workers of the local Dask cluster (default: :func:`plan_cluster`).
+    scheduler : str, optional
+        Address of an existing Dask scheduler to send the tasks to instead.
+    client : dask.distributed.Client, optional
+        An existing client (takes precedence over ``scheduler``).
+    local : bool
+        Run the tasks here, one after the other, without Dask.
+    memory_limit : float, optional
+        Memory per worker [bytes] (default: the cluster's, or 80 % of the
+        machine's share); tasks estimated above it are refused.
+    progress : bool
+        Progress bar: tasks done / total, throughput, ETA.
+    log : callable, optional
+        Receives one line per event.
+    on_task : callable, optional
+        Called as ``on_task(task, status)`` after each task is recorded (a
+        hook; an exception it raises stops the campaign, what is recorded stays).
+
+    Returns
+    -------
+    dict
+        Summary: tasks, done, reused, failed (id, label, error), wall time,
+        simulated hours and throughput.
+    """
+    if not isinstance(spec, CampaignSpec):
+        raise TypeError(f"spec must be a CampaignSpec, got {type(spec).__name__}")
+    say = log or (lambda s: None)
+    t0 = time.perf_counter()
+    tasks = expand(spec)
+    out_dir = os.fspath(out_dir)
+    from .store import estimate_bytes, write_results
+
+    preflight(out_dir, sum(estimate_bytes(t.scene) for t in tasks),
+              scheduler=scheduler if client is None else None)
+    task_dir = os.path.join(out_dir, "tasks")
+    os.makedirs(task_dir, exist_ok=True)
+    _write_json(os.path.join(out_dir, "campaign.json"),
+                {"campaign": spec.as_dict(), "tasks": [{"task_id": t.task_id, "values": t.values,
+                                                        "replica": t.replica, "seed": t.seed} for t in tasks]})
+    index = CampaignIndex(out_dir)
+    path = {t.task_id: os.path.join(task_dir, f"{t.task_id}.nc") for t in tasks}
+    reused = [t for t in tasks if index.is_done(t, path[t.task_id])]
+    todo = [t for t in tasks if t not in reused]
+    if reused:
+        say(f"{len(reused)} of {len(tasks)} tasks already done in {task_dir}; reused")
+    est = {t.task_id: estimate_task(t.scene) for t in todo}
+    failed = []
+    finished = []
+
+    def record(task, status, **info):
+        index.record(task, status, **info)
+        if status == "failed":
+            failed.append({"task_id": task.task_id, "label": task.label(), "error": info.get("error", "")})
+        if on_task is not None:
+            on_task(task, status)
+
+    cluster = plan = None
+    own_client = False
+    if todo and not local and client is None:
+        from dask.distributed import Client, LocalCluster
+
+        if scheduler is not None:
+            client = Client(scheduler, timeout=10)
+        else:
+            plan = plan_cluster(len(todo), max(e["memory_bytes"] for e in est.values()), workers)
+            say(f"local Dask cluster: {plan['workers']} workers x {plan['threads']} threads ({plan['why']})")
+            cluster = LocalCluster(n_workers=plan["workers"], threads_per_worker=1, processes=True,
+                                   memory_limit=memory_limit or plan["memory_limit"], dashboard_address=None)
+            client = Client(cluster)
+        own_client = True
+    if client is not None and todo:
+        info = client.scheduler_info().get("workers", {})
+        limits = [w.get("memory_limit") or math.inf for w in info.values()] or [math.inf]
+        limit = memory_limit or min(limits)
+        # a local cluster's workers share this machine's cores; a remote worker may run several tasks at once
+        threads = plan["threads"] if cluster is not None else 1
+    else:
+        limit = memory_limit or 0.8 * _total_memory()
+        threads = _cores()
+    runnable = []
+    for t in todo:
+        need = est[t.task_id]["memory_bytes"]
+        if need > limit:
+            record(t, "failed", error=f"refused before starting: estimated {need / 1e9:.2f} GB, "
+                                      f"a worker has {limit / 1e9:.2f} GB")
+            say(f"task {t.task_id} ({t.label()}): refused, needs {need / 1e9:.2f} GB > {limit / 1e9:.2f} GB")
+        else:
+            runnable.append(t)
+
+    sim_hours = 0.0
+    bar = None
+    if progress and runnable:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(tasks), initial=len(reused) + len(todo) - len(runnable), desc=spec.name, unit="task")
+
+    def finish(task, ds=None, error=None, wall=float("nan")):
+        nonlocal sim_hours
+        if error is None:
+            write_results(ds, path[task.task_id])
+            hours = sum(task.scene.period_duration(p) for p in task.scene.periods) / 3600.0
+            sim_hours += hours
+            finished.append(task)
+            record(task, "done", wall_s=round(wall, 3), sim_hours=hours, result=os.path.relpath(path[task.task_id], out_dir))
+        else:
+            record(task, "failed", error=f"{type(error).__name__}: {error}")
+            say(f"task {task.task_id} ({task.label()}) failed: {type(error).__name__}: {error}")
+        elapsed = time.perf_counter() - t0
+        rate = sim_hours / (elapsed / 3600.0) if elapsed > 0 else 0.0
+        if bar is not None:
+            bar.set_postfix_str(f"{rate:.1f} sim-h/wall-h, {len(failed)} failed", refresh=False)
+            bar.update(1)
+        else:
+            n_done = len(finished) + len(failed) + len(reused)
+            left = len(tasks) - n_done
+            eta = elapsed / max(1, len(finished) + len(failed)) * left
+            say(f"[{n_done}/{len(tasks)}] {task.task_id} {'done' if error is None else 'failed'}; "
+                f"{rate:.1f} sim-h/wall-h; ETA {eta:.0f} s")
+
+    try:
+        if client is not None and runnable:
+            from dask.distributed import as_completed
+
+            futures = {client.submit(_run_task, t.scene, threads, pure=False, key=f"task-{t.task_id}"): t
+                       for t in runnable}
+            started = time.perf_counter()
+            try:
+                for fut in as_completed(futures):
+                    t = futures[fut]
+                    try:
+                        ds = fut.result()
+                    except Exception as e:  # a task's own failure is recorded; the campaign goes on
+                        finish(t, error=e)
+                    else:
+                        finish(t, ds, wall=time.perf_counter() - started)
+            finally:
+                for fut in futures:
+                    fut.cancel()
+        else:
+            for t in runnable:
+                s = time.perf_counter()
+                try:
+                    ds = _run_task(t.scene, threads)
+                except Exception as e:  # a task's own failure is recorded; the campaign goes on
+                    finish(t, error=e)
+                else:
+                    finish(t, ds, wall=time.perf_counter() - s)
+    finally:
+        if bar is not None:
+            bar.close()
+        if own_client:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    wall = time.perf_counter() - t0
+    summary = {"campaign": spec.name, "out": out_dir, "tasks": len(tasks), "done": len(finished) + len(reused),
+               "computed": len(finished), "reused": len(reused), "failed": failed, "wall_s": round(wall, 2),
+               "sim_hours_computed": round(sim_hours, 3),
+               "throughput_sim_h_per_wall_h": round(sim_hours / (wall / 3600.0), 1) if wall > 0 else None}
+    _write_json(os.path.join(out_dir, "summary.json"), summary)
+    return summary
+
+
+def _dim_names(sweep):
+    """Dimension name of each sweep group (its first key's last part, or the whole key if that collides)."""
+    firsts = [next(iter(g)) for g in sweep]
+    short = [k.rsplit(".", 1)[-1] for k in firsts]
+    return [s if short.count(s) == 1 else k.replace(".", "_") for s, k in zip(short, firsts)]
+
+
+def merge_campaign(out_dir, *, keep_series=False, band=(0.02, 0.6)):
+    """All finished tasks of a campaign folder as one Dataset with the sweep dimensions as coordinates.
+
+    Dimensions: one per sweep group (named after its first key; the group's
+    other keys are coordinates along it), ``replica``, and the scene's own
+    (``period``, ``k``, ...).  Missing (failed) combinations are NaN.  The
+    raw time series stay in the task files unless ``keep_series``.
+
+    Added per task and period, for staring scenes: ``t2_log_error`` and
+    ``t1_log_error``, the RMS of log10(T / theory) over ``band`` [rad/m]
+    (method 2 against the misaligned theory chi^2/F_vs^2, method 1 against
+    F_vr/F_vs), a one-number accuracy of each method.
+    """
+    import numpy as np
+    import xarray as xr
+
+    from .store import read_results
+
+    out_dir = os.fspath(out_dir)
+    try:
+        with open(os.path.join(out_dir, "campaign.json"), encoding="utf-8") as fh:
+            meta = json.load(fh)
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{out_dir!r} is not a campaign folder (campaign.json: {e}); run 'cwlidar-sim campaign' first")
+    index = CampaignIndex(out_dir).entries
+    sweep = meta["campaign"].get("sweep", [])
+    dims = _dim_names(sweep)
+    parts = []
+    for t in meta["tasks"]:
+        e = index.get(t["task_id"])
+        if not e or e.get("status") != "done":
+            continue
+        ds = read_results(os.path.join(out_dir, e["result"]))
+        if not keep_series:
+            ds = ds.drop_vars([n for n, v in ds.data_vars.items() if any(d.startswith("time_") for d in v.dims)])
+            ds = ds.drop_dims([d for d in ds.dims if d.startswith("time_")])
+        if "transfer_cross" in ds:
+            k = ds.k
+            inband = (k >= band[0]) & (k <= band[1])
+            for m, th in (("t2", "transfer_theory_cross"), ("t1", "transfer_theory_ratio")):
+                var = "transfer_cross" if m == "t2" else "transfer_ratio"
+                lr = np.log10(ds[var] / ds[th]).where(inband)
+                ds[f"{m}_log_error"] = np.sqrt((lr**2).mean("k", skipna=True)).assign_attrs(
+                    units="1", long_name=f"RMS log10({var} / {th}) over k in {band[0]}..{band[1]} rad/m")
+        ds = ds.expand_dims(task=[t["task_id"]])
+        for dim, group in zip(dims, sweep):
+            for key in group:
+                name = dim if key == next(iter(group)) else key.replace(".", "_")
+                ds = ds.assign_coords({name: ("task", [t["values"][key]])})
+        ds = ds.assign_coords(replica=("task", [t["replica"]]), task_seed=("task", [t["seed"]]))
+        ds.attrs = {k: v for k, v in ds.attrs.items() if k not in ("timing", "wall_time", "periods_reused", "scene")}
+        parts.append(ds)
+    if not parts:
+        raise ValueError(f"no finished task in {out_dir!r}; see index.json")
+    for p in parts:
+        for name, var in p.variables.items():
+            if var.dtype.kind in "US":
+                p[name] = var.astype(object)
+    merged = xr.concat(parts, dim="task", data_vars="minimal", coords="minimal", compat="override",
+                       join="outer", combine_attrs="drop_conflicts")
+    if dims:
+        merged = merged.set_index(task=dims + ["replica"]).unstack("task")
+    else:  # replicas only
+        merged = merged.swap_dims(task="replica").drop_vars("task")
+    # a zipped partner key is a function of its group's first key: one value along that dimension
+    from .sweep import _expand_values
+
+    for dim, group in zip(dims, sweep):
+        keys = list(group)
+        vals = {k: _expand_values(k, v) for k, v in group.items()}
+        for key in keys[1:]:
+            lookup = dict(zip(vals[keys[0]], vals[key]))
+            merged = merged.assign_coords({key.replace(".", "_"): (dim, [lookup[v] for v in merged[dim].values])})
+    merged.attrs["campaign"] = json.dumps(meta["campaign"], default=str)
+    merged.attrs["sweep_dims"] = json.dumps(dims)
+    return merged
+
+
+def sweep_figures(merged, out_dir) -> list[str]:
+    """One PNG per accuracy metric and numeric sweep dimension: mean over periods and replicas +- its error."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    dims = json.loads(merged.attrs.get("sweep_dims", "[]"))
+    metrics = [m for m in ("t2_log_error", "t1_log_error", "std_ratio", "availability") if m in merged]
+    os.makedirs(out_dir, exist_ok=True)
+    paths = []
+    for m in metrics:
+        for dim in dims:
+            other = [d for d in dims if d != dim]
+            reduce = [d for d in merged[m].dims if d not in (dim, *other[:1])]
+            mean = merged[m].mean(reduce, skipna=True)
+            n = merged[m].notnull().sum(reduce)
+            err = merged[m].std(reduce, skipna=True) / np.sqrt(n.where(n > 0))
+            fig, ax = plt.subplots(figsize=(6, 4))
+            x = merged[dim].values
+            numeric = np.issubdtype(np.asarray(x).dtype, np.number)
+            xs = x if numeric else np.arange(len(x))
+            series = [(None, mean, err)] if not other else [
+                (f"{other[0]} = {v}", mean.sel({other[0]: v}), err.sel({other[0]: v})) for v in merged[other[0]].values]
+            for label, mu, e in series:
+                ax.errorbar(xs, mu.values, yerr=e.values, marker="o", capsize=3, label=label)
+            if not numeric:
+                ax.set_xticks(xs, [str(v) for v in x])
+            ax.set_xlabel(dim)
+            ax.set_ylabel(merged[m].attrs.get("long_name", m) if len(merged[m].attrs.get("long_name", m)) < 40 else m)
+            ax.set_title(f"{m} against {dim} (mean over {', '.join(reduce)} ± s.e.)", fontsize=9)
+            if other:
+                ax.legend(fontsize=8)
+            ax.grid(alpha=0.3)
+            p = os.path.join(out_dir, f"sweep_{m}_{dim}.png")
+            fig.tight_layout()
+            fig.savefig(p, dpi=110)
+            plt.close(fig)
+            paths.append(p)
+    return paths

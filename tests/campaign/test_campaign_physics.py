@@ -169,13 +169,19 @@ def test_misalignment_lifts_both_ratios_and_splits_them(aligned_los):
 
 
 def test_noise_lifts_T1_at_high_k_but_not_T2(aligned_spectral):
+    """A2012 Fig. 4: estimator noise (uncorrelated with the sonic) gives T1 a floor.
+
+    README: method 1's minimum lies near 1.1 rad/m.  Over five seeds of this
+    reduced run (7-11) the minimum fell in the bin at 1.12 or at 1.41 rad/m
+    (mean 1.26, sd 0.17 rad/m), so the bins from 0.89 to 1.41 rad/m are allowed.
+    """
     ds = aligned_spectral
     k = ds.k.values
     T1, T2 = ds.transfer_ratio[0].values, ds.transfer_cross[0].values
     hi = (k > 1.0) & (k < 2.5)
     # uncorrelated estimator noise: T1 has a floor and turns up (A2012 Fig. 4) ...
     i_min = np.nanargmin(np.where(k > 0.1, T1, np.nan))
-    assert 0.3 < k[i_min] < 2.0
+    assert 0.85 < k[i_min] < 1.6, k[i_min]
     assert T1[-3] > 2 * T1[i_min]
     # ... which the cross-spectrum removes: T2 is orders of magnitude lower there
     assert np.all(T1[hi] > 10 * np.abs(T2[hi]))
@@ -188,22 +194,29 @@ def test_raised_threshold_lifts_T1_more_than_T2(aligned_spectral):
     (In the simulation T2 does rise a little: a higher threshold cuts more of
     the probe volume's Lorentzian tails out of the Doppler spectrum, so the
     estimate averages over a shorter volume.  A2012 saw no change of T2.)
+
+    The README's lifts (full run): 5/10/20 % raise lifts T1 by 9/19/41 % over
+    1-2.5 rad/m and T2 by 4/8/14 % over 0.02-0.3 rad/m.  Over five seeds of
+    this reduced run (20 min, one aligned period) the lifts were
+    10.5/21.4/46 % (seed sd 1.8/2.4/5.5 %) and 3.9/7.5/13.9 % (sd 0.2/0.5/1.1 %):
+    the README's values are held to 3 seed sd.
     """
     ds = aligned_spectral
     k = ds.k.values
     names = list(ds.variant.values)
-    hi = (k > 0.8) & (k < 2.5)
+    hi = (k > 1.0) & (k < 2.5)
     mid = (k > 0.02) & (k < 0.3)
-    prev_T1 = ds.transfer_ratio[0].values[hi]
+    readme = {"raise5": (0.09, 0.04), "raise10": (0.19, 0.08), "raise20": (0.41, 0.14)}
+    sd = {"raise5": (0.018, 0.002), "raise10": (0.024, 0.005), "raise20": (0.055, 0.011)}
+    prev = (0.0, 0.0)
     for n in ("raise5", "raise10", "raise20"):
         j = names.index(n)
-        T1 = ds.transfer_ratio_variant[j, 0].values[hi]
-        assert np.mean(T1) > np.mean(prev_T1)
-        prev_T1 = T1
-    j = names.index("raise20")
-    lift_T1 = np.mean(ds.transfer_ratio_variant[j, 0].values[hi] / ds.transfer_ratio[0].values[hi])
-    lift_T2 = np.mean(ds.transfer_cross_variant[j, 0].values[mid] / ds.transfer_cross[0].values[mid])
-    assert lift_T1 > 1.25 and lift_T2 < lift_T1
+        lift_T1 = np.mean(ds.transfer_ratio_variant[j, 0].values[hi] / ds.transfer_ratio[0].values[hi]) - 1
+        lift_T2 = np.mean(ds.transfer_cross_variant[j, 0].values[mid] / ds.transfer_cross[0].values[mid]) - 1
+        assert abs(lift_T1 - readme[n][0]) < 3 * sd[n][0], (n, lift_T1)
+        assert abs(lift_T2 - readme[n][1]) < 3 * sd[n][1], (n, lift_T2)
+        assert lift_T1 > prev[0] and lift_T2 > prev[1] and lift_T1 > 2 * lift_T2
+        prev = (lift_T1, lift_T2)
 
 
 def test_estimators_peak_attenuates_least_centroid_most(aligned_spectral):

@@ -137,6 +137,27 @@ def test_lidar_and_sonic_are_in_phase(aligned_los):
     assert np.all(r > 0.99), r
 
 
+def test_speckle_transverse_speed_includes_the_mean_wind_across_the_beam():
+    """The runner's speed of the aerosols across the beam (speckle correlation time).
+
+    For a horizontal beam theta off the wind, the total wind (U + u, v, w) has across the beam
+    the components w and -(U + u) sin(theta) + v cos(theta), so its mean square is
+    (U^2 + s_u^2) sin^2 + s_v^2 cos^2 + s_w^2 (Mann: u and v uncorrelated).  The runner uses
+    s_v^2 + s_w^2 + U^2 sin^2, which differs by (s_u^2 - s_v^2) sin^2(theta) only; at 5 deg
+    the mean wind's share, U^2 sin^2 = 0.49 m^2/s^2, is 150 times that.
+    """
+    from cwlidar_sim.campaign.runner import _transverse_speed, scene_params
+    from cwlidar_sim.turbulence import covariances
+
+    sc = scene(theta=5.0)
+    params, _ = scene_params(sc)
+    c = covariances(params)
+    s2, c2 = math.sin(math.radians(5.0)) ** 2, math.cos(math.radians(5.0)) ** 2
+    expected = (8.0**2 + c.uu) * s2 + c.vv * c2 + c.ww
+    vt = _transverse_speed(sc, sc.periods[0], params)
+    assert abs(vt**2 - expected) <= (c.uu - c.vv) * s2 + 1e-12, (vt**2, expected)
+
+
 def test_misalignment_lifts_both_ratios_and_splits_them(aligned_los):
     """5 deg off the wind (A2012 Eqs. 12-14): T1 > T2 > exp(-2 k zR), split as the theory says.
 

@@ -16,7 +16,7 @@ error, since it shows nothing about the tests.  The real files are never touched
 ``--baseline`` first runs every selection on an unmutated copy, which must pass.
 
 Prints a table (mutation, tests run, caught, seconds) and writes JSON
-(default ``mutations.json`` in the current directory).
+(default ``results/mutations.json``, git-ignored).
 """
 
 from __future__ import annotations
@@ -195,7 +195,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--only", nargs="*", help="mutation ids to run (default: all)")
     ap.add_argument("--baseline", action="store_true", help="first run every selection unmutated (must pass)")
-    ap.add_argument("--json", default="mutations.json", help="where to write the results")
+    ap.add_argument("--json", default=str(ROOT / "results" / "mutations.json"), help="where to write the results")
     ap.add_argument("--list", action="store_true", help="list the mutations and check their texts, run nothing")
     ap.add_argument("--timeout", type=float, default=900.0, help="per-mutation pytest timeout [s]")
     args = ap.parse_args(argv)
@@ -232,14 +232,19 @@ def main(argv=None):
                 path.write_bytes(original)
                 os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
             status = "yes" if code == 1 else ("NO" if code == 0 else f"error ({code})")
+            failed = [ln.split()[1] for ln in tail.splitlines() if ln.startswith("FAILED ")]
             results.append({**dataclasses.asdict(m), "exit_code": code, "caught": code == 1, "status": status,
+                            "failed_test": failed[0] if failed else None,
                             "seconds": round(sec, 1), "output_tail": tail if code != 1 else tail[-400:]})
-            print(f"{m.id:32s} {status:10s} {sec:7.1f} s  {' '.join(m.tests)}", flush=True)
+            print(f"{m.id:32s} {status:10s} {sec:7.1f} s  {' '.join(m.tests)}"
+                  + (f"\n{'':32s} failed: {failed[0]}" if failed else ""), flush=True)
     print()
-    print(f"| mutation | stage | tests run | caught | s |\n|---|---|---|---|---|")
+    print("| mutation | stage | tests run | caught (first failing test) | s |\n|---|---|---|---|---|")
     for r in results:
         tests = ", ".join(t.replace("tests/", "") for t in r["tests"])
-        print(f"| {r['id']} ({r['why']}) | {r['stage']} | {tests} | {r['status']} | {r['seconds']:.0f} |")
+        first = f" ({r['failed_test'].split('::')[-1]})" if r["failed_test"] else ""
+        print(f"| {r['id']}: {r['why']} | {r['stage']} | {tests} | {r['status']}{first} | {r['seconds']:.0f} |")
+    pathlib.Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     pathlib.Path(args.json).write_text(json.dumps(results, indent=1), encoding="utf-8")
     n_caught = sum(r["caught"] for r in results)
     print(f"\n{n_caught} of {len(results)} mutations caught; results in {args.json}")

@@ -324,7 +324,12 @@ def signal_power_average(spec_bf, m_blocks, scale):
 # analysis stage (cwlidar_sim/analysis/theory.py): A2012 Eqs. 12-14
 # =============================================================================
 def mann_phi_horizontal(k1, k2, k3, alpha_eps, L, gamma):
-    """Phi_11, Phi_22, Phi_12 of the Mann tensor for arrays, numpy only.
+    """Phi_11, Phi_22, Phi_12 of the Mann tensor for arrays, numpy only (see :func:`mann_phi_components`)."""
+    return mann_phi_components(k1, k2, k3, alpha_eps, L, gamma)[:3]
+
+
+def mann_phi_components(k1, k2, k3, alpha_eps, L, gamma):
+    """Phi_11, Phi_22, Phi_12, Phi_33 of the Mann tensor for arrays, numpy only.
 
     The same formulas as :func:`mann_amplitude` (PHYSICS.md section 1, scipy's
     hyp2f1 for the lifetime, the arctan branch made continuous with atan2),
@@ -346,13 +351,39 @@ def mann_phi_horizontal(k1, k2, k3, alpha_eps, L, gamma):
     C2 = k2 * k0sq / kh2**1.5 * ang
     z1 = C1 - k2 / k1 * C2
     z2 = k2 / k1 * C1 + C2
-    # rows of D A_iso (A_iso = a [[0, k30, -k2], [-k30, 0, k1], [k2, -k1, 0]])
+    # rows of D A_iso (A_iso = a [[0, k30, -k2], [-k30, 0, k1], [k2, -k1, 0]]); the third row of D is
+    # (0, 0, k0^2 / k^2), so the third row of D A_iso is (k0^2 / k^2) a (k2, -k1, 0)
     m1 = (z1 * k2, k30 - z1 * k1, -k2 * np.ones_like(k1))
     m2 = (-k30 + z2 * k2, -z2 * k1, k1)
     P11 = a * a * sum(x * x for x in m1)
     P22 = a * a * sum(x * x for x in m2)
     P12 = a * a * sum(x * y for x, y in zip(m1, m2))
-    return P11, P22, P12
+    P33 = a * a * (k0sq / kk) ** 2 * kh2
+    return P11, P22, P12, P33
+
+
+def mann_variances(alpha_eps, L, gamma, n_t=200, n_mu=48, n_phi=48):
+    """Full-space variances (uu, vv, ww) = integral of Phi_ii over all wave vectors, numpy only.
+
+    Spherical coordinates: trapezoid in ln k over [1e-5, 1e4] / L (the integrand
+    k^3 Phi is smooth in ln k and vanishes at both ends), Gauss-Legendre in
+    cos(polar angle), midpoints in azimuth; beyond k = 1e4 / L the tensor is
+    isotropic and E = alpha_eps k^(-5/3), whose tail gives each component
+    (2/3) integral E dk = alpha_eps K^(-2/3).  For Gamma = 0 this reproduces
+    (2/3) B(5/2, 1/3) / 2 alpha_eps L^(2/3) to 2e-6.
+    """
+    t = np.linspace(math.log(1e-5 / L), math.log(1e4 / L), n_t)
+    mu, w_mu = np.polynomial.legendre.leggauss(n_mu)
+    ph = (np.arange(n_phi) + 0.5) * 2 * math.pi / n_phi
+    T, M, PH = np.meshgrid(t, mu, ph, indexing="ij")
+    k = np.exp(T)
+    s = np.sqrt(1 - M * M)
+    P11, P22, _, P33 = mann_phi_components(k * s * np.cos(PH), k * s * np.sin(PH), k * M, alpha_eps, L, gamma)
+    w_t = np.full(n_t, t[1] - t[0])
+    w_t[[0, -1]] *= 0.5
+    W = w_t[:, None, None] * w_mu[None, :, None] * (2 * math.pi / n_phi) * k**3
+    tail = alpha_eps * (1e4 / L) ** (-2.0 / 3.0)
+    return tuple(float(np.sum(W * P)) + tail for P in (P11, P22, P33))
 
 
 def misaligned_reference(k1, alpha_eps, L, gamma, theta_deg, zR, h=0.03):

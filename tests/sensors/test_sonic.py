@@ -156,8 +156,15 @@ def test_resample_transfer_is_one_at_low_frequency():
     assert 0.05**2 * (2 * math.pi) ** 2 * m2 / 2 < 1e-4
 
 
-def test_resample_variance_of_white_noise():
-    """White noise of variance 1 -> mean output variance sum_i sum_n w_in^2 / (5 * 3.2^2) = 0.28125."""
+def test_resample_variance_and_lag_one_covariance_of_white_noise():
+    """White noise of variance 1 through A2012 Eq. 5 as printed (weights written out here, not the code's).
+
+    Output i = 1..5 of a partition weights {0.2 (6 - i), 1, 1, 0.2 i} / 3.2: mean output variance
+    sum_i sum_n w_in^2 / (5 * 3.2^2) = 0.28125.  Neighbours i, i + 1 inside a partition share one
+    sample, weighted 0.2 i and 0.2 (5 - i), and outputs of different partitions share none, so
+    the mean lag-1 covariance is sum_{i=1..4} 0.04 i (5 - i) / (5 * 3.2^2) = 0.015625 (mirrored
+    weights, {0.2 i, 1, 1, 0.2 (6 - i)}, would give the same variance but 0.034375).
+    """
     rng = np.random.default_rng(8)
     y = resample_a2012(rng.standard_normal(16 * 40000))
     expected = sum(((6 - i) / 5) ** 2 + 2 + (i / 5) ** 2 for i in range(1, 6)) / (5 * 3.2**2)
@@ -165,6 +172,11 @@ def test_resample_variance_of_white_noise():
     # sample variance of n Gaussian outputs: relative sd sqrt(2/n); neighbours share one sample
     # (covariance <= 0.4 * 0.6 / 3.2^2, correlation < 0.09), which raises that sd by < 1 %: 4.5 sd allowed
     assert y.var() == pytest.approx(expected, rel=4.5 * math.sqrt(2 / y.size))
+    lag1 = sum(0.04 * i * (5 - i) for i in range(1, 5)) / (5 * 3.2**2)
+    assert lag1 == pytest.approx(0.015625, rel=1e-12)
+    # the mean of n products of correlated Gaussians has sd <= sqrt(var^2 + cov^2) / sqrt(n) ~ 0.28 / sqrt(n)
+    c1 = np.mean((y[:-1] - y.mean()) * (y[1:] - y.mean()))
+    assert c1 == pytest.approx(lag1, abs=4.5 * 0.29 / math.sqrt(y.size))
 
 
 def test_resample_nan_reaches_only_the_outputs_that_weight_it():

@@ -1,0 +1,255 @@
+"""Curated mutation check: break the physics on purpose and require the relevant tests to fail.
+
+Run by hand (not collected by pytest: no ``test_`` prefix, and pytest only collects
+``test_*.py``), from the repository root::
+
+    CWLIDAR_SIM_NUM_THREADS=1 python tests/mutation/run_mutations.py [--only ID ...] [--baseline]
+                                                                      [--json PATH] [--list]
+
+Each mutation is (id, stage, file, exact old text, new text, pytest selection, what it
+breaks).  For every mutation the repository's working tree (without .git) is copied to a
+temporary directory, the old text (which must occur exactly once) is replaced in the copy,
+and only the selected tests run there (``python -m pytest -x -q``, imports resolve to the
+copy because pytest runs from its root).  A mutation is *caught* when pytest exits with
+code 1 (a test failed); any other code (collection error, usage error) is reported as an
+error, since it shows nothing about the tests.  The real files are never touched.
+``--baseline`` first runs every selection on an unmutated copy, which must pass.
+
+Prints a table (mutation, tests run, caught, seconds) and writes JSON
+(default ``results/mutations.json``, git-ignored).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+@dataclasses.dataclass(frozen=True)
+class Mutation:
+    id: str
+    stage: str
+    file: str
+    old: str
+    new: str
+    tests: tuple
+    why: str
+
+
+M = Mutation
+MUTATIONS = [
+    # --- turbulence ---------------------------------------------------------------------------
+    M("tensor-lifetime-half", "turbulence tensor", "cwlidar_sim/turbulence/tensor.py",
+      "return params.gamma * kl ** (-2.0 / 3.0) / np.sqrt(hyp2f1(",
+      "return 0.5 * params.gamma * kl ** (-2.0 / 3.0) / np.sqrt(hyp2f1(",
+      ("tests/turbulence/test_tensor.py", "tests/turbulence/test_spectra.py"),
+      "eddy lifetime (shear distortion) halved"),
+    M("tensor-energy-exponent", "turbulence tensor", "cwlidar_sim/turbulence/tensor.py",
+      "kl**4 / (1.0 + kl**2) ** (17.0 / 6.0)", "kl**4 / (1.0 + kl**2) ** (17.0 / 5.0)",
+      ("tests/turbulence/test_tensor.py", "tests/turbulence/test_spectra.py"),
+      "von Karman energy spectrum: wrong inertial-range exponent"),
+    M("box-amplitude-factor2", "turbulence box", "cwlidar_sim/turbulence/box.py",
+      "scale = _prefactor(params) * math.sqrt(dk[0] * dk[1] * dk[2])",
+      "scale = _prefactor(params) * math.sqrt(2.0 * dk[0] * dk[1] * dk[2])",
+      ("tests/turbulence/test_turbulence_box.py",),
+      "box Fourier amplitudes carry twice the variance"),
+    # --- beam ---------------------------------------------------------------------------------
+    M("optics-rayleigh-no-pi", "beam optics", "cwlidar_sim/beam/optics.py",
+      "return self.wavelength * self.focus**2 / (math.pi * self.radius**2)",
+      "return self.wavelength * self.focus**2 / (self.radius**2)",
+      ("tests/beam/test_optics.py",),
+      "Rayleigh length (A2012 Eq. 1) without its pi"),
+    M("lorentzian-cells-2zR", "beam optics", "cwlidar_sim/beam/optics.py",
+      "cdf = np.arctan(edges / zR) / math.pi", "cdf = np.arctan(edges / (2.0 * zR)) / math.pi",
+      ("tests/sensors/test_staring_lidar.py::test_tier1_is_the_weighted_line_of_sight_average_of_the_total_wind",),
+      "Lorentzian range cells with twice the Rayleigh length (tier 1 against the plain-Python reference)"),
+    M("sampling-taylor-sign", "beam sampling", "cwlidar_sim/beam/_kernels.py",
+      "px = origin[0] + r * ex - shift", "px = origin[0] + r * ex + shift",
+      ("tests/beam/test_sampling.py",),
+      "Taylor advection in the wrong direction"),
+    # --- signal chain -------------------------------------------------------------------------
+    M("speckle-looks-correlation", "signal tier 2", "cwlidar_sim/signal/spectral.py",
+      "c = 2.0 * (r / one_r - r", "c = 1.0 * (r / one_r - r",
+      ("tests/signal/test_spectral.py",),
+      "effective number of speckle looks with half the block correlation"),
+    M("tier3-ar1-rho", "signal tier 3", "cwlidar_sim/signal/heterodyne.py",
+      "math.exp(-self.L / (fs * tau))", "math.exp(-2.0 * self.L / (fs * tau))",
+      ("tests/signal/test_heterodyne.py", "tests/signal/test_tiers.py"),
+      "tier-3 speckle decorrelates twice as fast"),
+    M("threshold-no-background-term", "signal processing", "cwlidar_sim/signal/processing.py",
+      "sigma_y = math.sqrt(1.0 / instrument.blocks_per_estimate + 1.0 / m_bg)",
+      "sigma_y = math.sqrt(1.0 / instrument.blocks_per_estimate)",
+      ("tests/signal/test_estimators.py",),
+      "threshold ignores the background estimate's own noise"),
+    M("median-not-half", "signal estimators", "cwlidar_sim/signal/_kernels.py",
+      "half = 0.5 * total", "half = 0.45 * total",
+      ("tests/signal/test_estimators.py",),
+      "median estimator takes the 45 % point"),
+    M("parabolic-vertex", "signal estimators", "cwlidar_sim/signal/_kernels.py",
+      "d = 0.5 * (yl - yr) / den", "d = 0.6 * (yl - yr) / den",
+      ("tests/signal/test_estimators.py::test_bias_off_centre",),
+      "parabolic / Gaussian peak refinement with the wrong vertex"),
+    # --- sensors ------------------------------------------------------------------------------
+    M("sonic-weights-mirrored", "sonic resampling", "cwlidar_sim/sensors/sonic.py",
+      "_A2012_W = tuple((float(6 - i) / 5.0, 1.0, 1.0, float(i) / 5.0) for i in range(1, 6))",
+      "_A2012_W = tuple((float(i) / 5.0, 1.0, 1.0, float(6 - i) / 5.0) for i in range(1, 6))",
+      ("tests/sensors/test_sonic.py::test_resample_variance_and_lag_one_covariance_of_white_noise",),
+      "A2012 Eq. 5 weights mirrored (same variance, other covariance)"),
+    M("block-average-counts-gaps", "sensors block average", "cwlidar_sim/sensors/sonic.py",
+      "total / np.maximum(n_valid, 1)", "total / m",
+      ("tests/sensors/test_sonic.py",),
+      "50 -> 10 Hz block mean divides by the block size, not the valid samples"),
+    M("transverse-rms-keeps-along-beam", "staring lidar", "cwlidar_sim/sensors/lidar.py",
+      "perp = vel_tsc[:, 0, :] - vlos_ts[:, :1] * n3[None, :]", "perp = vel_tsc[:, 0, :] * np.array([0.0, 1.0, 1.0])",
+      ("tests/sensors/test_staring_lidar.py::test_spectral_tier_with_a_misaligned_beam_in_a_plane",),
+      "speed across the beam taken as (v, w) whatever the beam's direction"),
+    # --- analysis -----------------------------------------------------------------------------
+    M("method2-abs-chi", "analysis transfer functions", "cwlidar_sim/analysis/spectra.py",
+      "T2_k = chi_k.real**2 / Fs_k**2", "T2_k = np.abs(chi_k) ** 2 / Fs_k**2",
+      ("tests/analysis/test_analysis_spectra.py",),
+      "method 2 with |chi|^2 instead of Re(chi)^2 (blind to timing)"),
+    M("sigma-T2-sqrt2", "analysis transfer functions", "cwlidar_sim/analysis/spectra.py",
+      "sig2_k = np.abs(chi_k.real) * np.sqrt(2.0 *", "sig2_k = np.abs(chi_k.real) * np.sqrt(4.0 *",
+      ("tests/analysis/test_analysis_spectra.py::test_reported_sigmas_match_the_scatter_over_seeds",),
+      "sigma_T2 sqrt(2) too large"),
+    M("sigma-T1-half-var", "analysis transfer functions", "cwlidar_sim/analysis/spectra.py",
+      "sig1_k = T1_k * np.sqrt(2.0 *", "sig1_k = T1_k * np.sqrt(1.0 *",
+      ("tests/analysis/test_analysis_spectra.py::test_reported_sigmas_match_the_scatter_over_seeds",),
+      "sigma_T1 sqrt(2) too small"),
+    M("taylor-wavenumber", "analysis transfer functions", "cwlidar_sim/analysis/spectra.py",
+      "    to_k = U / (2.0 * math.pi)\n    k_f = seg.f_f / to_k\n",
+      "    to_k = U / math.pi\n    k_f = seg.f_f / to_k\n",
+      ("tests/analysis/test_analysis_spectra.py",),
+      "Taylor's k = 2 pi f / U with the 2 dropped"),
+    M("theory-chi-double", "analysis theory", "cwlidar_sim/analysis/theory.py",
+      "weights=pnn_m * np.exp(-zR * kn_m)", "weights=pnn_m * np.exp(-2.0 * zR * kn_m)",
+      ("tests/analysis/test_analysis_theory.py",),
+      "A2012 Eq. 14 with the power transfer in place of the amplitude transfer"),
+    M("fit-sampling-cov-half", "analysis fitting", "cwlidar_sim/analysis/fitting.py",
+      "return C / n_k[:, None, None]", "return C / (2.0 * n_k[:, None, None])",
+      ("tests/analysis/test_analysis_fitting.py::test_reported_std_matches_the_scatter_over_300_synthetic_records",),
+      "chi-square covariance of the bin means halved (fit std / sqrt 2)"),
+    # --- campaign runner ----------------------------------------------------------------------
+    M("sonic-one-sample-late", "campaign runner", "cwlidar_sim/campaign/runner.py",
+      "    t32 = SONIC_DELAY + np.arange(n32) / 32.0\n", "    t32 = SONIC_DELAY + (np.arange(n32) + 1) / 32.0\n",
+      ("tests/campaign/test_campaign_physics.py::test_lidar_and_sonic_are_in_phase",),
+      "sonic sampled one 32 Hz sample late"),
+    M("transverse-no-misalignment", "campaign runner", "cwlidar_sim/campaign/runner.py",
+      "return math.sqrt(c.vv + c.ww + (period.mean_speed * math.sin(math.radians(period.misalignment_deg))) ** 2)",
+      "return math.sqrt(c.vv + c.ww)",
+      ("tests/campaign/test_campaign_physics.py::test_speckle_transverse_speed_includes_the_mean_wind_across_the_beam",),
+      "speckle transverse speed without the mean wind across a misaligned beam"),
+    M("theory-ignores-fit", "campaign runner", "cwlidar_sim/campaign/runner.py",
+      'p = r["fit"].params if r["fit"] is not None and r["fit"].success else params', "p = params",
+      ("tests/test_notebooks.py",),
+      "misaligned theory with the scene's tensor instead of the fitted one"),
+    M("numba-threads-ignored", "configuration", "cwlidar_sim/_config.py",
+      "    numba.set_num_threads(n)\n", "    numba.set_num_threads(1)\n",
+      ("tests/test_threads.py",),
+      "thread count never reaches numba"),
+]
+
+
+def _copy_tree(dst):
+    def ignore(d, names):
+        skip = {".git", ".venv", "results", ".pytest_cache", "mutations.json"}
+        return [n for n in names if n in skip or n.endswith(".nc")]
+
+    # copy2 keeps the modification times, so numba's on-disk caches of the unmutated files stay valid
+    shutil.copytree(ROOT, dst, ignore=ignore, copy_function=shutil.copy2, symlinks=True)
+
+
+def _pytest(cwd, tests, timeout):
+    env = dict(os.environ)
+    env.setdefault("CWLIDAR_SIM_NUM_THREADS", "1")
+    env.pop("PYTHONPATH", None)
+    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", *tests]
+    t0 = time.perf_counter()
+    try:
+        r = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+        code, tail = r.returncode, (r.stdout + r.stderr)[-1500:]
+    except subprocess.TimeoutExpired:
+        code, tail = -9, "timeout"
+    return code, tail, time.perf_counter() - t0
+
+
+def _check_imports_copy(cwd):
+    r = subprocess.run([sys.executable, "-c", "import cwlidar_sim; print(cwlidar_sim.__file__)"], cwd=cwd,
+                       capture_output=True, text=True)
+    path = pathlib.Path(r.stdout.strip()).resolve()
+    if not str(path).startswith(str(pathlib.Path(cwd).resolve())):
+        raise SystemExit(f"the copy imports cwlidar_sim from {path}, not from {cwd}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--only", nargs="*", help="mutation ids to run (default: all)")
+    ap.add_argument("--baseline", action="store_true", help="first run every selection unmutated (must pass)")
+    ap.add_argument("--json", default=str(ROOT / "results" / "mutations.json"), help="where to write the results")
+    ap.add_argument("--list", action="store_true", help="list the mutations and check their texts, run nothing")
+    ap.add_argument("--timeout", type=float, default=900.0, help="per-mutation pytest timeout [s]")
+    args = ap.parse_args(argv)
+    muts = [m for m in MUTATIONS if not args.only or m.id in args.only]
+    for m in muts:
+        text = (ROOT / m.file).read_text(encoding="utf-8")
+        n = text.count(m.old)
+        if n != 1:
+            raise SystemExit(f"{m.id}: the old text occurs {n} times in {m.file}; it must occur exactly once")
+    if args.list:
+        for m in muts:
+            print(f"{m.id:32s} {m.stage:30s} {m.file}: {m.why}")
+        return 0
+    results = []
+    with tempfile.TemporaryDirectory(prefix="cwlidar_mut_") as tmp:
+        work = pathlib.Path(tmp) / "repo"
+        _copy_tree(work)
+        _check_imports_copy(work)
+        if args.baseline:
+            sel = sorted({t for m in muts for t in m.tests})
+            code, tail, sec = _pytest(work, sel, args.timeout * 3)
+            print(f"baseline: exit {code} in {sec:.0f} s")
+            if code != 0:
+                print(tail)
+                raise SystemExit("baseline failed: the unmutated selections must pass")
+        for m in muts:
+            path = work / m.file
+            original = path.read_bytes()
+            stat = path.stat()
+            path.write_text(original.decode("utf-8").replace(m.old, m.new), encoding="utf-8")
+            try:
+                code, tail, sec = _pytest(work, list(m.tests), args.timeout)
+            finally:
+                path.write_bytes(original)
+                os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+            status = "yes" if code == 1 else ("NO" if code == 0 else f"error ({code})")
+            failed = [ln.split()[1] for ln in tail.splitlines() if ln.startswith("FAILED ")]
+            results.append({**dataclasses.asdict(m), "exit_code": code, "caught": code == 1, "status": status,
+                            "failed_test": failed[0] if failed else None,
+                            "seconds": round(sec, 1), "output_tail": tail if code != 1 else tail[-400:]})
+            print(f"{m.id:32s} {status:10s} {sec:7.1f} s  {' '.join(m.tests)}"
+                  + (f"\n{'':32s} failed: {failed[0]}" if failed else ""), flush=True)
+    print()
+    print("| mutation | stage | tests run | caught (first failing test) | s |\n|---|---|---|---|---|")
+    for r in results:
+        tests = ", ".join(t.replace("tests/", "") for t in r["tests"])
+        first = f" ({r['failed_test'].split('::')[-1]})" if r["failed_test"] else ""
+        print(f"| {r['id']}: {r['why']} | {r['stage']} | {tests} | {r['status']}{first} | {r['seconds']:.0f} |")
+    pathlib.Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+    pathlib.Path(args.json).write_text(json.dumps(results, indent=1), encoding="utf-8")
+    n_caught = sum(r["caught"] for r in results)
+    print(f"\n{n_caught} of {len(results)} mutations caught; results in {args.json}")
+    return 0 if n_caught == len(results) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

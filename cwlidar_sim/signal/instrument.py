@@ -101,6 +101,17 @@ class Instrument:
         floor [-]; >= 0 (0: none).
     rin_corner : float
         Corner frequency of the Lorentzian RIN shape ``1 / (1 + (f/f_c)^2)`` [Hz]; > 0.
+        The RIN is a real Gaussian process added to the detector signal in
+        tier 3 and to the noise floor in both tiers
+        (:func:`cwlidar_sim.signal.spectral.noise_correlation`).
+    reflection_level : float
+        Density at 0 Hz, relative to shot noise, of the beat of the internal
+        reflection of a monostatic cw lidar (light returned by the optics,
+        not Doppler shifted) with the local oscillator [-]; >= 0 (0: none).
+        Same Lorentzian form as the RIN.
+    reflection_corner : float
+        Half-width of the reflection's 0 Hz peak (laser line width and
+        mechanical jitter) [Hz]; > 0.
     background_blocks : int
         Signal-free blocks averaged into the background (noise-floor) spectrum
         M_bg; >= 1.  Default: 10 min of blocks, as the prototype measured every 3 h.
@@ -124,6 +135,8 @@ class Instrument:
     second_peak_fraction: float = 0.2
     rin_level: float = 0.0
     rin_corner: float = 1e6
+    reflection_level: float = 0.0
+    reflection_corner: float = 3e4
     background_blocks: int = 58_593_750
 
     def __post_init__(self):
@@ -164,7 +177,10 @@ class Instrument:
         put("second_peak_fraction",
             check_real("second_peak_fraction", self.second_peak_fraction, lo=0.0, hi=1.0, lo_open=True))
         put("rin_level", check_real("rin_level", self.rin_level, lo=0.0, hi=1e12))
-        put("rin_corner", check_real("rin_corner", self.rin_corner, lo=0.0, lo_open=True))
+        put("rin_corner", check_real("rin_corner", self.rin_corner, lo=0.0, hi=self.sample_rate, lo_open=True))
+        put("reflection_level", check_real("reflection_level", self.reflection_level, lo=0.0, hi=1e12))
+        put("reflection_corner",
+            check_real("reflection_corner", self.reflection_corner, lo=1e-6 * self.sample_rate, hi=self.sample_rate))
         put("background_blocks", check_int("background_blocks", self.background_blocks, lo=1, hi=10**15))
         if self.first_bin >= self.n_fft // 2 - 1:
             raise ValueError(

@@ -150,11 +150,18 @@ class DopplerEstimates:
 def noise_floor(instrument) -> np.ndarray:
     """Expected noise spectrum per one-sided bin, in units of the shot-noise level [-].
 
-    ``1 + rin_level / (1 + (f / rin_corner)^2)``: white shot noise plus an
-    optional Lorentzian relative-intensity-noise bump at 0 Hz.
+    White shot noise (1 in every bin) plus the relative-intensity noise and
+    the 0 Hz internal reflection, each a real Gaussian process of density
+    ``P0`` at 0 Hz and corner ``f_c`` (:func:`cwlidar_sim.signal.spectral.noise_correlation`):
+    the expected block periodogram of such a process is the exact lag sum
+    ``sum_{|d|<N} (R_w(d) / R_w(0)) r(d) exp(-i 2 pi k d / N)``, close to
+    ``P0 / (1 + (f / f_c)^2)`` for ``f << f_s`` and a corner of several bins.
     """
-    f = instrument.frequencies_f
-    return 1.0 + instrument.rin_level / (1.0 + (f / instrument.rin_corner) ** 2)
+    from .spectral import _fold_noise, _noise_components
+
+    if not _noise_components(instrument):
+        return np.ones(instrument.n_bins)
+    return 1.0 + np.maximum(_fold_noise(instrument, 1)[0].real, 0.0)
 
 
 def background_spectrum(instrument, seed=None, *, n_blocks=None) -> np.ndarray:

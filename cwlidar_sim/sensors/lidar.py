@@ -131,8 +131,8 @@ __all__ = [
 
 TIERS = ("los", "spectral", "signal")
 #: Instrument fields a processing variant may override: they act on the spectra only.
-VARIANT_KEYS = ("estimator", "threshold_kind", "threshold_value", "threshold_raise_percent", "blind_zone_speed",
-                "edge_guard_speed", "second_peak_fraction")
+VARIANT_KEYS = ("estimator", "threshold_kind", "threshold_value", "threshold_raise_percent",
+                "threshold_raise_reading", "blind_zone_speed", "edge_guard_speed", "second_peak_fraction")
 #: Longest record accepted by tier 'signal' [estimates] (60 s at 50 Hz).
 SIGNAL_MAX_ESTIMATES = 3000
 #: Estimates per block of speckle gains (fixed, so draws do not depend on ``chunk``).
@@ -521,7 +521,8 @@ def _transverse_rms(fld, origin, n3, focus, time_e, U, wrap):
 
 
 def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, variants=None, chunk: int = 4096,
-                    transverse_speed: float | None = None, wrap: bool = False) -> LidarRecord:
+                    transverse_speed: float | None = None, wrap: bool = False,
+                    calibration_time: float = 0.0) -> LidarRecord:
     """Simulate a staring lidar's record of speed estimates in a turbulence field.
 
     Parameters
@@ -550,6 +551,11 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
         Overrides ``lidar.transverse_speed`` [m/s].
     wrap : bool
         Treat y and z as periodic (see :func:`cwlidar_sim.beam.sample_los`).
+    calibration_time : float
+        Time of ``times_e = 0`` on the background-calibration clock [s]
+        (:func:`cwlidar_sim.signal.processing.background_gain`: the gain
+        mismatch and drift of ``instrument.background_*``); e.g. a campaign
+        period's start.
 
     Returns
     -------
@@ -557,7 +563,7 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
     """
     from .._config import apply_numba_threads
     from ..beam.sampling import _check_extent, _check_flag, _prepare_beam, _prepare_field
-    from ..signal.processing import FAIL_FLAGS, Flag, background_spectrum, estimate, noise_floor
+    from ..signal.processing import FAIL_FLAGS, Flag, background_gain, background_spectrum, estimate, noise_floor
     from ..signal.spectral import line_shape_table, speckle_looks
     from . import _kernels as K
 
@@ -644,7 +650,13 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
     amp_s = 0.5 * cnr * w_s
     out = {name: (np.empty(ne), np.empty(ne, dtype=np.uint8)) for name, _ in procs}
 
+    gain_e = None
+    if inst.background_mismatch != 0.0 or inst.background_drift != 0.0:
+        gain_e = background_gain(inst, time_e + check_real("calibration_time", calibration_time))
+
     def process(e0, e1, spec):
+        if gain_e is not None:
+            spec = spec * gain_e[e0:e1, None]
         for name, pinst in procs:
             est = estimate(spec, pinst, bg, line_table=table)
             out[name][0][e0:e1] = est.speed_e
@@ -691,6 +703,7 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
                 speckle=(speckle if lidar.tier == "spectral" or speckle == "continuum"
                          else "tier 3 (AR(1) per cell)"),
                 subcell_spread=spread, subcell_spread_source=spread_src,
+                background_gain=None if gain_e is None else (float(gain_e.min()), float(gain_e.max())),
                 background="exact" if lidar.exact_background else f"measured ({inst.background_blocks} blocks)",
                 flag_counts={f.name: int(np.count_nonzero(flags & f.value)) for f in Flag},
                 n_failed=int(np.count_nonzero(flags & int(FAIL_FLAGS))),

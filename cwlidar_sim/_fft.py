@@ -286,6 +286,30 @@ class RowsRFFT:
         return self.X[:rows]
 
 
+class LineC2C:
+    """A single-threaded in-place 1-D complex128 FFT of length ``n`` on a buffer of its own (worker threads).
+
+    :attr:`x` is transformed in place by :meth:`forward`
+    (``X[k] = sum_n x[n] exp(-2j pi k n / n)``) or :meth:`backward` (the
+    unnormalised synthesis sum, ``+2j pi``); plans ``FFTW_ESTIMATE``, one
+    thread, made once per instance, so results do not depend on the thread
+    count.  Releases the GIL while FFTW runs.
+    """
+
+    def __init__(self, n: int):
+        self.x = pyfftw.empty_aligned(int(n), dtype=np.complex128)
+        self._fwd = pyfftw.FFTW(self.x, self.x, direction="FFTW_FORWARD", flags=("FFTW_ESTIMATE",), threads=1)
+        self._bwd = pyfftw.FFTW(self.x, self.x, direction="FFTW_BACKWARD", flags=("FFTW_ESTIMATE",), threads=1)
+
+    def forward(self):
+        self._fwd.execute()
+        return self.x
+
+    def backward(self):
+        self._bwd.execute()
+        return self.x
+
+
 # ---------------------------------------------------------------------------
 # Dynamic scheduling on long-lived threads (box generator and signal chain).
 # ---------------------------------------------------------------------------

@@ -710,3 +710,39 @@ def signal_power_sum(spec_bf, n_rows):
         for k in range(nf):
             out[k] += abs(complex(spec_bf[b][k])) ** 2
     return np.array(out)
+
+
+def signal_continuum_moments(x_s, amp_s, g_t, rn_t, window_n, m_blocks):
+    """Reference for ``spectral.continuum_moments`` (one estimate): the defining lag sums, plain numpy.
+
+    Block-lag correlation of bin k, ``c_k(j) = sum_{|d|<N} (R_w(d)/R_w(0)) R(jN + d) exp(-2i pi k d / N)``
+    with ``R(tau) = g(|tau|) sum_s 2 amp_s cos(2 pi x_s tau / N) + rn(|tau|)``; the mean of an
+    M-block average is ``c_k(0) + 1`` and its variance ``[(c_k(0) + 1)^2 + 2 sum_j (1 - j/M)
+    |c_k(j)|^2] / M`` (twice at 0 and N/2).  ``g_t``, ``rn_t`` hold lags 0..len-1 (0 beyond).
+    """
+    n = window_n.size
+    rw = np.array([np.dot(window_n[: n - d], window_n[d:]) for d in range(n)])
+    rw = rw / rw[0]
+    nt = g_t.size
+
+    def corr(tau):
+        tau = abs(tau)
+        if tau >= nt:
+            return 0.0
+        c = g_t[tau] * sum(2.0 * a * math.cos(2.0 * math.pi * x * tau / n) for x, a in zip(x_s, amp_s))
+        return c + rn_t[tau]
+
+    nf = n // 2 + 1
+    nj = (nt + n - 1) // n + 1
+    ck = np.zeros((nj, nf), dtype=complex)
+    for j in range(nj):
+        r = np.array([rw[abs(d)] * corr(j * n + d) for d in range(-(n - 1), n)])
+        d = np.arange(-(n - 1), n)
+        for k in range(nf):
+            ck[j, k] = np.sum(r * np.exp(-2j * math.pi * k * d / n))
+    mean = ck[0].real + 1.0
+    q = sum((1.0 - j / m_blocks) * np.abs(ck[j]) ** 2 for j in range(1, nj))
+    var = (mean**2 + 2.0 * q) / m_blocks
+    var[0] *= 2.0
+    var[-1] *= 2.0
+    return mean, var

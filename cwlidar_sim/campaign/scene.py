@@ -201,9 +201,11 @@ class LidarSpec:
         from the turbulence and the period's misalignment.
     elevation_deg : float
         Beam elevation [deg]; in [-89, 89].  Non-zero needs a box field.
-    speckle : {'independent', 'coherent'}
-        Tier 2's speckle gain: one per bin (matches tier 3's error spread) or
-        one per estimate.
+    speckle : {'continuum', 'independent', 'coherent'}
+        Speckle model (:class:`cwlidar_sim.sensors.StaringLidar`): cells as
+        continua of scatterers with the sub-cell speed spread of the field's
+        tensor (default; converges with the cell count, tiers 2 and 3
+        agree), or tier 2's gain of point cells per bin or per estimate.
     exact_background : bool
         Use the exact noise floor instead of a measured background.
     background_pause : bool
@@ -224,7 +226,7 @@ class LidarSpec:
     cell_length: float | None = None
     transverse_speed: float | None = None
     elevation_deg: float = 0.0
-    speckle: str = "independent"
+    speckle: str = "continuum"
     exact_background: bool = False
     background_pause: bool = False
     variants: tuple = ()
@@ -246,7 +248,7 @@ class LidarSpec:
         if self.transverse_speed is not None:
             _set(self, "transverse_speed", check_real("lidar.transverse_speed", self.transverse_speed, lo=0.0, hi=100.0))
         _set(self, "elevation_deg", check_real("lidar.elevation_deg", self.elevation_deg, lo=-89.0, hi=89.0))
-        check_choice("lidar.speckle", self.speckle, ("independent", "coherent"))
+        check_choice("lidar.speckle", self.speckle, ("continuum", "independent", "coherent"))
         _check_bool("lidar.exact_background", self.exact_background)
         _check_bool("lidar.background_pause", self.background_pause)
         variants = tuple(self.variants)

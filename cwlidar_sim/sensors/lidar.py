@@ -79,10 +79,23 @@ efficiency ``eta ~ 0.3``, ``B = 25 MHz`` and a boundary-layer backscatter
 a CNR; -10 dB gives a per-bin SNR of ``CNR N / 2`` = 14 dB for a one-bin
 line, so the prototype's estimates are essentially always available while
 speckle still sets their scatter.
-``speckle = 'independent'``: the cells of a turbulent probe volume have
-independent speckle and spread over many bins, so bins a line width apart
-see different cells (the 'coherent' gain, common to all bins, is exact only
-for a single speed).
+``speckle = 'continuum'``: every cell is a continuum of scatterers whose
+speeds spread about the cell's speed by the sub-cell spread (below); given
+the cell speeds the signal is a Gaussian process and tier 2 draws each bin
+with the mean and variance of its M-block average
+(:func:`cwlidar_sim.signal.spectral.continuum_moments`: the bin's
+block-to-block decorrelation from the Doppler spread of the scatterers in
+it), tier 3 synthesises that process.  Both converge as the beam is cut
+finer.  Without a sub-cell spread (``subcell_spread = 0``) the cells are
+point-like and the model falls back to 'independent' (one
+Gamma(M_eff) gain per bin, ``M_eff`` from the transit time: the earlier
+default, whose tier-3 counterpart depends on the cell count); 'coherent'
+(one gain per estimate) is exact for a single speed.
+``subcell_spread = None``: from the field's Mann parameters (its attributes
+``alpha_eps``, ``length_scale``, ``gamma``, ``dx``): the square root of
+:func:`cwlidar_sim.turbulence.subcell_variance`, the along-beam variance
+above the field's grid wavenumber (0.095 m/s for A2012's scene at 0.5 m);
+0 when the field carries no parameters.
 ``cell_length = 0.5`` m: the spacing of the fields used here; cells should
 not be much longer than the field spacing.
 ``transverse_speed = None``: the aerosols' speed across the beam is then the
@@ -112,16 +125,20 @@ __all__ = [
     "VARIANT_KEYS",
     "SIGNAL_MAX_ESTIMATES",
     "DRAW_BLOCK",
+    "SPECKLE_MODELS",
+    "field_subcell_spread",
 ]
 
 TIERS = ("los", "spectral", "signal")
 #: Instrument fields a processing variant may override: they act on the spectra only.
-VARIANT_KEYS = ("estimator", "threshold_kind", "threshold_value", "threshold_raise_percent", "blind_zone_speed",
-                "edge_guard_speed", "second_peak_fraction")
+VARIANT_KEYS = ("estimator", "threshold_kind", "threshold_value", "threshold_raise_percent",
+                "threshold_raise_reading", "blind_zone_speed", "edge_guard_speed", "second_peak_fraction")
 #: Longest record accepted by tier 'signal' [estimates] (60 s at 50 Hz).
 SIGNAL_MAX_ESTIMATES = 3000
 #: Estimates per block of speckle gains (fixed, so draws do not depend on ``chunk``).
 DRAW_BLOCK = 4096
+#: Speckle models of :class:`StaringLidar`.
+SPECKLE_MODELS = ("continuum", "independent", "coherent")
 
 _PRESET_ALIASES = {"prototype": "prototype", "prototype_2003": "prototype", "cs": "cs", "cs_series": "cs"}
 
@@ -184,11 +201,16 @@ class StaringLidar:
     transverse_speed : float or None
         Aerosol speed across the beam [m/s], in [0, 1000]; sets the speckle
         correlation time ``w0 / v_perp``.  None: from the field (module notes).
-    speckle : {'independent', 'coherent'}
-        Tier 2's speckle gain per bin or per estimate.
+    speckle : {'continuum', 'independent', 'coherent'}
+        Speckle model (module notes): 'continuum' (cells are continua of
+        scatterers with the sub-cell spread, both tiers), or tier 2's gain
+        per bin ('independent') or per estimate ('coherent') of point cells.
     exact_background : bool
         Use the exact noise floor instead of a background measured over
         ``instrument.background_blocks`` signal-free blocks.
+    subcell_spread : float or None
+        Standard deviation of the scatterers' speeds about their cell's speed
+        [m/s], in [0, 100]; None: from the field's tensor (module notes).
     """
 
     instrument: Instrument = PROTOTYPE_2003
@@ -201,8 +223,9 @@ class StaringLidar:
     cell_length: float = 0.5
     cnr_db: float = -10.0
     transverse_speed: float | None = None
-    speckle: str = "independent"
+    speckle: str = "continuum"
     exact_background: bool = False
+    subcell_spread: float | None = None
 
     def __post_init__(self):
         def put(k, v):
@@ -221,8 +244,10 @@ class StaringLidar:
         put("cnr_db", check_real("cnr_db", self.cnr_db, lo=-200.0, hi=200.0))
         if self.transverse_speed is not None:
             put("transverse_speed", check_real("transverse_speed", self.transverse_speed, lo=0.0, hi=1000.0))
-        check_choice("speckle", self.speckle, ("independent", "coherent"))
+        check_choice("speckle", self.speckle, SPECKLE_MODELS)
         put("exact_background", _check_bool("exact_background", self.exact_background))
+        if self.subcell_spread is not None:
+            put("subcell_spread", check_real("subcell_spread", self.subcell_spread, lo=0.0, hi=100.0))
         check_int("number of range cells", self.n_cells, lo=1, hi=100_000)
 
     # -- interchange -----------------------------------------------------
@@ -306,7 +331,8 @@ class LidarRecord:
         ``truncated_fraction``, ``rayleigh_length`` [m], ``focus`` [m],
         ``direction``, ``cnr_db``, ``transverse_speed`` [m/s] and its
         ``transverse_speed_source``, ``correlation_time`` [s], ``m_eff``,
-        ``speckle``, ``background``, ``estimator``, ``flag_counts``,
+        ``speckle`` (the model used), ``subcell_spread`` [m/s] and its
+        ``subcell_spread_source``, ``background``, ``estimator``, ``flag_counts``,
         ``variant_availability``.
     """
 
@@ -455,6 +481,27 @@ def _variant_instruments(instrument, variants):
     return out
 
 
+def field_subcell_spread(field):
+    """Sub-cell speed spread [m/s] from a field's Mann parameters and spacing (attributes), or None.
+
+    ``sqrt(subcell_variance(params, dx))`` (:func:`cwlidar_sim.turbulence.subcell_variance`)
+    with the field's ``dx`` (or its x spacing); None when the field does not
+    carry ``alpha_eps``, ``length_scale`` and ``gamma``.
+    """
+    attrs = getattr(field, "attrs", {}) or {}
+    if not all(k in attrs for k in ("alpha_eps", "length_scale", "gamma")):
+        return None
+    from ..turbulence import MannParameters, subcell_variance
+
+    params = MannParameters(float(attrs["alpha_eps"]), float(attrs["length_scale"]), float(attrs["gamma"]))
+    if "dx" in attrs:
+        dx = float(attrs["dx"])
+    else:
+        x = np.asarray(field["x"].values, dtype=np.float64)
+        dx = float(x[1] - x[0])
+    return math.sqrt(subcell_variance(params, dx))
+
+
 def _seed_sequence(seed):
     if isinstance(seed, np.random.Generator):
         return np.random.SeedSequence(int(seed.integers(0, 2**63 - 1)))
@@ -474,7 +521,8 @@ def _transverse_rms(fld, origin, n3, focus, time_e, U, wrap):
 
 
 def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, variants=None, chunk: int = 4096,
-                    transverse_speed: float | None = None, wrap: bool = False) -> LidarRecord:
+                    transverse_speed: float | None = None, wrap: bool = False,
+                    calibration_time: float = 0.0) -> LidarRecord:
     """Simulate a staring lidar's record of speed estimates in a turbulence field.
 
     Parameters
@@ -503,6 +551,11 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
         Overrides ``lidar.transverse_speed`` [m/s].
     wrap : bool
         Treat y and z as periodic (see :func:`cwlidar_sim.beam.sample_los`).
+    calibration_time : float
+        Time of ``times_e = 0`` on the background-calibration clock [s]
+        (:func:`cwlidar_sim.signal.processing.background_gain`: the gain
+        mismatch and drift of ``instrument.background_*``); e.g. a campaign
+        period's start.
 
     Returns
     -------
@@ -510,7 +563,7 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
     """
     from .._config import apply_numba_threads
     from ..beam.sampling import _check_extent, _check_flag, _prepare_beam, _prepare_field
-    from ..signal.processing import FAIL_FLAGS, Flag, background_spectrum, estimate, noise_floor
+    from ..signal.processing import FAIL_FLAGS, Flag, background_gain, background_spectrum, estimate, noise_floor
     from ..signal.spectral import line_shape_table, speckle_looks
     from . import _kernels as K
 
@@ -563,7 +616,8 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
         flags = np.zeros(ne, dtype=np.uint8)
         var = {name: (speed.copy(), flags.copy()) for name, _ in procs[1:]}
         info.update(transverse_speed=None, transverse_speed_source=None, correlation_time=None, m_eff=None,
-                    speckle=None, background=None, flag_counts={f.name: 0 for f in Flag},
+                    speckle=None, subcell_spread=None, subcell_spread_source=None, background=None,
+                    flag_counts={f.name: 0 for f in Flag},
                     variant_availability={name: 1.0 for name in var},
                     note="tier 'los' is the ideal weighted line-of-sight average; speed_e = |vlos_e|")
         return LidarRecord(time_e=time_e, vlos_e=vlos_e, speed_e=speed, flags_e=flags, variants=var,
@@ -578,6 +632,17 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
         vt, src = _transverse_rms(fld, origin, n3, inst.focus, time_e, U, wrap), "field rms at the focus"
     tau = inst.speckle_time(vt)
     m_eff = speckle_looks(inst.blocks_per_estimate, inst.block_duration, tau)
+    if lidar.subcell_spread is not None:
+        spread, spread_src = lidar.subcell_spread, "lidar"
+    else:
+        spread = field_subcell_spread(field)
+        spread_src = "field tensor" if spread is not None else "none (field has no Mann parameters)"
+        spread = spread or 0.0
+    speckle = lidar.speckle
+    if speckle != "continuum":
+        spread, spread_src = 0.0, f"not used by speckle {speckle!r}"
+    elif spread == 0.0:
+        speckle = "independent"
     s_bg, s_sim = ss.spawn(2)
     bg = None if lidar.exact_background else background_spectrum(inst, np.random.default_rng(s_bg))
     table = line_shape_table(inst.n_fft, inst.window)
@@ -585,16 +650,32 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
     amp_s = 0.5 * cnr * w_s
     out = {name: (np.empty(ne), np.empty(ne, dtype=np.uint8)) for name, _ in procs}
 
+    gain_e = None
+    if inst.background_mismatch != 0.0 or inst.background_drift != 0.0:
+        gain_e = background_gain(inst, time_e + check_real("calibration_time", calibration_time))
+
     def process(e0, e1, spec):
+        if gain_e is not None:
+            spec = spec * gain_e[e0:e1, None]
         for name, pinst in procs:
             est = estimate(spec, pinst, bg, line_table=table)
             out[name][0][e0:e1] = est.speed_e
             out[name][1][e0:e1] = est.flags_e
 
-    if lidar.tier == "spectral":
+    if lidar.tier == "spectral" and speckle == "continuum":
+        from ..signal.spectral import continuum_moments, sample_moments
+
+        key = np.uint64(int(np.random.default_rng(s_sim).integers(0, 2**63, dtype=np.int64)))
+        buf = np.empty((min(ne, chunk), ns))
+        for c0 in range(0, ne, chunk):
+            c1 = min(ne, c0 + chunk)
+            vlos_es, vlos_e[c0:c1] = sample_cells(c0, c1, buf)
+            mean, var, _ = continuum_moments(inst, vlos_es, w_s, lidar.cnr_db, spread, correlation_time=tau)
+            process(c0, c1, sample_moments(mean, var, key, e0=c0))
+    elif lidar.tier == "spectral":
         a_d = _lag_coefficients(inst.n_fft, inst.window, _rho(inst, tau))
         noise = noise_floor(inst)
-        draws = _SpeckleBlocks(s_sim, inst.n_bins, m_eff, lidar.speckle)
+        draws = _SpeckleBlocks(s_sim, inst.n_bins, m_eff, speckle)
         from ..signal.spectral import _draw_rows
 
         buf = np.empty((min(ne, chunk), ns))
@@ -613,13 +694,16 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
 
         vlos_es, vlos_e[:] = sample_cells(0, ne, np.empty((ne, ns)))
         spec = simulate_signal_spectra(inst, vlos_es, w_s, lidar.cnr_db, np.random.default_rng(s_sim),
-                                       correlation_time=tau)
+                                       correlation_time=tau, speed_spread=spread if speckle == "continuum" else 0.0)
         process(0, ne, spec)
 
     speed, flags = out.pop("")
     avail = float(np.mean(np.isfinite(speed)))
     info.update(transverse_speed=vt, transverse_speed_source=src, correlation_time=tau, m_eff=m_eff,
-                speckle=lidar.speckle if lidar.tier == "spectral" else "tier 3 (AR(1) per cell)",
+                speckle=(speckle if lidar.tier == "spectral" or speckle == "continuum"
+                         else "tier 3 (AR(1) per cell)"),
+                subcell_spread=spread, subcell_spread_source=spread_src,
+                background_gain=None if gain_e is None else (float(gain_e.min()), float(gain_e.max())),
                 background="exact" if lidar.exact_background else f"measured ({inst.background_blocks} blocks)",
                 flag_counts={f.name: int(np.count_nonzero(flags & f.value)) for f in Flag},
                 n_failed=int(np.count_nonzero(flags & int(FAIL_FLAGS))),

@@ -405,7 +405,7 @@ def _ml_estimate(shat, kp, k_lo, k_hi, table, oversample, n_fft, half_width):
 
 
 @numba.njit(**NJIT)
-def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y, est_id, win_id,
+def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, est_id, win_id,
                 second_frac, guard_bins, table, oversample, n_fft, ml_half, shat):
     """Threshold one averaged spectrum and estimate its Doppler bin; returns (x [bins] or NaN, flags).
 
@@ -425,7 +425,8 @@ def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, sig
             if shat[k] - 1.0 > ymax:
                 ymax = shat[k] - 1.0
         t = thr_value * ymax if ymax > 0.0 else 0.0
-    t = (1.0 + t) * raise_factor - 1.0
+    # the raise: t -> raise_factor t + raise_offset (processing.threshold_levels)
+    t = raise_factor * t + raise_offset
     # totals, argmax, separated groups of thresholded bins
     total = 0.0
     first = 0.0
@@ -495,19 +496,19 @@ def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, sig
 
 
 @numba.njit(**NJIT)
-def process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y, est_id, win_id,
+def process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, est_id, win_id,
                  second_frac, guard_bins, table, oversample, n_fft, ml_half, r_lo, r_hi, out_x_e, out_flags_e):
     """Rows ``r_lo .. r_hi - 1`` of :func:`process_kernel` (serial, ``nogil``)."""
     shat = np.empty(spec_ef.shape[1])
     for e in range(r_lo, r_hi):
-        x, fl = process_one(spec_ef[e], inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y,
+        x, fl = process_one(spec_ef[e], inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y,
                             est_id, win_id, second_frac, guard_bins, table, oversample, n_fft, ml_half, shat)
         out_x_e[e] = x
         out_flags_e[e] = fl
 
 
 @numba.njit(**NJIT_PARALLEL)
-def process_kernel(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y, est_id, win_id,
+def process_kernel(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, est_id, win_id,
                    second_frac, guard_bins, table, oversample, n_fft, ml_half, out_x_e, out_flags_e):
     """:func:`process_one` over every estimate (rows of ``spec_ef``).
 
@@ -517,7 +518,7 @@ def process_kernel(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_fac
     ne = spec_ef.shape[0]
     n_chunk = 64
     for c in numba.prange((ne + n_chunk - 1) // n_chunk):
-        process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, sigma_y, est_id, win_id,
+        process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, est_id, win_id,
                      second_frac, guard_bins, table, oversample, n_fft, ml_half, c * n_chunk,
                      min(ne, (c + 1) * n_chunk), out_x_e, out_flags_e)
 
@@ -734,8 +735,8 @@ def add_tones(n_sub, amp_re_j, amp_im_j, phase0, rot_re_q, rot_im_q, step_4, acc
 
 @numba.njit(**NJIT)
 def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp_im_st, phase_es, dtheta_es,
-                        rot_re_esq, rot_im_esq, step_es4, noise_std, window_n, use_window, acc_n, words_w, tails_n,
-                        out_bn):
+                        rot_re_esq, rot_im_esq, step_es4, noise_std, window_n, use_window, extra_et, acc_n, words_w,
+                        tails_n, out_bn):
     """Real heterodyne samples of blocks ``b_lo .. b_hi - 1`` of a chunk into rows 0.. of ``out_bn`` (float32).
 
     The signal of :func:`synth_kernel`, ``x[n] = noise_std * xi[n] + sum_s
@@ -750,8 +751,10 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     is applied and the sum rounded to float32.  Every block depends only on
     its own inputs, so the result does not depend on how blocks are split
     between calls or threads (serial and ``nogil``: worker threads call it
-    on disjoint blocks).  ``acc_n``, ``words_w``, ``tails_n`` are scratch
-    (lengths N, ceil(N/2), N).
+    on disjoint blocks).  ``extra_et`` (rows: the chunk's estimates, M N
+    samples each; or 0 rows) is added to the samples before the window: the
+    continuum signal and the RIN (:func:`continuum_shape_noise`).
+    ``acc_n``, ``words_w``, ``tails_n`` are scratch (lengths N, ceil(N/2), N).
     """
     nn = acc_n.shape[0]
     ns = phase_es.shape[1]
@@ -764,6 +767,10 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
             ph0 = (phase_es[e, s] + dtheta_es[e, s] * (nn * i)) % _TWOPI
             add_tones(n_sub, amp_re_st[s, t0:t0 + n_sub], amp_im_st[s, t0:t0 + n_sub], ph0, rot_re_esq[e, s],
                       rot_im_esq[e, s], step_es4[e, s], acc_n)
+        if extra_et.shape[0] > 0:
+            xr = extra_et[e, i * nn:(i + 1) * nn]
+            for n in range(nn):
+                acc_n[n] += xr[n]
         r = b - b_lo
         if use_window:
             for n in range(nn):
@@ -799,3 +806,204 @@ def combine_partials_kernel(partial_erf, factor, out_ef):
                 out_ef[e, k] += partial_erf[e, r, k]
         for k in range(nf):
             out_ef[e, k] *= factor
+
+
+# ---------------------------------------------------------------------------
+# continuum speckle (tier 2): per-bin block-lag correlations of the signal
+# ---------------------------------------------------------------------------
+@numba.njit(**NJIT)
+def cell_cosines_row(x_s, amp_s, n_fft, t_max, out_t):
+    """``out_t[t] = 2 sum_s amp_s cos(2 pi x_s t / N)`` for t < t_max, 0 beyond.
+
+    Chebyshev recurrence per cell (``x_s`` reduced to [0, N) first, so an
+    aliased speed is exactly periodic), cells summed in order.
+    """
+    ns = x_s.shape[0]
+    nt = out_t.shape[0]
+    for t in range(nt):
+        out_t[t] = 0.0
+    tm = min(t_max, nt)
+    for s in range(ns):
+        a = amp_s[s]
+        if a == 0.0:
+            continue
+        x = x_s[s] - n_fft * math.floor(x_s[s] / n_fft)
+        c = math.cos(2.0 * math.pi * x / n_fft)
+        c2 = 2.0 * c
+        y0 = 2.0 * a
+        y1 = 2.0 * a * c
+        out_t[0] += y0
+        if tm > 1:
+            out_t[1] += y1
+        for t in range(2, tm):
+            y2 = c2 * y1 - y0
+            y0 = y1
+            y1 = y2
+            out_t[t] += y2
+
+
+@numba.njit(**NJIT)
+def fold_block_lags(c_t, g_t, r_d, n_fft, out_jn):
+    """Folded lag sequences of the block-lag correlations j = 0 .. J of one estimate.
+
+    ``out[j, m] = r_m g(jN + m) c(jN + m) + r_{N-m} g(jN + m - N) c(jN + m - N)``
+    (the second term for m >= 1, and for j = 0 read as lag ``N - m``, the
+    mirror of ``-m``), whose real DFT is ``sum_{|d|<N} r_|d| g(jN + d)
+    c(jN + d) exp(-i 2 pi k d / N)``.  ``c_t`` and ``g_t`` hold lags
+    0 .. (J + 1) N - 1.
+    """
+    nj = out_jn.shape[0]
+    n = n_fft
+    out_jn[0, 0] = r_d[0] * g_t[0] * c_t[0]
+    for m in range(1, n):
+        out_jn[0, m] = r_d[m] * g_t[m] * c_t[m] + r_d[n - m] * g_t[n - m] * c_t[n - m]
+    for j in range(1, nj):
+        out_jn[j, 0] = r_d[0] * g_t[j * n] * c_t[j * n]
+        for m in range(1, n):
+            out_jn[j, m] = r_d[m] * g_t[j * n + m] * c_t[j * n + m] + r_d[n - m] * g_t[j * n + m - n] * c_t[
+                j * n + m - n]
+
+
+@numba.njit(**NJIT)
+def continuum_lag_rows(x_es, amp_s, g_t, r_d, n_fft, t_max, r_lo, r_hi, c_t, out_ejn):
+    """Rows ``r_lo .. r_hi - 1``: :func:`cell_cosines_row` then :func:`fold_block_lags` (``c_t`` scratch)."""
+    for e in range(r_lo, r_hi):
+        cell_cosines_row(x_es[e], amp_s, n_fft, t_max, c_t)
+        fold_block_lags(c_t, g_t, r_d, n_fft, out_ejn[e])
+
+
+@numba.njit(**NJIT)
+def continuum_moment_rows(f_ejk, fn_jk, noise_f, m_blocks, r_lo, r_hi, mean_ef, var_ef, looks_ef):
+    """Mean, variance and signal looks of each bin's M-block average (Gaussian-process moments).
+
+    ``f_ejk[e, j]`` is the DFT of the signal's folded lag sequence of block
+    lag j (:func:`fold_block_lags`), ``fn_jk`` the same for the noise
+    processes other than shot noise (RIN, reflection; its own number of
+    lags, row 0 unused), ``noise_f`` the
+    expected noise floor.  With ``S = Re f[e, 0]``, ``c_j = f[e, j] +
+    fn[j]`` (j >= 1):
+
+    ``mean = S + noise``,
+    ``var = k_dc [(S + noise)^2 + 2 sum_{j=1}^{J} (1 - j/M) |c_j|^2] / M``
+
+    (``k_dc = 2`` at 0 Hz and Nyquist, whose DFT values are real), and
+    ``looks = M S^2 / (S^2 + 2 sum_j (1 - j/M) |f[e, j]|^2)``, the signal's
+    effective independent blocks (M where S = 0).
+    """
+    nj = f_ejk.shape[1]
+    nn = fn_jk.shape[0]
+    nmax = max(nj, nn)
+    nf = noise_f.shape[0]
+    inv_m = 1.0 / m_blocks
+    for e in range(r_lo, r_hi):
+        for k in range(nf):
+            s = f_ejk[e, 0, k].real
+            if s < 0.0:
+                s = 0.0
+            mu = s + noise_f[k]
+            qt = 0.0
+            qs = 0.0
+            for j in range(1, nmax):
+                wj = 1.0 - j * inv_m
+                if wj <= 0.0:
+                    break
+                a = f_ejk[e, j, k] if j < nj else 0.0j
+                b = a + fn_jk[j, k] if j < nn else a
+                qs += wj * (a.real * a.real + a.imag * a.imag)
+                qt += wj * (b.real * b.real + b.imag * b.imag)
+            kd = 2.0 if (k == 0 or k == nf - 1) else 1.0
+            mean_ef[e, k] = mu
+            var_ef[e, k] = kd * (mu * mu + 2.0 * qt) * inv_m
+            den = s * s + 2.0 * qs
+            looks_ef[e, k] = m_blocks if den <= 0.0 else m_blocks * s * s / den
+
+
+@numba.njit(**NJIT)
+def gamma_moment_rows(mean_ef, var_ef, key, e0, r_lo, r_hi, out_ef):
+    """Draw each bin as a Gamma variable of the given mean and variance (Wilson-Hilferty cube of a normal).
+
+    Shape ``kappa = mean^2 / var``: ``out = mean (1 - c + z sqrt(c))^3``,
+    ``c = 1 / (9 kappa)``, clipped at 0; row e uses the counter-based stream
+    ``e0 + e`` (:func:`block_normals`), so rows may be drawn in any chunks.
+    """
+    nf = out_ef.shape[1]
+    z_f = np.empty(nf)
+    words = np.empty((nf + 1) // 2, dtype=np.uint64)
+    tails = np.empty(nf, dtype=np.int64)
+    for e in range(r_lo, r_hi):
+        block_normals(stream_start(key, e0 + e), 1.0, words, tails, z_f)
+        for k in range(nf):
+            mu = mean_ef[e, k]
+            c = var_ef[e, k] / (9.0 * mu * mu)
+            b = 1.0 - c + z_f[k] * math.sqrt(c)
+            if b < 0.0:
+                b = 0.0
+            out_ef[e, k] = mu * b * b * b
+
+
+# ---------------------------------------------------------------------------
+# tier 3, continuum path: a Gaussian process synthesised from its spectrum
+# ---------------------------------------------------------------------------
+@numba.njit(**NJIT)
+def continuum_correlation_fill(x_s, amp2_s, g_t, rn_t, n_fft, t_max, buf_p):
+    """``buf[tau] = sum_s amp2_s exp(i 2 pi x_s tau / N) g(tau) + 2 rn(tau)`` for tau < t_max, its conjugate at P - tau.
+
+    The complex correlation of the synthesised process (signal cells of
+    power ``amp2_s = E|a_s|^2`` at ``x_s`` bins, plus twice the real noise
+    correlation ``rn``, so that the real part carries ``rn``); 0 elsewhere.
+    The phasor of a cell is rotated lag by lag (error O(tau eps)).
+    """
+    p = buf_p.shape[0]
+    for i in range(p):
+        buf_p[i] = 0.0j
+    ns = x_s.shape[0]
+    for s in range(ns):
+        a = amp2_s[s]
+        if a == 0.0:
+            continue
+        x = x_s[s] - n_fft * math.floor(x_s[s] / n_fft)
+        th = 2.0 * math.pi * x / n_fft
+        c = math.cos(th)
+        sn = math.sin(th)
+        zr = a
+        zi = 0.0
+        for t in range(t_max):
+            buf_p[t] += complex(zr * g_t[t], zi * g_t[t])
+            zr, zi = zr * c - zi * sn, zr * sn + zi * c
+    for t in range(t_max):
+        buf_p[t] += 2.0 * rn_t[t]
+    for t in range(1, t_max):
+        buf_p[p - t] = buf_p[t].conjugate()
+
+
+@numba.njit(**NJIT)
+def continuum_shape_noise(key, stream, buf_p, words_w, tails_n, tmp_n):
+    """Replace the spectrum ``S_m`` in ``buf`` by ``sqrt(max(Re S_m, 0) / (2P)) (z0 + i z1)``.
+
+    ``z0, z1`` standard normals from the counter-based streams
+    ``stream_start(mix64(key ^ stream), c)``, c = 0, 1, .. (``tmp_n.shape[0]``
+    normals each); the inverse FFT of the result is a circular complex
+    Gaussian process with correlation ``(1/P) sum_m S_m exp(i 2 pi m n / P)``.
+    """
+    p = buf_p.shape[0]
+    nc = tmp_n.shape[0]
+    skey = mix64(np.uint64(key) ^ mix64(np.uint64(stream) + _GOLDEN))
+    inv = 1.0 / (2.0 * p)
+    c = 0
+    pos = nc
+    for m in range(p):
+        if pos + 2 > nc:
+            block_normals(stream_start(skey, c), 1.0, words_w, tails_n, tmp_n)
+            c += 1
+            pos = 0
+        s = buf_p[m].real
+        a = math.sqrt(s * inv) if s > 0.0 else 0.0
+        buf_p[m] = complex(a * tmp_n[pos], a * tmp_n[pos + 1])
+        pos += 2
+
+
+@numba.njit(**NJIT)
+def real_part_into(buf_p, n, out_n):
+    """``out_n[:n] = Re buf_p[:n]``."""
+    for i in range(n):
+        out_n[i] = buf_p[i].real

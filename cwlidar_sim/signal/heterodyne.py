@@ -69,28 +69,84 @@ def substep_length(n_fft: int, sample_rate: float, correlation_time: float) -> i
     return 1
 
 
+class _Continuum:
+    """Gaussian-process part of a run synthesised from its spectrum, one estimate at a time.
+
+    The continuum signal (cells with a sub-cell speed spread) and the noise
+    above shot noise (RIN, reflection) form, given the cell speeds, a
+    stationary Gaussian process of known correlation: that of
+    :func:`_kernels.continuum_correlation_fill`.  An estimate's M N samples
+    are the first M N of a circular process of length ``P >= M N + T``
+    (``T`` the lags beyond which the correlation is < 1e-12, so the
+    wrap-around leaves the samples' joint law exact to that level), drawn
+    as the inverse FFT of ``sqrt(S_m / 2P) (z0 + i z1)``, ``S_m`` the DFT of
+    the correlation; its real part is added to the samples.
+    """
+
+    def __init__(self, instrument, v_es, w_s, cnr, spread, tau, key):
+        from scipy.fft import next_fast_len
+
+        from .spectral import _noise_lag_count, continuum_lags, line_correlation, noise_correlation
+
+        self.inst = instrument
+        self.key = key
+        self.with_cells = spread > 0.0
+        t = int(math.ceil(_noise_lag_count(instrument))) + 1
+        if self.with_cells:
+            t = max(t, continuum_lags(instrument, spread, tau)[0])
+        self.t_max = t
+        self.g = line_correlation(instrument, spread, tau, t) if self.with_cells else np.zeros(t)
+        self.rn = noise_correlation(instrument, t)
+        self.x_es = np.ascontiguousarray(v_es / instrument.bin_speed)
+        self.amp2_s = np.ascontiguousarray(2.0 * cnr * w_s) if self.with_cells else np.zeros(w_s.size)
+        self.n_samples = instrument.blocks_per_estimate * instrument.n_fft
+        self.P = int(next_fast_len(self.n_samples + t))
+
+    def fill(self, w, e, out_t):
+        """The real samples of estimate e into ``out_t`` (``w`` a :class:`_Scratch`)."""
+        from . import _kernels as K
+
+        line = w.line(self.P)
+        K.continuum_correlation_fill(self.x_es[e], self.amp2_s, self.g, self.rn, self.inst.n_fft, self.t_max, line.x)
+        line.forward()
+        K.continuum_shape_noise(np.uint64(self.key), e, line.x, w.cwords, w.ctails, w.ctmp)
+        line.backward()
+        K.real_part_into(line.x, self.n_samples, out_t)
+
+
 class _Synth:
     """State of one tier-3 run: keys, AR(1) carry-over and Doppler phases."""
 
-    def __init__(self, instrument, vlos_es, weight_s, cnr_db, seed, correlation_time):
+    def __init__(self, instrument, vlos_es, weight_s, cnr_db, seed, correlation_time, speed_spread=0.0):
+        from .._validation import check_real
+
         tau = float(correlation_time)
         if not (tau > 0):
             raise ValueError(f"correlation_time={correlation_time!r} must be > 0 s (or inf)")
+        spread = check_real("speed_spread", speed_spread, lo=0.0, hi=100.0)
         self.inst = instrument
         self.v = _as_2d("vlos_es", vlos_es)
         self.w = _weights(weight_s, self.v.shape[1])
         self.cnr = cnr_linear(cnr_db)
         rng = _rng(seed)
         self.key_noise, self.key_amp = (int(k) for k in rng.integers(0, 2**63, size=2, dtype=np.int64))
+        from .spectral import _noise_components
+
+        self.cont = None
+        if spread > 0.0 or _noise_components(instrument):
+            key_c = int(rng.integers(0, 2**63, dtype=np.int64))
+            self.cont = _Continuum(instrument, self.v, self.w, self.cnr, spread, tau, key_c)
+        # cells with a sub-cell spread are in the continuum: no tones
+        self.v_tones = self.v[:, :0] if spread > 0.0 else self.v
         n, fs = instrument.n_fft, instrument.sample_rate
         self.L = substep_length(n, fs, tau)
         self.n_sub = n // self.L
         self.rho = 1.0 if math.isinf(tau) else math.exp(-self.L / (fs * tau))
-        self.std_s = np.sqrt(2.0 * self.cnr * self.w)
-        ns = self.v.shape[1]
+        ns = self.v_tones.shape[1]
+        self.std_s = np.sqrt(2.0 * self.cnr * self.w[:ns])
         self.last_re = np.zeros(ns)
         self.last_im = np.zeros(ns)
-        self.dtheta_es = 2.0 * np.pi * (self.v / instrument.speed_per_hz) / fs
+        self.dtheta_es = 2.0 * np.pi * (self.v_tones / instrument.speed_per_hz) / fs
         m = instrument.blocks_per_estimate
         # Doppler phase of each cell at the start of each estimate, continuous across estimates
         adv = np.mod(self.dtheta_es * (n * m), 2.0 * np.pi)
@@ -101,7 +157,7 @@ class _Synth:
     def chunk_size(self, chunk_samples):
         """Estimates per chunk: about ``chunk_samples`` samples, or as many speckle amplitudes."""
         m, n = self.inst.blocks_per_estimate, self.inst.n_fft
-        return max(1, chunk_samples // (m * max(n, self.n_sub * self.v.shape[1])))
+        return max(1, chunk_samples // (m * max(n, self.n_sub * self.v_tones.shape[1])))
 
     def chunk(self, e0, e1, run):
         """Inputs of :func:`_kernels.synth_blocks_kernel` for estimates e0..e1-1 (chunks in order only).
@@ -116,7 +172,7 @@ class _Synth:
         m = inst.blocks_per_estimate
         ne = e1 - e0
         nt = ne * m * self.n_sub
-        ns = self.v.shape[1]
+        ns = self.v_tones.shape[1]
         step0 = e0 * m * self.n_sub
         are = np.empty((ns, nt))
         aim = np.empty((ns, nt))
@@ -135,8 +191,14 @@ class _Synth:
         rot_im = np.empty((ne, ns, g))
         step = np.empty((ne, ns, 4))
         K.tone_tables_kernel(dth, self.L, rot_re, rot_im, step)
+        if self.cont is None:
+            extra = np.empty((0, 0))
+        else:
+            extra = np.empty((ne, self.cont.n_samples))
+            run(ne, lambda w, i: self.cont.fill(w, e0 + i, extra[i]))
         return (np.uint64(self.key_noise), e0 * m, m, self.n_sub, are, aim,
-                np.ascontiguousarray(self.phase_es[e0:e1]), dth, rot_re, rot_im, step, 1.0, self.win, self.use_window)
+                np.ascontiguousarray(self.phase_es[e0:e1]), dth, rot_re, rot_im, step, 1.0, self.win, self.use_window,
+                extra)
 
 
 def _task_blocks(n_fft: int) -> int:
@@ -159,6 +221,18 @@ class _Scratch:
         self.acc = np.empty(n_fft)
         self.words = np.empty((n_fft + 1) // 2, dtype=np.uint64)
         self.tails = np.empty(n_fft, dtype=np.int64)
+        self._line = None
+        self.ctmp = np.empty(4096)
+        self.cwords = np.empty(2048, dtype=np.uint64)
+        self.ctails = np.empty(4096, dtype=np.int64)
+
+    def line(self, p):
+        """A :class:`_fft.LineC2C` of length p (made on first use, kept for the run)."""
+        if self._line is None or self._line.x.shape[0] != p:
+            from .._fft import LineC2C
+
+            self._line = LineC2C(p)
+        return self._line
 
 
 class _Runner:
@@ -184,7 +258,8 @@ class _Runner:
         _run_tasks(n_tasks, one)
 
 
-def synthesize_samples(instrument, vlos_es, weight_s, cnr_db: float, seed, *, correlation_time: float = math.inf):
+def synthesize_samples(instrument, vlos_es, weight_s, cnr_db: float, seed, *, correlation_time: float = math.inf,
+                       speed_spread: float = 0.0):
     """The real detector signal of every estimate, in blocks (for inspection and tests).
 
     These are exactly the samples that :func:`simulate_signal_spectra`
@@ -202,6 +277,10 @@ def synthesize_samples(instrument, vlos_es, weight_s, cnr_db: float, seed, *, co
     seed : int or numpy.random.Generator
     correlation_time : float
         Speckle correlation time [s] (inf: frozen).
+    speed_spread : float
+        Sub-cell speed spread sigma_v [m/s] (0: point-like cells, each a
+        tone with AR(1) speckle); > 0 makes every cell a continuum of
+        scatterers (:class:`_Continuum`).
 
     Returns
     -------
@@ -210,7 +289,7 @@ def synthesize_samples(instrument, vlos_es, weight_s, cnr_db: float, seed, *, co
     """
     from . import _kernels as K
 
-    st = _Synth(instrument, vlos_es, weight_s, cnr_db, seed, correlation_time)
+    st = _Synth(instrument, vlos_es, weight_s, cnr_db, seed, correlation_time, speed_spread)
     m, n = instrument.blocks_per_estimate, instrument.n_fft
     ne = st.v.shape[0]
     out = np.empty((ne * m, n), dtype=np.float32)
@@ -229,12 +308,13 @@ def synthesize_samples(instrument, vlos_es, weight_s, cnr_db: float, seed, *, co
 
 
 def simulate_signal_spectra(instrument, vlos_es, weight_s, cnr_db: float, seed, *,
-                            correlation_time: float = math.inf, chunk_samples: int = 1 << 22):
+                            correlation_time: float = math.inf, chunk_samples: int = 1 << 22,
+                            speed_spread: float = 0.0):
     """Averaged periodogram of each estimate from the synthesised 50 MHz signal (tier 3).
 
     Parameters
     ----------
-    instrument, vlos_es, weight_s, cnr_db, seed, correlation_time
+    instrument, vlos_es, weight_s, cnr_db, seed, correlation_time, speed_spread
         As in :func:`synthesize_samples`.
     chunk_samples : int
         Bounds memory: estimates are prepared (speckle amplitudes, phases) a
@@ -258,7 +338,7 @@ def simulate_signal_spectra(instrument, vlos_es, weight_s, cnr_db: float, seed, 
     from . import _kernels as K
 
     chunk_samples = check_int("chunk_samples", chunk_samples, lo=1)
-    st = _Synth(instrument, vlos_es, weight_s, cnr_db, seed, correlation_time)
+    st = _Synth(instrument, vlos_es, weight_s, cnr_db, seed, correlation_time, speed_spread)
     m, n = instrument.blocks_per_estimate, instrument.n_fft
     ne = st.v.shape[0]
     nf = instrument.n_bins

@@ -41,6 +41,7 @@ WAVELENGTH = 1547.615e-9
 
 WINDOWS = ("rect", "hann")
 THRESHOLD_KINDS = ("sigma", "snr", "peak_fraction")
+RAISE_READINGS = ("level", "excess")
 
 __all__ = ["Instrument", "PROTOTYPE_2003", "CS_SERIES", "PRESETS", "preset", "WINDOWS", "THRESHOLD_KINDS"]
 
@@ -84,9 +85,13 @@ class Instrument:
     threshold_value : float
         The factor of the rule; >= 0 (<= 1 for 'peak_fraction').
     threshold_raise_percent : float
-        A2012's experiment: the threshold *in raw spectrum units*,
-        ``B (1 + t)``, is raised by this percentage, i.e.
-        ``t -> (1 + t)(1 + x/100) - 1``; in [0, 1000].
+        A2012's experiment: the threshold raised by this percentage x of its
+        original value; in [0, 1000].  How, see ``threshold_raise_reading``.
+    threshold_raise_reading : {'level', 'excess'}
+        'level': the threshold in raw spectrum units, ``B (1 + t)``, is
+        raised, ``t -> (1 + t)(1 + x/100) - 1``; 'excess': its height above
+        the removed background, ``t -> t (1 + x/100)``.  The same for every
+        threshold kind (:func:`cwlidar_sim.signal.processing.threshold_levels`).
     blind_zone_speed : float
         Speeds below this are never used (relative-intensity noise and the
         homodyne ambiguity live near 0 Hz) [m/s]; >= 0 and below Nyquist.
@@ -101,9 +106,35 @@ class Instrument:
         floor [-]; >= 0 (0: none).
     rin_corner : float
         Corner frequency of the Lorentzian RIN shape ``1 / (1 + (f/f_c)^2)`` [Hz]; > 0.
+        The RIN is a real Gaussian process added to the detector signal in
+        tier 3 and to the noise floor in both tiers
+        (:func:`cwlidar_sim.signal.spectral.noise_correlation`).
+    reflection_level : float
+        Density at 0 Hz, relative to shot noise, of the beat of the internal
+        reflection of a monostatic cw lidar (light returned by the optics,
+        not Doppler shifted) with the local oscillator [-]; >= 0 (0: none).
+        Same Lorentzian form as the RIN.
+    reflection_corner : float
+        Half-width of the reflection's 0 Hz peak (laser line width and
+        mechanical jitter) [Hz]; > 0.
     background_blocks : int
         Signal-free blocks averaged into the background (noise-floor) spectrum
         M_bg; >= 1.  Default: 10 min of blocks, as the prototype measured every 3 h.
+    background_mismatch : float
+        Relative gain of the receiver during the measurement over its gain
+        when the background was measured, just after a calibration [-]; in
+        [-0.5, 1] (0: none).  Multiplies signal and noise alike, so a
+        signal-free bin's ``y = S/B - 1`` has mean ``delta`` (the gain minus
+        1) instead of 0 (:func:`cwlidar_sim.signal.processing.background_gain`).
+    background_drift : float
+        Further relative gain change accrued linearly between two calibrations
+        (over ``background_interval - background_duration``) [-]; in [-0.5, 1].
+    background_interval : float
+        Time from one background calibration to the next [s]; > 0.  A2012:
+        3 h (10800 s).
+    background_duration : float
+        Length of a calibration (no estimates: the campaign's PAUSED flag)
+        [s]; in [0, background_interval).  A2012: 10 min (600 s).
     """
 
     name: str = "custom"
@@ -119,12 +150,19 @@ class Instrument:
     threshold_kind: str = "sigma"
     threshold_value: float = 4.0
     threshold_raise_percent: float = 0.0
+    threshold_raise_reading: str = "level"
     blind_zone_speed: float = 0.5
     edge_guard_speed: float = 0.5
     second_peak_fraction: float = 0.2
     rin_level: float = 0.0
     rin_corner: float = 1e6
+    reflection_level: float = 0.0
+    reflection_corner: float = 3e4
     background_blocks: int = 58_593_750
+    background_mismatch: float = 0.0
+    background_drift: float = 0.0
+    background_interval: float = 10800.0
+    background_duration: float = 600.0
 
     def __post_init__(self):
         def put(k, v):
@@ -158,14 +196,24 @@ class Instrument:
         put("threshold_value", check_real("threshold_value", self.threshold_value, lo=0.0, hi=hi))
         put("threshold_raise_percent",
             check_real("threshold_raise_percent", self.threshold_raise_percent, lo=0.0, hi=1000.0))
+        check_choice("threshold_raise_reading", self.threshold_raise_reading, RAISE_READINGS)
         nyq = self.nyquist_speed
         put("blind_zone_speed", check_real("blind_zone_speed", self.blind_zone_speed, lo=0.0, hi=nyq, hi_open=True))
         put("edge_guard_speed", check_real("edge_guard_speed", self.edge_guard_speed, lo=0.0, hi=nyq))
         put("second_peak_fraction",
             check_real("second_peak_fraction", self.second_peak_fraction, lo=0.0, hi=1.0, lo_open=True))
         put("rin_level", check_real("rin_level", self.rin_level, lo=0.0, hi=1e12))
-        put("rin_corner", check_real("rin_corner", self.rin_corner, lo=0.0, lo_open=True))
+        put("rin_corner", check_real("rin_corner", self.rin_corner, lo=0.0, hi=self.sample_rate, lo_open=True))
+        put("reflection_level", check_real("reflection_level", self.reflection_level, lo=0.0, hi=1e12))
+        put("reflection_corner",
+            check_real("reflection_corner", self.reflection_corner, lo=1e-6 * self.sample_rate, hi=self.sample_rate))
         put("background_blocks", check_int("background_blocks", self.background_blocks, lo=1, hi=10**15))
+        put("background_mismatch", check_real("background_mismatch", self.background_mismatch, lo=-0.5, hi=1.0))
+        put("background_drift", check_real("background_drift", self.background_drift, lo=-0.5, hi=1.0))
+        put("background_interval",
+            check_real("background_interval", self.background_interval, lo=0.0, hi=1e9, lo_open=True))
+        put("background_duration", check_real("background_duration", self.background_duration, lo=0.0,
+                                              hi=self.background_interval, hi_open=True))
         if self.first_bin >= self.n_fft // 2 - 1:
             raise ValueError(
                 f"blind_zone_speed={self.blind_zone_speed} leaves no usable bin below Nyquist; "

@@ -16,7 +16,8 @@ Steps, for every estimate
    ``y_k = S_k / B_k - 1`` (0 on average where there is no signal, with
    standard deviation ``sigma_y = sqrt(1/M + 1/M_bg)``).
 2. Threshold (:func:`threshold_levels`): a level ``t``, then A2012's
-   "raise by x %" applied to the raw level ``B (1 + t)``.
+   "raise by x %" in one of two readings (of the raw level ``B (1 + t)``
+   or of the excess ``t``).
 3. Keep the bins outside the low-frequency blind zone and below the Nyquist
    bin (``first_bin <= k < N/2``) whose ``y`` exceeds ``t``; the thresholded
    spectrum is ``p_k = y_k - t`` there and 0 elsewhere (subtracting ``t``
@@ -44,6 +45,8 @@ __all__ = [
     "FAIL_FLAGS",
     "DopplerEstimates",
     "threshold_levels",
+    "raised_level",
+    "background_gain",
     "noise_floor",
     "background_spectrum",
     "estimate",
@@ -150,11 +153,18 @@ class DopplerEstimates:
 def noise_floor(instrument) -> np.ndarray:
     """Expected noise spectrum per one-sided bin, in units of the shot-noise level [-].
 
-    ``1 + rin_level / (1 + (f / rin_corner)^2)``: white shot noise plus an
-    optional Lorentzian relative-intensity-noise bump at 0 Hz.
+    White shot noise (1 in every bin) plus the relative-intensity noise and
+    the 0 Hz internal reflection, each a real Gaussian process of density
+    ``P0`` at 0 Hz and corner ``f_c`` (:func:`cwlidar_sim.signal.spectral.noise_correlation`):
+    the expected block periodogram of such a process is the exact lag sum
+    ``sum_{|d|<N} (R_w(d) / R_w(0)) r(d) exp(-i 2 pi k d / N)``, close to
+    ``P0 / (1 + (f / f_c)^2)`` for ``f << f_s`` and a corner of several bins.
     """
-    f = instrument.frequencies_f
-    return 1.0 + instrument.rin_level / (1.0 + (f / instrument.rin_corner) ** 2)
+    from .spectral import _fold_noise, _noise_components
+
+    if not _noise_components(instrument):
+        return np.ones(instrument.n_bins)
+    return 1.0 + np.maximum(_fold_noise(instrument, 1)[0].real, 0.0)
 
 
 def background_spectrum(instrument, seed=None, *, n_blocks=None) -> np.ndarray:
@@ -189,16 +199,74 @@ def background_spectrum(instrument, seed=None, *, n_blocks=None) -> np.ndarray:
     return floor * rng.gamma(shape, 1.0 / shape)
 
 
+def background_gain(instrument, time_e) -> np.ndarray:
+    """Receiver gain at each estimate relative to the gain of the last background calibration [-].
+
+    ``g(t) = 1 + mismatch + drift * tau / (T_cal - D_cal)``,
+    ``tau = (t - D_cal) mod T_cal`` the time since the last calibration ended
+    (calibrations occupy ``[k T_cal, k T_cal + D_cal)``: A2012's 10 min every
+    3 h with the defaults).  The measured spectra are ``g`` times the true
+    ones while the background ``B`` is the calibration's, so in a signal-free
+    bin ``y = g S/B - 1 = (g - 1) + g eps`` (``eps`` the noise, standard
+    deviation sigma_y): a threshold ``t`` on ``y`` acts on the noise as the
+    level ``(1 + t) / g - 1``, i.e. at ``((1 + t)/g - 1) / sigma_y`` standard
+    deviations instead of ``t / sigma_y``.  A gain that has grown (g > 1:
+    the background now underestimated) lets noise bins through and pulls the
+    median toward the middle of the band; one that has dropped (g < 1)
+    raises the threshold on the signal.
+
+    Parameters
+    ----------
+    instrument : Instrument
+    time_e : array_like
+        Estimate times on the calibration clock [s].
+
+    Returns
+    -------
+    ndarray, float64, like ``time_e``
+    """
+    t = np.asarray(time_e, dtype=np.float64)
+    if not np.all(np.isfinite(t)):
+        raise ValueError("time_e must be finite")
+    T, D = instrument.background_interval, instrument.background_duration
+    tau = np.mod(t - D, T)
+    return 1.0 + instrument.background_mismatch + instrument.background_drift * tau / (T - D)
+
+
 def threshold_levels(instrument, *, n_background=None) -> dict:
     """The threshold rule of an instrument in words and numbers.
+
+    Every kind sets a level ``t`` on ``y = S/B - 1``, the spectrum's excess
+    over the background in units of the background: 'sigma'
+    ``t = value * sigma_y``, 'snr' ``t = value``, 'peak_fraction'
+    ``t = value * max(y)`` (computed per spectrum).  A2012's raise of the
+    threshold "by x % of its original value" is then applied to that level
+    in one of two readings (``threshold_raise_reading``), the same for every
+    kind:
+
+    'level' (default)
+        the threshold *as a level of the raw spectrum*, ``B (1 + t)``, is
+        raised by x %: ``t -> (1 + x/100)(1 + t) - 1 = t + (x/100)(1 + t)``.
+        The raise is mostly the floor's: 5 % lifts a 4 sigma_y threshold of
+        the prototype (t = 0.091) to 0.145.
+    'excess'
+        the threshold's height above the removed background is raised by
+        x %: ``t -> (1 + x/100) t`` (5 % lifts t = 0.091 to 0.095); for
+        'peak_fraction' this is the fraction raised by x %.
+
+    The paper removes the background before thresholding, which favours
+    'excess'; 'level' is the earlier reading of this package, kept as the
+    default so that results do not change.  Both are
+    ``t -> raise_factor t + raise_offset``.
 
     Returns
     -------
     dict
-        ``sigma_y``: standard deviation of ``y = S/B - 1`` in a signal-free bin,
+        ``sigma_y``: standard deviation of ``y`` in a signal-free bin,
         ``sqrt(1/M + 1/M_bg)`` (M blocks per estimate, M_bg background
         blocks); ``t``: the level before the raise (for 'peak_fraction', the
-        factor of ``max(y)``); ``raise_factor``: ``1 + x/100``.
+        factor of ``max(y)``); ``raise_factor`` ``1 + x/100`` and
+        ``raise_offset`` (``x/100`` for 'level', 0 for 'excess'); ``reading``.
     """
     m_bg = instrument.background_blocks if n_background is None else n_background
     sigma_y = math.sqrt(1.0 / instrument.blocks_per_estimate + 1.0 / m_bg)
@@ -207,7 +275,16 @@ def threshold_levels(instrument, *, n_background=None) -> dict:
         t = instrument.threshold_value * sigma_y
     else:
         t = instrument.threshold_value
-    return {"kind": kind, "sigma_y": sigma_y, "t": t, "raise_factor": 1.0 + instrument.threshold_raise_percent / 100}
+    x = instrument.threshold_raise_percent / 100.0
+    reading = instrument.threshold_raise_reading
+    return {"kind": kind, "sigma_y": sigma_y, "t": t, "raise_factor": 1.0 + x,
+            "raise_offset": x if reading == "level" else 0.0, "reading": reading}
+
+
+def raised_level(t: float, instrument) -> float:
+    """The level ``t`` after the instrument's raise (:func:`threshold_levels`)."""
+    thr = threshold_levels(instrument)
+    return thr["raise_factor"] * t + thr["raise_offset"]
 
 
 def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_background=None,
@@ -272,7 +349,7 @@ def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_bac
     flags = np.empty(ne, dtype=np.uint8)
     inv_bg = 1.0 / bg
     args = (instrument.first_bin, nf - 1, _THR_IDS[instrument.threshold_kind], float(instrument.threshold_value),
-            thr["raise_factor"], thr["sigma_y"], est_id, _WIN_IDS[instrument.window],
+            thr["raise_factor"], thr["raise_offset"], thr["sigma_y"], est_id, _WIN_IDS[instrument.window],
             instrument.second_peak_fraction, guard, table, over, instrument.n_fft, _ML_HALF_WIDTH)
 
     def run(t):

@@ -345,3 +345,258 @@ def _weights(weight_s, ns):
     if not 0.0 < w.sum() <= 1.0 + 1e-9:
         raise ValueError(f"weight_s must sum to a value in (0, 1], got {w.sum()!r}")
     return w
+
+
+# ---------------------------------------------------------------------------
+# continuum speckle: sub-cell speed spread and per-bin looks (derived)
+# ---------------------------------------------------------------------------
+#: Largest block lag J kept by the continuum speckle model (lags beyond are
+#: below :data:`_G_CUT` of the line's correlation, or the model is refused).
+CONTINUUM_MAX_LAG = 16
+#: Relative correlation below which a lag is dropped.
+_G_CUT = 1e-12
+
+
+def spread_frequency(instrument, speed_spread: float) -> float:
+    """Doppler frequency spread ``sigma_f = 2 sigma_v / lambda`` [Hz] of a speed spread sigma_v [m/s]."""
+    return check_real("speed_spread", speed_spread, lo=0.0, hi=100.0) / instrument.speed_per_hz
+
+
+def line_correlation(instrument, speed_spread: float, correlation_time: float, n_lags: int) -> np.ndarray:
+    """Correlation ``g(tau)`` of one cell's speckle amplitude at lags tau = 0 .. n_lags - 1 samples.
+
+    ``g(tau) = exp(-2 pi^2 sigma_f^2 (tau / f_s)^2) exp(-|tau| / (f_s tau_c))``:
+    the Gaussian factor is the sub-cell spread of speeds (a Gaussian
+    distribution of Doppler shifts of standard deviation
+    ``sigma_f = 2 sigma_v / lambda`` among the cell's scatterers), the
+    exponential the transit of the scatterers across the waist.  Values
+    below 1e-12 are set to 0.
+    """
+    fs = instrument.sample_rate
+    sf = spread_frequency(instrument, speed_spread)
+    t = np.arange(check_int("n_lags", n_lags, lo=1)) / fs
+    lg = -2.0 * (math.pi * sf * t) ** 2
+    if math.isfinite(correlation_time):
+        lg = lg - t / correlation_time
+    g = np.exp(lg)
+    g[g < _G_CUT] = 0.0
+    return g
+
+
+def continuum_lags(instrument, speed_spread: float, correlation_time: float = math.inf):
+    """Lags the continuum model needs: ``(t_max, J)``, the line's correlation is < 1e-12 from t_max on.
+
+    ``J = ceil(t_max / N)`` block lags (the instrument's noise processes,
+    :func:`noise_correlation`, have their own).  Raises ValueError when ``J`` would
+    exceed :data:`CONTINUUM_MAX_LAG` (a spread too narrow: use the
+    'coherent' or 'independent' model).
+    """
+    fs = instrument.sample_rate
+    sf = spread_frequency(instrument, speed_spread)
+    cut = math.log(1.0 / _G_CUT)
+    tmax = math.inf
+    if sf > 0.0:
+        tmax = fs * math.sqrt(cut / 2.0) / (math.pi * sf)
+    if math.isfinite(correlation_time):
+        tmax = min(tmax, fs * correlation_time * cut)
+    n = instrument.n_fft
+    if math.isinf(tmax) or tmax > CONTINUUM_MAX_LAG * n:
+        raise ValueError(
+            f"speed_spread={speed_spread!r} m/s with correlation_time={correlation_time!r} s keeps the speckle "
+            f"correlated over more than {CONTINUUM_MAX_LAG} blocks; allowed: speed_spread >= "
+            f"{fs * math.sqrt(cut / 2.0) / (math.pi * CONTINUUM_MAX_LAG * n) * instrument.speed_per_hz:.3g} m/s "
+            "(or use speckle 'coherent' / 'independent')")
+    t_max = max(1, int(math.ceil(tmax)))
+    return t_max, int(math.ceil(t_max / n))
+
+
+def _noise_components(instrument):
+    """(level, corner) of the Lorentzian noise processes above shot noise: RIN, internal reflection."""
+    out = []
+    if instrument.rin_level > 0.0:
+        out.append((instrument.rin_level, instrument.rin_corner))
+    if instrument.reflection_level > 0.0:
+        out.append((instrument.reflection_level, instrument.reflection_corner))
+    return out
+
+
+def _noise_lag_count(instrument):
+    cut = math.log(1.0 / _G_CUT)
+    t = 0.0
+    for _, fc in _noise_components(instrument):
+        t = max(t, cut * instrument.sample_rate / (2.0 * math.pi * fc))
+    return t
+
+
+def noise_correlation(instrument, n_lags: int) -> np.ndarray:
+    """Correlation of the noise above shot noise (RIN plus the 0 Hz reflection) at lags 0 .. n_lags - 1.
+
+    Each component of level ``P0`` (its density at 0 Hz relative to shot
+    noise) and corner ``f_c`` is a real Gaussian process with correlation
+    ``r(tau) = P0 (1 - rho) / (1 + rho) rho^|tau|``, ``rho = exp(-2 pi f_c / f_s)``
+    (sampled exponential, i.e. a discrete AR(1)): its spectrum is
+    ``P0 (1 - rho)^2 / (1 - 2 rho cos(2 pi f / f_s) + rho^2)``, exactly ``P0``
+    at 0 Hz and ``P0 / (1 + (f / f_c)^2)`` for ``f << f_s`` (the Lorentzian
+    of :attr:`Instrument.rin_level`).  In units of the shot-noise variance.
+    """
+    t = np.arange(check_int("n_lags", n_lags, lo=1), dtype=np.float64)
+    r = np.zeros(t.size)
+    for p0, fc in _noise_components(instrument):
+        rho = math.exp(-2.0 * math.pi * fc / instrument.sample_rate)
+        r += p0 * (1.0 - rho) / (1.0 + rho) * rho ** t
+    r[np.abs(r) < _G_CUT * max(1e-300, float(np.max(np.abs(r))) if r.size else 1.0)] = 0.0
+    return r
+
+
+def _window_lags(instrument):
+    from ..sensors.lidar import _lag_coefficients
+
+    return _lag_coefficients(instrument.n_fft, instrument.window, 1.0)
+
+
+def _fold_noise(instrument, n_j=None):
+    """DFT (k = 0..N/2) of the folded noise lag sequences for block lags j = 0 .. n_j - 1 (default: all needed)."""
+    from . import _kernels as K
+    from .._fft import rfft_rows
+
+    n = instrument.n_fft
+    if n_j is None:
+        n_j = int(math.ceil(_noise_lag_count(instrument) / n)) + 1
+    r = noise_correlation(instrument, (n_j + 1) * n)
+    lags = np.empty((n_j, n))
+    K.fold_block_lags(r, np.ones(r.size), _window_lags(instrument), n, lags)
+    return rfft_rows(lags)
+
+
+def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread: float, *,
+                      correlation_time: float = math.inf):
+    """Mean and variance of every bin of every estimate's M-block average, and the signal's looks (tier 2).
+
+    Model (the cells of :mod:`cwlidar_sim.signal.spectral`, each a continuum
+    of scatterers): the complex signal of cell s has correlation
+    ``E|a_s|^2 exp(i theta_s tau) g(tau)`` (:func:`line_correlation`), so
+    given the cell speeds the detector signal is a Gaussian process.  The
+    DFT of block b at bin k then has block-lag correlation
+
+    ``c_k(j) = sum_{|d|<N} (R_w(d) / R_w(0)) g(jN + d) C(jN + d) exp(-i 2 pi k d / N)``,
+    ``C(tau) = sum_s CNR w_s cos(theta_s tau)``
+
+    (j = 0 gives the expected spectrum ``S_k``; the homodyne mirror is in
+    the cosine), and the average of M blocks of signal plus noise ``n_k``
+    (shot noise, RIN and reflection: :func:`noise_correlation`) has mean
+    ``S_k + n_k`` and variance
+
+    ``[(S_k + n_k)^2 + 2 sum_{j>=1} (1 - j/M) |c_k(j) + c^noise_k(j)|^2] / M``
+
+    (twice that at 0 Hz and Nyquist).  The looks of the signal,
+    ``M_k = M S_k^2 / (S_k^2 + 2 sum_j (1 - j/M) |c_k(j)|^2)``, are set by how
+    fast the bin decorrelates: the scatterers inside a bin's window have
+    Doppler shifts spread over the sub-cell distribution and over the cells
+    that fall in the bin, and dephase within about ``1 / (2 pi sigma_f)``
+    (1.3 us for 0.11 m/s), a fraction of a 10 us block; the transit across
+    the waist (ms) hardly matters then.  Because a cell is a continuum, the
+    result converges as the beam is cut finer (the sub-cell spread shrinks
+    as the cells resolve more of the field).
+
+    Parameters
+    ----------
+    instrument : Instrument
+    vlos_es : array_like, shape (n_estimates, n_cells) or (n_cells,)
+        Cell speeds [m/s] (signed).
+    weight_s : array_like, shape (n_cells,)
+        Beam weights [-].
+    cnr_db : float
+        Wideband CNR [dB].
+    speed_spread : float
+        Sub-cell speed standard deviation sigma_v [m/s]; see :func:`continuum_lags`
+        for the smallest allowed.
+    correlation_time : float
+        Transit correlation time tau_c [s] (inf: none).
+
+    Returns
+    -------
+    mean_ef, var_ef, looks_ef : ndarray, shape (n_estimates, N/2 + 1)
+        Mean [-] and variance [-] of each averaged periodogram bin, and the
+        signal's effective number of independent blocks [-] (M where there
+        is no signal).
+    """
+    from . import _kernels as K
+    from .._fft import rfft_rows
+    from .processing import _ROWS_PER_TASK, _run_tasks
+
+    v = _as_2d("vlos_es", vlos_es)
+    w = _weights(weight_s, v.shape[1])
+    cnr = cnr_linear(cnr_db)
+    t_max, n_j = continuum_lags(instrument, speed_spread, correlation_time)
+    n = instrument.n_fft
+    g = line_correlation(instrument, speed_spread, correlation_time, (n_j + 2) * n)
+    g[t_max:] = 0.0
+    r_d = _window_lags(instrument)
+    fn = _fold_noise(instrument)
+    x = np.ascontiguousarray(v / instrument.bin_speed)
+    amp = np.ascontiguousarray(0.5 * cnr * w)
+    ne = x.shape[0]
+    lags = np.empty((ne, n_j + 1, n))
+    nt = -(-ne // _ROWS_PER_TASK)
+
+    def fold(t):
+        K.continuum_lag_rows(x, amp, g, r_d, n, min(t_max, (n_j + 1) * n), t * _ROWS_PER_TASK,
+                             min(ne, (t + 1) * _ROWS_PER_TASK), np.empty((n_j + 2) * n), lags)
+
+    _run_tasks(nt, fold)
+    f = rfft_rows(lags.reshape(ne * (n_j + 1), n)).reshape(ne, n_j + 1, n // 2 + 1)
+    noise = noise_floor(instrument)
+    mean = np.empty((ne, instrument.n_bins))
+    var = np.empty_like(mean)
+    looks = np.empty_like(mean)
+    m = float(instrument.blocks_per_estimate)
+
+    def mom(t):
+        K.continuum_moment_rows(f, fn, noise, m, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK), mean, var,
+                                looks)
+
+    _run_tasks(nt, mom)
+    return mean, var, looks
+
+
+def sample_moments(mean_ef, var_ef, seed, *, e0: int = 0):
+    """Draw averaged spectra with the given per-bin mean and variance (two-moment Gamma, continuum speckle).
+
+    Each bin is independent of the others (the periodogram bins of a
+    spectrum smooth on the scale of a bin are nearly uncorrelated for the
+    rectangular window) and drawn as the Wilson-Hilferty cube of a
+    counter-based normal: exact mean and variance, Gamma skewness.
+
+    Parameters
+    ----------
+    mean_ef, var_ef : array_like, shape (n_estimates, N/2 + 1)
+        From :func:`continuum_moments`; mean > 0, var >= 0.
+    seed : int or numpy.random.Generator
+        Or a uint64 stream key (from :func:`_speckle_key`).
+    e0 : int
+        Global index of the first row (rows use the counter-based streams
+        ``e0 ..``, so a record may be drawn in chunks).
+
+    Returns
+    -------
+    ndarray, shape (n_estimates, N/2 + 1)
+    """
+    from . import _kernels as K
+    from .processing import _ROWS_PER_TASK, _run_tasks
+
+    mean = np.ascontiguousarray(mean_ef, dtype=np.float64)
+    var = np.ascontiguousarray(var_ef, dtype=np.float64)
+    if mean.ndim != 2 or var.shape != mean.shape:
+        raise ValueError(f"mean_ef and var_ef must be 2-D of one shape, got {mean.shape} and {var.shape}")
+    if not (np.all(np.isfinite(mean)) and np.all(mean > 0) and np.all(np.isfinite(var)) and np.all(var >= 0)):
+        raise ValueError("mean_ef must be finite and > 0, var_ef finite and >= 0")
+    key = np.uint64(seed) if isinstance(seed, np.uint64) else np.uint64(
+        int(_rng(seed).integers(0, 2**63, dtype=np.int64)))
+    ne = mean.shape[0]
+    out = np.empty_like(mean)
+
+    def run(t):
+        K.gamma_moment_rows(mean, var, key, int(e0), t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK), out)
+
+    _run_tasks(-(-ne // _ROWS_PER_TASK), run)
+    return out

@@ -4,7 +4,7 @@ from .io import hawc2_paths, read_hawc2, read_netcdf, write_hawc2, write_netcdf
 from .box import BoxExpectation, BoxGenerator, expected_box_covariance, generate_box
 from .fields import generate_line, generate_plane, line_spectra, plane_spectra
 from .parameters import MannParameters
-from .spectra import Covariances, covariances, isotropic_spectra, one_point_spectra
+from .spectra import Covariances, covariances, isotropic_spectra, one_point_spectra, subcell_variance
 from .tensor import amplitude_matrix, eddy_lifetime, energy_spectrum, spectral_tensor
 
 __all__ = [
@@ -25,6 +25,7 @@ __all__ = [
     "isotropic_spectra",
     "one_point_spectra",
     "spectral_tensor",
+    "subcell_variance",
     "hawc2_paths",
     "read_hawc2",
     "read_netcdf",

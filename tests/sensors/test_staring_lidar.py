@@ -227,8 +227,9 @@ def _same(a, b):
         assert np.array_equal(a.variants[k][1], b.variants[k][1])
 
 
-def test_same_seed_same_bits_for_any_chunk_and_thread_count(field):
-    lid = StaringLidar(cell_length=3.0, transverse_speed=0.8, cnr_db=-28.0)  # some failures too
+@pytest.mark.parametrize("speckle, cnr_db", [("independent", -28.0), ("continuum", -25.0)])
+def test_same_seed_same_bits_for_any_chunk_and_thread_count(field, speckle, cnr_db):
+    lid = StaringLidar(cell_length=3.0, transverse_speed=0.8, cnr_db=cnr_db, speckle=speckle)  # some failures too
     t = times(DRAW_BLOCK + 300)  # crosses a block of speckle draws
     var = [{"name": "c", "estimator": "centroid"}]
     ref = measure_staring(field, lid, t, U, 9, variants=var)
@@ -243,6 +244,7 @@ def test_same_seed_same_bits_for_any_chunk_and_thread_count(field):
     # a shorter record with the same settings is a prefix of the longer one
     short = measure_staring(field, lid, t[:1500], U, 9, chunk=600)
     assert np.array_equal(short.speed_e, ref.speed_e[:1500], equal_nan=True)
+    assert ref.info["speckle"] == speckle
     assert not np.array_equal(ref.speed_e, measure_staring(field, lid, t, U, 10).speed_e, equal_nan=True)
     # the coherent speckle model and the exact background run through the same path
     lc = lid.replace(speckle="coherent", exact_background=True)

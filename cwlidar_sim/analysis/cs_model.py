@@ -49,6 +49,7 @@ at ``pi / d``).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -62,6 +63,7 @@ __all__ = [
     "scan_transfer",
     "probe_transfer",
     "model_integrals",
+    "model_ratios",
     "std_ratio",
     "radial_variance_ratio",
     "SCAN_FILTERS",
@@ -177,6 +179,16 @@ def _grid(k_lo, k_hi, n):
     return k, w * k  # trapezoid in ln k: dk = k dlnk
 
 
+@functools.lru_cache(maxsize=32)
+def _mann_coarse(params, k_lo, k_max, n, k_cut):
+    """Mann one-sided spectra on a coarse log grid (cached: the quadrature costs about 1 s)."""
+    kc = np.geomspace(k_lo, k_max, n)
+    Fc = mann_spectra_one_sided(kc, params, k_cut=k_cut)
+    for a in (kc,) + tuple(Fc):
+        a.setflags(write=False)
+    return kc, Fc
+
+
 def model_integrals(height: float, speed: float, n_rev: int, *, spectrum: str = "kaimal", params=None,
                     u_star: float = 1.0, half_angle_deg: float = 30.0, revolution_time: float = 1.0,
                     rayleigh_length: float | None = None, k_lo: float = 1e-6, k_max: float = 1e3,
@@ -227,8 +239,7 @@ def model_integrals(height: float, speed: float, n_rev: int, *, spectrum: str = 
 
         if not isinstance(params, MannParameters):
             raise TypeError(f"spectrum='mann' needs params=MannParameters, got {type(params).__name__}")
-        kc = np.geomspace(k_lo, k_max, max(60, n_k // 20))
-        Fc = mann_spectra_one_sided(kc, params, k_cut=k_cut_lateral)
+        kc, Fc = _mann_coarse(params, k_lo, k_max, max(60, n_k // 20), k_cut_lateral)
         lk = np.log(k)
         Fu, Fv, Fw = (np.exp(np.interp(lk, np.log(kc), np.log(np.maximum(F, 1e-300)))) for F in Fc)
     Llor = probe_transfer(k, zr)
@@ -245,17 +256,30 @@ def model_integrals(height: float, speed: float, n_rev: int, *, spectrum: str = 
     }
 
 
-def std_ratio(height: float, speed: float, n_rev: int, **kw) -> float:
-    """CS's lidar/cup standard-deviation ratio ``sqrt(int F_u L_lor L_u / int F_u)`` [-] (:func:`model_integrals`)."""
-    m = model_integrals(height, speed, n_rev, **kw)
-    return math.sqrt(m["lidar_var_u"] / m["var_u"])
+def model_ratios(height: float, speed: float, n_rev: int, *, half_angle_deg: float = 30.0, **kw) -> dict:
+    """Both model ratios from one evaluation of :func:`model_integrals`.
 
-
-def radial_variance_ratio(height: float, speed: float, n_rev: int, *, half_angle_deg: float = 30.0, **kw) -> float:
-    """Model radial variance over the sonic-equivalent radial variance [-] (module notes)."""
+    Returns
+    -------
+    dict
+        ``std_ratio``: ``sqrt(int F_u L_lor L_u / int F_u)``; ``radial_variance_ratio``:
+        ``[sin^2 Phi (I_u + I_v) / 2 + cos^2 Phi I_w] / [sin^2 Phi (s_u^2 + s_v^2) / 2 + cos^2 Phi s_w^2]``
+        (module notes); ``l_az`` [m]; ``rayleigh_length`` [m].
+    """
     m = model_integrals(height, speed, n_rev, half_angle_deg=half_angle_deg, **kw)
     phi = math.radians(half_angle_deg)
     s2, c2 = math.sin(phi) ** 2, math.cos(phi) ** 2
     num = 0.5 * s2 * (m["hp_u"] + m["hp_v"]) + c2 * m["hp_w"]
     den = 0.5 * s2 * (m["var_u"] + m["var_v"]) + c2 * m["var_w"]
-    return num / den
+    return {"std_ratio": math.sqrt(m["lidar_var_u"] / m["var_u"]), "radial_variance_ratio": num / den,
+            "l_az": m["l_az"], "rayleigh_length": m["rayleigh_length"]}
+
+
+def std_ratio(height: float, speed: float, n_rev: int, **kw) -> float:
+    """CS's lidar/cup standard-deviation ratio ``sqrt(int F_u L_lor L_u / int F_u)`` [-] (:func:`model_ratios`)."""
+    return model_ratios(height, speed, n_rev, **kw)["std_ratio"]
+
+
+def radial_variance_ratio(height: float, speed: float, n_rev: int, **kw) -> float:
+    """Model radial variance over the sonic-equivalent radial variance [-] (:func:`model_ratios`)."""
+    return model_ratios(height, speed, n_rev, **kw)["radial_variance_ratio"]

@@ -587,15 +587,20 @@ def _spectral_block(inst, lidar, z, vlos_ec, weights_c, bg, seq, block):
 # ---------------------------------------------------------------------------
 # turbulence for the cone
 # ---------------------------------------------------------------------------
-def surface_layer_parameters(height: float, speed: float, *, z0: float = 0.01, sigma_u_over_ustar: float = 2.4,
-                             gamma: float = 3.9):
+def surface_layer_parameters(height: float, speed: float, *, z0: float = 0.01, source: str = "mann1994",
+                             sigma_u_over_ustar: float = 2.4, gamma: float = 3.9):
     """Mann parameters at height z in a neutral surface layer over flat terrain.
 
-    ``u* = kappa U(z) / ln(z / z0)`` (log law, kappa = 0.4), ``sigma_u =
-    2.4 u*`` (neutral surface layer, Panofsky & Dutton 1984), and the IEC
-    61400-1 Annex C tensor for that sigma_u (:meth:`MannParameters.iec`:
-    ``L = 0.56 z`` up to 60 m and 33.6 m above, Gamma = 3.9).  Default
-    ``z0 = 0.01`` m: grass (Hoevsoere's flat farmland).
+    ``u* = kappa U(z) / ln(z / z0)`` (log law, kappa = 0.4; default
+    ``z0 = 0.01`` m, grass, Hoevsoere's flat farmland), then
+
+    * ``source='mann1994'`` (default): Mann's (1994, J. Fluid Mech. 273) fit
+      of his tensor to Kaimal's neutral spectra, ``alpha eps^(2/3) = 3.2 u*^2
+      z^(-2/3)``, ``L = 0.59 z``, ``Gamma = 3.9``: the same surface layer as
+      CS's Kaimal model, at every height;
+    * ``source='iec'``: IEC 61400-1 Annex C (:meth:`MannParameters.iec`,
+      ``L = 0.56 z`` up to 60 m and 33.6 m above) for ``sigma_u =
+      sigma_u_over_ustar u*`` (neutral surface layer: 2.4, Panofsky & Dutton 1984).
 
     Parameters
     ----------
@@ -605,16 +610,17 @@ def surface_layer_parameters(height: float, speed: float, *, z0: float = 0.01, s
         Mean wind speed at z [m/s]; > 0.
     z0 : float
         Roughness length [m]; in (0, 2].
+    source : {'mann1994', 'iec'}
     sigma_u_over_ustar : float
-        sigma_u / u* [-]; in (0, 10].
+        sigma_u / u* for 'iec' [-]; in (0, 10].
     gamma : float
-        Mann's anisotropy [-].
+        Mann's anisotropy for 'iec' [-].
 
     Returns
     -------
     params : MannParameters
     sigma_u : float
-        Target longitudinal standard deviation [m/s].
+        sigma_u of the tensor ('mann1994', from its one-point spectrum) or the IEC target [m/s].
     u_star : float
         Friction velocity [m/s].
     """
@@ -623,10 +629,16 @@ def surface_layer_parameters(height: float, speed: float, *, z0: float = 0.01, s
     z0 = check_real("z0", z0, lo=0.0, hi=2.0, lo_open=True)
     z = check_real("height", height, lo=z0, lo_open=True)
     U = check_real("speed", speed, lo=0.0, lo_open=True)
+    check_choice("source", source, ("mann1994", "iec"))
     ratio = check_real("sigma_u_over_ustar", sigma_u_over_ustar, lo=0.0, hi=10.0, lo_open=True)
     ustar = 0.4 * U / math.log(z / z0)
-    su = ratio * ustar
-    return MannParameters.iec(z, su, gamma=gamma), su, ustar
+    if source == "iec":
+        su = ratio * ustar
+        return MannParameters.iec(z, su, gamma=gamma), su, ustar
+    from ..turbulence.spectra import covariances
+
+    p = MannParameters(alpha_eps=3.2 * ustar**2 * z ** (-2.0 / 3.0), length_scale=0.59 * z, gamma=3.9)
+    return p, math.sqrt(covariances(p).uu), ustar
 
 
 def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: int, *, spacing: float,

@@ -193,4 +193,9 @@ def test_conical_field_lateral_doubling_and_extent():
     assert rec.availability > 0.8
     params, su, us = surface_layer_parameters(40.0, 10.0)
     assert us == pytest.approx(0.4 * 10.0 / math.log(40.0 / 0.01))
-    assert su == pytest.approx(2.4 * us) and params.length_scale == pytest.approx(0.56 * 40.0)
+    assert params.length_scale == pytest.approx(0.59 * 40.0)
+    assert params.alpha_eps == pytest.approx(3.2 * us**2 / 40 ** (2 / 3))
+    # Mann (1994) fitted Kaimal's spectra: sigma_u^2 close to Kaimal's 102 / 33 * 3 / 2 = 4.64 u*^2
+    assert su / us == pytest.approx(math.sqrt(102 / 33 * 1.5), rel=0.05)
+    p2, su2, _ = surface_layer_parameters(40.0, 10.0, source="iec")
+    assert su2 == pytest.approx(2.4 * us) and p2.length_scale == pytest.approx(0.56 * 40.0)

@@ -199,3 +199,40 @@ def test_conical_field_lateral_doubling_and_extent():
     assert su / us == pytest.approx(math.sqrt(102 / 33 * 1.5), rel=0.05)
     p2, su2, _ = surface_layer_parameters(40.0, 10.0, source="iec")
     assert su2 == pytest.approx(2.4 * us) and p2.length_scale == pytest.approx(0.56 * 40.0)
+
+
+def test_spectral_tier_follows_the_sweep_within_a_wide_dwell():
+    # 10 estimates per revolution: each dwell sweeps 36 deg, and the averaged spectrum's centroid is the mean
+    # of the looks' |v_r| where no look comes near the blind zone (dwells centred at |cos| > 0.5): A is cut by
+    # the Dirichlet factor 0.984.  (Dwells reaching the
+    # blind zone are biased high: the centroid loses the spectrum below blind_zone_speed.)
+    from cwlidar_sim.analysis.vad import fit_rectified_cosine, scan_arrays
+
+    U = 10.0
+    lid = ConicalLidar(heights=(40.0,), tier="spectral", cell_length=4.0, sub_dwells=8, estimates_per_rev=10,
+                       azimuth0_deg=-18.0)
+    rec = measure_conical(calm_box(lid), lid, 20.0, U, seed=2)
+    d8 = dirichlet(8, math.radians(36.0))
+    far = np.abs(np.cos(np.radians(rec.azimuth_e))) > 0.5
+    assert far.sum() == 6 * 20 and np.all(rec.flags_e[far] == 0)
+    mean_abs = U * math.sin(PHI) * np.abs(np.cos(np.radians(rec.azimuth_e))) * d8
+    np.testing.assert_allclose(rec.speed_e[far], mean_abs[far], rtol=0, atol=0.03)
+    az, sp, ok = (scan_arrays(a, rec.revolution_e, 1) for a in (rec.azimuth_e, rec.speed_e, far))
+    fit = fit_rectified_cosine(az, sp, 30.0, valid=ok, reference_deg=0.0, min_points=5)
+    # the sweep's 1.6 % dominates: the centroid's own bias (its threshold subtraction weighs the dense,
+    # high-speed end of a swept line) is a tenth of it
+    assert abs(np.mean(fit.speed_p) - U * d8) < 0.1 * U * (1 - d8)
+
+
+def test_cycle_through_heights():
+    U = 6.0
+    lid = ConicalLidar(heights=(40.0, 60.0), refocus_time=0.2, cell_length=4.0)
+    rec = measure_conical(calm_box(lid), lid, 4.6, U)  # 4 blocks of 1 s and 3 refocus gaps of 0.2 s
+    assert rec.time_e.size == 200 and set(rec.height_e) == {40.0, 60.0}
+    for z in (40.0, 60.0):
+        sel = rec.select(z)
+        assert sel["time_e"].size == 100
+        want = U * math.sin(PHI) * np.cos(np.radians(sel["azimuth_e"])) * dirichlet(8, math.radians(7.2))
+        np.testing.assert_allclose(sel["vlos_e"], want, atol=1e-12)
+        assert fit_record(rec, z, 1, reference_deg=0.0).n == 2
+    assert rec.info["heights"][60.0]["focus"] == pytest.approx(60.0 / math.cos(PHI))

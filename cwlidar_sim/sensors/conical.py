@@ -30,8 +30,14 @@ degrees (7.2 deg).  The sweep is simulated: the dwell is cut into
   4 bins of the CS instrument at 10 m/s, within one dwell); then the
   speckle and noise draw (:func:`cwlidar_sim.signal.sample_spectra`), a
   measured background and :func:`cwlidar_sim.signal.estimate`.
-* tier ``signal`` (3) is not offered for the scanning beam (a 20 ms dwell is
-  2 million samples of 50 cells; see :data:`TIERS`).
+* tier ``signal`` (3): the heterodyne signal
+  (:func:`cwlidar_sim.signal.simulate_signal_spectra`) of each look in turn,
+  ``blocks_per_estimate / sub_dwells`` blocks per look with that look's cell
+  speeds (speckle and Doppler phase continuous from look to look), the looks'
+  periodograms averaged into the dwell's; then the same processing as tier 2.
+  It synthesises ``2 x 10^6`` samples of ``n_cells + 1`` tones per estimate,
+  so records are limited to :data:`SIGNAL_MAX_ESTIMATES`; ``sub_dwells`` must
+  divide ``blocks_per_estimate``.
 
 Speckle while scanning (derived)
 --------------------------------
@@ -104,6 +110,7 @@ __all__ = [
     "FOCUS_RANGE",
     "TIERS",
     "DRAW_BLOCK",
+    "SIGNAL_MAX_ESTIMATES",
 ]
 
 #: Allowed cone half-angle from the vertical [deg]: the VAD needs both sin Phi
@@ -113,7 +120,9 @@ HALF_ANGLE_RANGE = (10.0, 60.0)
 #: and the telescope cannot focus much closer than 10 m).
 FOCUS_RANGE = (10.0, 1000.0)
 #: Tiers offered for the scanning beam.
-TIERS = ("los", "spectral")
+TIERS = ("los", "spectral", "signal")
+#: Longest record of tier 'signal' [estimates] (10 s at 50 Hz).
+SIGNAL_MAX_ESTIMATES = 500
 #: Estimates per block of random draws (fixed: the draws do not depend on any chunking).
 DRAW_BLOCK = 2048
 
@@ -152,7 +161,7 @@ class ConicalLidar:
         Beam azimuth at t = 0 [deg], from +x toward +y.
     position : tuple of 3 floats
         Telescope position (x, y, z) [m].
-    tier : {'los', 'spectral'}
+    tier : {'los', 'spectral', 'signal'}
     weighting : {'exact', 'lorentzian'}
     span : float
         Half-width of the simulated span in Rayleigh lengths; in (0, 1000].
@@ -227,6 +236,9 @@ class ConicalLidar:
         check_choice("speckle", self.speckle, ("independent", "coherent"))
         put("exact_background", _check_bool("exact_background", self.exact_background))
         inst = self.instrument
+        if self.tier == "signal" and inst.blocks_per_estimate % self.sub_dwells:
+            raise ValueError(f"tier 'signal' needs sub_dwells={self.sub_dwells} to divide "
+                             f"instrument.blocks_per_estimate={inst.blocks_per_estimate}; allowed: its divisors")
         fit = self.dwell_time / inst.block_duration
         if inst.blocks_per_estimate > fit * (1 + 1e-9):
             raise ValueError(
@@ -470,7 +482,7 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
     U : float
         Mean wind along +x [m/s] (Taylor advection and the mean of u).
     seed : int or numpy.random.Generator, optional
-        Randomness of tier 'spectral'; ignored by tier 'los'.
+        Randomness of tiers 'spectral' and 'signal'; ignored by tier 'los'.
     start : float
         Start time [s].
     wrap : bool
@@ -498,9 +510,12 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
     flags_e = np.zeros(ne, dtype=np.uint8)
     height_e = np.asarray(lidar.heights)[sch.height_index_e]
     info = {"tier": lidar.tier, "sub_dwells": nsub, "n_estimates": ne, "heights": {}}
-    if lidar.tier == "spectral":
+    if lidar.tier == "signal" and ne > SIGNAL_MAX_ESTIMATES:
+        raise ValueError(f"tier 'signal' synthesises the {lidar.instrument.sample_rate:g} Hz signal of every cell: "
+                         f"{ne} estimates is too many; allowed: <= {SIGNAL_MAX_ESTIMATES} (use tier 'spectral')")
+    if lidar.tier != "los":
         if seed is None:
-            raise ValueError("seed is required for tier 'spectral'; allowed: an int or a numpy Generator")
+            raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
         if isinstance(seed, np.random.Generator):
             root = np.random.SeedSequence(int(seed.integers(0, 2**63 - 1)))
         else:
@@ -527,7 +542,7 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
                  cells.edges[0]), "truncated_fraction": tail, "spot_speed": lidar.spot_speed(z),
                  "speckle_time": lidar.speckle_time(z), "m_eff": lidar.speckle_looks(z),
                  "n_estimates": int(idx.size)}
-        if lidar.tier == "spectral":
+        if lidar.tier != "los":
             from ..signal.processing import background_spectrum
 
             s_bg, s_sim = height_seqs[ih].spawn(2)
@@ -543,11 +558,14 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
             vlos_e[sel] = vlos_l.reshape(nb, nsub).mean(axis=1)
             if lidar.tier == "los":
                 speed_e[sel], flags_e[sel] = _homodyne_flags(inst, vlos_e[sel])
+            elif lidar.tier == "signal":
+                speed_e[sel], flags_e[sel] = _signal_block(inst, lidar, z, vlos_ls, np.append(w_s, tail), bg,
+                                                           s_sim, b0 // DRAW_BLOCK, nb)
             else:
                 sp, fl = _spectral_block(inst, lidar, z, vlos_ls.reshape(nb, nsub * (ns + 1)), weights_c, bg,
                                          s_sim, b0 // DRAW_BLOCK)
                 speed_e[sel], flags_e[sel] = sp, fl
-        if lidar.tier == "spectral":
+        if lidar.tier != "los":
             hinfo["background"] = "exact" if lidar.exact_background else f"measured ({inst.background_blocks} blocks)"
         info["heights"][float(z)] = hinfo
     info["flag_counts"] = {f.name: int(np.count_nonzero(flags_e & f.value)) for f in Flag}
@@ -580,6 +598,22 @@ def _spectral_block(inst, lidar, z, vlos_ec, weights_c, bg, seq, block):
     child = np.random.SeedSequence(seq.entropy, spawn_key=tuple(seq.spawn_key) + (block,))
     spec = sample_spectra(sig, noise, inst.blocks_per_estimate, lidar.speckle_looks(z),
                           np.random.default_rng(child), speckle=lidar.speckle)
+    est = estimate(spec, inst, bg)
+    return est.speed_e, est.flags_e
+
+
+def _signal_block(inst, lidar, z, vlos_ls, weight_s, bg, seq, block, nb):
+    """Tier 3 for one block of estimates: each look's blocks in turn, the looks' periodograms averaged."""
+    from ..signal.heterodyne import simulate_signal_spectra
+    from ..signal.processing import estimate
+
+    nsub = lidar.sub_dwells
+    look = inst.replace(blocks_per_estimate=inst.blocks_per_estimate // nsub,
+                        estimate_rate=inst.estimate_rate * nsub)
+    child = np.random.SeedSequence(seq.entropy, spawn_key=tuple(seq.spawn_key) + (block,))
+    spec_l = simulate_signal_spectra(look, vlos_ls, weight_s, lidar.cnr_db, np.random.default_rng(child),
+                                     correlation_time=lidar.speckle_time(z))
+    spec = spec_l.reshape(nb, nsub, -1).mean(axis=1)
     est = estimate(spec, inst, bg)
     return est.speed_e, est.flags_e
 

@@ -75,8 +75,10 @@ def test_scan_parameters_validation_and_geometry():
         ConicalLidar(estimates_per_rev=100)
     with pytest.raises(ValueError, match="unknown key.*'cone'"):
         ConicalLidar.from_dict({"cone": 30})
-    with pytest.raises(ValueError, match="tier='signal'"):
-        ConicalLidar(tier="signal")
+    with pytest.raises(ValueError, match="tier='heterodyne'"):
+        ConicalLidar(tier="heterodyne")
+    with pytest.raises(ValueError, match="sub_dwells=3 to divide"):
+        ConicalLidar(tier="signal", sub_dwells=3)
     with pytest.raises(ValueError, match="duration=0.5 s holds no revolution"):
         ConicalLidar().schedule(0.5)
 
@@ -201,7 +203,8 @@ def test_conical_field_lateral_doubling_and_extent():
     assert su2 == pytest.approx(2.4 * us) and p2.length_scale == pytest.approx(0.56 * 40.0)
 
 
-def test_spectral_tier_follows_the_sweep_within_a_wide_dwell():
+@pytest.mark.parametrize("tier, duration", [("spectral", 20.0), ("signal", 1.0)])
+def test_tiers_2_and_3_follow_the_sweep_within_a_wide_dwell(tier, duration):
     # 10 estimates per revolution: each dwell sweeps 36 deg, and the averaged spectrum's centroid is the mean
     # of the looks' |v_r| where no look comes near the blind zone (dwells centred at |cos| > 0.5): A is cut by
     # the Dirichlet factor 0.984.  (Dwells reaching the
@@ -209,12 +212,12 @@ def test_spectral_tier_follows_the_sweep_within_a_wide_dwell():
     from cwlidar_sim.analysis.vad import fit_rectified_cosine, scan_arrays
 
     U = 10.0
-    lid = ConicalLidar(heights=(40.0,), tier="spectral", cell_length=4.0, sub_dwells=8, estimates_per_rev=10,
+    lid = ConicalLidar(heights=(40.0,), tier=tier, cell_length=4.0, sub_dwells=8, estimates_per_rev=10,
                        azimuth0_deg=-18.0)
-    rec = measure_conical(calm_box(lid), lid, 20.0, U, seed=2)
+    rec = measure_conical(calm_box(lid), lid, duration, U, seed=2)
     d8 = dirichlet(8, math.radians(36.0))
     far = np.abs(np.cos(np.radians(rec.azimuth_e))) > 0.5
-    assert far.sum() == 6 * 20 and np.all(rec.flags_e[far] == 0)
+    assert far.sum() == 6 * duration and np.all(rec.flags_e[far] == 0)
     mean_abs = U * math.sin(PHI) * np.abs(np.cos(np.radians(rec.azimuth_e))) * d8
     np.testing.assert_allclose(rec.speed_e[far], mean_abs[far], rtol=0, atol=0.03)
     az, sp, ok = (scan_arrays(a, rec.revolution_e, 1) for a in (rec.azimuth_e, rec.speed_e, far))

@@ -239,3 +239,24 @@ def test_cycle_through_heights():
         np.testing.assert_allclose(sel["vlos_e"], want, atol=1e-12)
         assert fit_record(rec, z, 1, reference_deg=0.0).n == 2
     assert rec.info["heights"][60.0]["focus"] == pytest.approx(60.0 / math.cos(PHI))
+
+
+def test_spectral_tier_bits_do_not_depend_on_threads():
+    from cwlidar_sim import _config
+
+    lid = ConicalLidar(heights=(40.0,), tier="spectral", cell_length=4.0, sub_dwells=2)
+    box = calm_box(lid)
+    rng = np.random.default_rng(9)
+    for c in "uvw":
+        box[c].values[...] = 0.5 * rng.standard_normal(box[c].shape)
+    old = _config.get_num_threads()
+    out = []
+    try:
+        for nth in (1, 2):
+            _config.set_num_threads(nth)
+            out.append(measure_conical(box, lid, 1.0, 6.0, seed=4, wrap=True))
+    finally:
+        _config.set_num_threads(old)
+    np.testing.assert_array_equal(out[0].speed_e, out[1].speed_e)
+    np.testing.assert_array_equal(out[0].vlos_e, out[1].vlos_e)
+    np.testing.assert_array_equal(out[0].flags_e, out[1].flags_e)

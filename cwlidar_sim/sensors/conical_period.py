@@ -28,6 +28,31 @@ Set-up (choices, each stated)
   resolved scan; ``'vane'``: each scan by the sonic's direction over it.
   The ``ambiguity_rate`` is the fraction of fitted scans whose resolved
   direction is more than 90 deg from the sonic's direction over the scan.
+
+Measured (tier 1, 10 m/s, 12 ten-minute periods per height, laterally doubled boxes)
+-------------------------------------------------------------------------------------
+======  ==============  ==============  ====================  ==================
+z [m]   std ratio 1 s   std ratio 3 s   model 1 s / 3 s       radial var. ratio
+                                        (Mann; Kaimal -0.002)  1 s (model)
+======  ==============  ==============  ====================  ==================
+40      0.786           0.759           0.857 / 0.835         0.27 (0.16)
+60      0.769           0.754           0.848 / 0.834         0.24 (0.12)
+80      0.764           0.753           0.839 / 0.829         0.25 (0.09)
+100     0.760           0.754           0.829 / 0.822         0.21 (0.07)
+======  ==============  ==============  ====================  ==================
+
+Standard errors about 0.01.  Mean horizontal speed within 0.4 % of the cup's;
+12.9 % of the estimates lost or flagged at the zero crossings, 87 % of the
+points used, no scan lost, no ambiguity left.  Sensitivities: a finer grid
+(z/40) lowers the ratio by about 0.03 (the cup sees more small scales than
+the lidar); single-width boxes by about 0.02.  Diagnostic: in a field varying
+along x only (CS's 1-D assumption) the simulated ratio is 0.93-0.94, above the
+model's 0.83-0.86 -- the rectified-sine filter over ``l_az`` over-filters
+the VAD's U -- while in 3-D turbulence the decorrelation across the circle's
+cross-wind extent (absent from the model) lowers it below the model: the
+model's agreement with CS's ~0.8 is partly a cancellation.  The same 1-D
+field gives radial-variance ratios of 0.17 (40 m) and 0.12 (100 m) against
+the model's 0.16 and 0.07.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Every notebook in notebooks/ runs top to bottom in quick mode (CWLIDAR_SIM_QUICK=1), and what it shows is right."""
 
 import math
+import os
 import pathlib
 
 import numpy as np
@@ -8,7 +9,8 @@ import pytest
 
 import reference
 
-NOTEBOOKS = sorted((pathlib.Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb"))
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 
 
 def _stdout(nb):
@@ -55,6 +57,8 @@ def test_notebook_runs_in_quick_mode(path, tmp_path, monkeypatch):
     nbclient = pytest.importorskip("nbclient")
     monkeypatch.setenv("CWLIDAR_SIM_QUICK", "1")
     monkeypatch.setenv("CWLIDAR_SIM_OUT", str(tmp_path / "out"))
+    # the kernel runs in tmp_path: put this checkout first, or it would import an installed cwlidar_sim
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(ROOT)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
     nb = nbformat.read(path, as_version=4)
     client = nbclient.NotebookClient(nb, timeout=900, kernel_name="python3",
                                      resources={"metadata": {"path": str(tmp_path)}})

@@ -26,6 +26,7 @@ import reference  # noqa: E402
 
 A2012 = MannParameters(0.06224407174474577, 18.76, 3.9)
 M64 = PROTOTYPE_2003.replace(blocks_per_estimate=64)
+SHOT = PROTOTYPE_2003.replace(rin_level=0.0, reflection_level=0.0)
 U = 8.0
 
 
@@ -243,7 +244,7 @@ def test_uniform_target_converges_when_cells_are_halved():
 # RIN and the 0 Hz reflection
 # ---------------------------------------------------------------------------
 def test_noise_floor_against_the_definition():
-    inst = PROTOTYPE_2003.replace(rin_level=20.0, rin_corner=2e6, reflection_level=500.0, reflection_corner=4e4)
+    inst = SHOT.replace(rin_level=20.0, rin_corner=2e6, reflection_level=500.0, reflection_corner=4e4)
     nf = noise_floor(inst)
     n = inst.n_fft
     d = np.arange(-(n - 1), n)
@@ -253,7 +254,7 @@ def test_noise_floor_against_the_definition():
     ref = 1.0 + np.array([np.sum((1 - np.abs(d) / n) * r[np.abs(d)] * np.cos(2 * np.pi * kk * d / n)) for kk in k])
     assert np.allclose(nf, ref, rtol=1e-10)
     # and, for the RIN alone away from 0 Hz (smooth on the scale of a bin), the AR(1) density
-    rin = PROTOTYPE_2003.replace(rin_level=20.0, rin_corner=2e6)
+    rin = SHOT.replace(rin_level=20.0, rin_corner=2e6)
     rho = math.exp(-2 * math.pi * 2e6 / inst.sample_rate)
     om = 2 * np.pi * k / n
     dens = 20.0 * (1 - rho) ** 2 / (1 - 2 * rho * np.cos(om) + rho**2)

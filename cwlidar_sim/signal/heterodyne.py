@@ -43,6 +43,15 @@ Implementation notes
   Marsaglia's polar method (same seed, different noise samples; same law).
 * The speed of a cell is held constant over an estimate (the Doppler phase
   is continuous across estimates).
+* Continuum cells (``speed_spread > 0``: the sub-cell spread of
+  docs/signal_chain.md) and the noise above shot noise (RIN, the 0 Hz
+  reflection) are one Gaussian process given the speeds; it is synthesised
+  per estimate from its spectrum (:class:`_Continuum`: the DFT of its
+  correlation on a circular length ``P >= M N + t_max``, random phases,
+  one inverse FFT of length P) and its real part is added to the samples
+  before the window.  Its cost does not grow with the number of cells; its
+  randomness is a third stream of the seed, drawn only when needed (runs
+  without it keep their earlier bits).
 """
 
 from __future__ import annotations

@@ -61,6 +61,22 @@ at 1 m/s, so the prototype's 1953 blocks of 10.24 us give M_eff = 12).  The
 real transit correlation of a Gaussian beam is Gaussian in time with the
 same 1/e time; the exponential (Markov) form is used in both tiers.
 
+Continuum speckle (derived; docs/signal_chain.md)
+-------------------------------------------------
+Cells are continua of scatterers whose speeds spread about the cell's by
+the sub-cell spread sigma_v (the field's unresolved scales,
+:func:`cwlidar_sim.turbulence.subcell_variance`): a cell's amplitude then has
+correlation ``g(tau) = exp(-2 pi^2 sigma_f^2 tau^2) exp(-|tau| / tau_c)``,
+``sigma_f = 2 sigma_v / lambda`` (:func:`line_correlation`), and given the
+speeds the signal is a Gaussian process.  :func:`continuum_moments` gives
+every bin's exact mean and variance from the block-to-block correlations
+``c_k(j)`` of its DFT; the scatterers inside a bin dephase within
+``1 / (2 pi sigma_f)``, about a tenth of a block, so a turbulent volume's
+bins have nearly M looks and the result converges as the beam is cut
+finer.  :func:`sample_moments` draws them.  The point-cell models below
+('coherent', 'independent') remain for a single speed (exact there) and for
+comparison.
+
 The draw (:func:`sample_spectra`): per estimate a signal gain
 ``G_sig ~ Gamma(M_eff, 1/M_eff)`` (numpy), common to all bins ('coherent':
 exact for one speed, where every bin of a block scales with the same
@@ -85,6 +101,12 @@ from .._validation import check_choice, check_int, check_real
 from .processing import _rng, noise_floor
 
 __all__ = [
+    "continuum_moments",
+    "sample_moments",
+    "continuum_lags",
+    "line_correlation",
+    "noise_correlation",
+    "spread_frequency",
     "window_samples",
     "line_shape_table",
     "line_shape",

@@ -491,7 +491,7 @@ def _fold_noise(instrument, n_j=None):
 
 
 def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread: float, *,
-                      correlation_time: float = math.inf):
+                      correlation_time: float = math.inf, cnr_gain_e=None):
     """Mean and variance of every bin of every estimate's M-block average, and the signal's looks (tier 2).
 
     Model (the cells of :mod:`cwlidar_sim.signal.spectral`, each a continuum
@@ -534,6 +534,9 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
         for the smallest allowed.
     correlation_time : float
         Transit correlation time tau_c [s] (inf: none).
+    cnr_gain_e : array_like, shape (n_estimates,), optional
+        Per-estimate factor on the signal power (aerosol load varying over
+        a record); > 0.
 
     Returns
     -------
@@ -566,6 +569,11 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
                              min(ne, (t + 1) * _ROWS_PER_TASK), np.empty((n_j + 2) * n), lags)
 
     _run_tasks(nt, fold)
+    if cnr_gain_e is not None:
+        c = np.asarray(cnr_gain_e, dtype=np.float64)
+        if c.shape != (ne,) or not np.all(np.isfinite(c)) or np.any(c <= 0):
+            raise ValueError(f"cnr_gain_e must have shape ({ne},) with finite values > 0")
+        lags *= c[:, None, None]
     f = rfft_rows(lags.reshape(ne * (n_j + 1), n)).reshape(ne, n_j + 1, n // 2 + 1)
     noise = noise_floor(instrument)
     mean = np.empty((ne, instrument.n_bins))

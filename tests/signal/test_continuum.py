@@ -292,3 +292,24 @@ def test_rin_level_100_tier3_works_as_tier2():
     a = av["spectral"]
     assert 0.5 < a < 1.0
     assert abs(av["signal"] - a) < 4 * math.sqrt(2 * a * (1 - a) / n)
+
+
+def test_tier3_continuum_same_bits_for_any_thread_count_and_chunk():
+    from cwlidar_sim import _config
+
+    inst = M64.replace(blocks_per_estimate=16)
+    v = np.linspace(7.0, 8.0, 9)
+    w = np.full(9, 1 / 9)
+    kw = dict(correlation_time=TAU, speed_spread=0.08)
+    old = _config.get_num_threads()
+    try:
+        _config.set_num_threads(1)
+        ref = simulate_signal_spectra(inst, np.tile(v, (7, 1)), w, -8.0, 4, **kw)
+        _config.set_num_threads(2)
+        a = simulate_signal_spectra(inst, np.tile(v, (7, 1)), w, -8.0, 4, chunk_samples=3 * 16 * 512, **kw)
+    finally:
+        _config.set_num_threads(old)
+    assert np.array_equal(ref, a)
+    # the first estimates do not depend on how many follow
+    b = simulate_signal_spectra(inst, np.tile(v, (3, 1)), w, -8.0, 4, **kw)
+    assert np.array_equal(ref[:3], b)

@@ -1021,3 +1021,36 @@ def real_part_into(buf_p, n, out_n):
     """``out_n[:n] = Re buf_p[:n]``."""
     for i in range(n):
         out_n[i] = buf_p[i].real
+
+
+@numba.njit(**NJIT)
+def ar1_noise_kernel(key, stream, var_c, rho_c, words_w, tails_n, tmp_n, out_t):
+    """``out_t[:] = sum_c x_c``, each ``x_c`` a stationary real AR(1) process of variance ``var_c[c]``.
+
+    ``x[0] = sqrt(var) z_0``, ``x[t] = rho x[t-1] + sqrt(var (1 - rho^2)) z_t``: correlation
+    ``var rho^|tau|`` exactly (the RIN and reflection of ``spectral.noise_correlation``).
+    Normals from the counter-based streams ``stream_start(mix64(key ^ stream), c)``
+    (``tmp_n.shape[0]`` each), used in the order component 0's samples, then component 1's.
+    """
+    nt = out_t.shape[0]
+    nc = var_c.shape[0]
+    nb = tmp_n.shape[0]
+    skey = mix64(np.uint64(key) ^ mix64(np.uint64(stream) + _GOLDEN))
+    for t in range(nt):
+        out_t[t] = 0.0
+    chunk = 0
+    pos = nb
+    for c in range(nc):
+        rho = rho_c[c]
+        sd0 = math.sqrt(var_c[c])
+        sdi = math.sqrt(var_c[c] * (1.0 - rho * rho))
+        x = 0.0
+        for t in range(nt):
+            if pos >= nb:
+                block_normals(stream_start(skey, chunk), 1.0, words_w, tails_n, tmp_n)
+                chunk += 1
+                pos = 0
+            z = tmp_n[pos]
+            pos += 1
+            x = sd0 * z if t == 0 else rho * x + sdi * z
+            out_t[t] += x

@@ -107,7 +107,6 @@ the speckle correlation time ``w0 / v_perp`` and ``M_eff``.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 
 import numpy as np
@@ -362,18 +361,11 @@ class LidarRecord:
 # ---------------------------------------------------------------------------
 # tier-2 expected spectrum
 # ---------------------------------------------------------------------------
-@functools.lru_cache(maxsize=16)
 def _lag_coefficients(n_fft: int, window: str, rho: float) -> np.ndarray:
-    """a_d = R_w(d) rho^d / R_w(0), d = 0..N-1 (read-only)."""
-    from ..signal.spectral import window_samples
+    """a_d = R_w(d) rho^d / R_w(0), d = 0..N-1 (read-only; :func:`cwlidar_sim.signal.spectral.lag_coefficients`)."""
+    from ..signal.spectral import lag_coefficients
 
-    w = window_samples(n_fft, window)
-    r = np.array([np.dot(w[: n_fft - d], w[d:]) for d in range(n_fft)])
-    a = r / r[0]
-    if rho < 1.0:
-        a = a * rho ** np.arange(n_fft)
-    a.setflags(write=False)
-    return a
+    return lag_coefficients(n_fft, window, rho)
 
 
 def _rho(instrument, correlation_time):

@@ -34,6 +34,7 @@ _LO32 = np.uint64(0xFFFFFFFF)
 _TWO_M32 = 2.0**-32
 _TWOPI = 2.0 * math.pi
 _DBL_MAX = float(np.finfo(np.float64).max)
+_START_STREAM = np.uint64(1 << 62)
 
 # Estimator ids (the registry in processing.py maps names to these).
 EST_MEDIAN, EST_CENTROID, EST_PEAK, EST_PEAK_PARABOLIC, EST_PEAK_GAUSSIAN, EST_ML = 0, 1, 2, 3, 4, 5
@@ -1029,28 +1030,32 @@ def ar1_noise_kernel(key, stream, var_c, rho_c, words_w, tails_n, tmp_n, out_t):
 
     ``x[0] = sqrt(var) z_0``, ``x[t] = rho x[t-1] + sqrt(var (1 - rho^2)) z_t``: correlation
     ``var rho^|tau|`` exactly (the RIN and reflection of ``spectral.noise_correlation``).
-    Normals from the counter-based streams ``stream_start(mix64(key ^ stream), c)``
-    (``tmp_n.shape[0]`` each), used in the order component 0's samples, then component 1's.
+    Normals from the counter-based streams ``stream_start(mix64(key ^ stream), j)``, one per
+    chunk j of ``B = tmp_n.shape[0] // n_c`` samples (component c takes normals
+    ``c B .. (c + 1) B - 1`` of its chunk), the starting values from stream 2^62; the
+    components' recursions run side by side.
     """
     nt = out_t.shape[0]
     nc = var_c.shape[0]
-    nb = tmp_n.shape[0]
+    bl = tmp_n.shape[0] // nc
     skey = mix64(np.uint64(key) ^ mix64(np.uint64(stream) + _GOLDEN))
-    for t in range(nt):
-        out_t[t] = 0.0
-    chunk = 0
-    pos = nb
+    x = np.zeros(nc)
+    sdi = np.empty(nc)
     for c in range(nc):
-        rho = rho_c[c]
-        sd0 = math.sqrt(var_c[c])
-        sdi = math.sqrt(var_c[c] * (1.0 - rho * rho))
-        x = 0.0
-        for t in range(nt):
-            if pos >= nb:
-                block_normals(stream_start(skey, chunk), 1.0, words_w, tails_n, tmp_n)
-                chunk += 1
-                pos = 0
-            z = tmp_n[pos]
-            pos += 1
-            x = sd0 * z if t == 0 else rho * x + sdi * z
-            out_t[t] += x
+        sdi[c] = math.sqrt(var_c[c] * (1.0 - rho_c[c] * rho_c[c]))
+    # stationary start: x[-1] ~ N(0, var) (a stream of its own), so x[0] = rho x[-1] + innovation is too
+    st = stream_start(skey, _START_STREAM)
+    for c in range(nc):
+        st, z0, _z1 = normal_pair(st)
+        x[c] = math.sqrt(var_c[c]) * z0
+    j = 0
+    for t0 in range(0, nt, bl):
+        block_normals(stream_start(skey, j), 1.0, words_w, tails_n, tmp_n)
+        j += 1
+        t1 = min(nt, t0 + bl)
+        for t in range(t0, t1):
+            acc = 0.0
+            for c in range(nc):
+                x[c] = rho_c[c] * x[c] + sdi[c] * tmp_n[c * bl + (t - t0)]
+                acc += x[c]
+            out_t[t] = acc

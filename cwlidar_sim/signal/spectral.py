@@ -470,10 +470,20 @@ def noise_correlation(instrument, n_lags: int) -> np.ndarray:
     return r
 
 
-def _window_lags(instrument):
-    from ..sensors.lidar import _lag_coefficients
+@functools.lru_cache(maxsize=16)
+def lag_coefficients(n_fft: int, window: str, rho: float) -> np.ndarray:
+    """``a_d = R_w(d) rho^d / R_w(0)``, d = 0..N-1: the window's autocorrelation times an AR(1) factor (read-only)."""
+    w = window_samples(n_fft, window)
+    r = np.array([np.dot(w[: n_fft - d], w[d:]) for d in range(n_fft)])
+    a = r / r[0]
+    if rho < 1.0:
+        a = a * rho ** np.arange(n_fft)
+    a.setflags(write=False)
+    return a
 
-    return _lag_coefficients(instrument.n_fft, instrument.window, 1.0)
+
+def _window_lags(instrument):
+    return lag_coefficients(instrument.n_fft, instrument.window, 1.0)
 
 
 def _fold_noise(instrument, n_j=None):

@@ -8,7 +8,7 @@ import xarray as xr
 from scipy.stats import gamma
 
 from cwlidar_sim.sensors import StaringLidar, measure_staring
-from cwlidar_sim.signal import PROTOTYPE_2003, Flag, estimate
+from cwlidar_sim.signal import PROTOTYPE_2003, estimate
 from cwlidar_sim.signal.processing import background_gain, raised_level, threshold_levels
 
 # shot-noise-limited: RIN and reflection off (they are tested in test_continuum)

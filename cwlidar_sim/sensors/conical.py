@@ -540,7 +540,9 @@ class ConicalRecord:
         Fraction of finite ``speed_e``.
     info : dict
         Per height: focus, circle diameter, Rayleigh length, cells, truncated
-        fraction, spot speed, speckle time and looks; tier, sub_dwells, flag counts.
+        fraction, spot speed, speckle time and looks (with a cloud also
+        ``cloud_range`` [m], ``cloud_weight`` w_c and ``cloud_fraction``
+        w_c / (1 + w_c)); tier, sub_dwells, flag counts.
     """
 
     time_e: np.ndarray

@@ -124,7 +124,9 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         ``cup_std``, ``sonic_std`` (horizontal speed), ``sonic_radial_variance``
         [m^2/s^2] (the projected point variance, :mod:`cwlidar_sim.analysis.vad`),
         ``availability`` (finite estimates), ``zero_crossing_loss`` (fraction
-        of estimates flagged NO_SIGNAL or NEAR_ZERO), ``cost_s`` (wall time of
+        of estimates flagged NO_SIGNAL or NEAR_ZERO), ``second_peak_fraction``
+        (fraction flagged SECOND_PEAK), ``cloud_fraction`` (the cloud's share
+        of the received power, 0 without a cloud), ``cost_s`` (wall time of
         the stages) and ``scans``: for each n in ``scan_revs`` a dict with
         ``lidar_mean``, ``lidar_std`` [m/s], ``std_ratio`` (lidar/cup),
         ``mean_speed_bias`` (lidar mean / cup mean - 1), ``tp`` (mean TP),
@@ -187,6 +189,8 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         "sonic_radial_variance": sonic_radial_variance(vel_ec, rec.azimuth_e, lidar.half_angle_deg),
         "availability": rec.availability,
         "zero_crossing_loss": float(np.mean((rec.flags_e & (Flag.NO_SIGNAL | Flag.NEAR_ZERO)) != 0)),
+        "second_peak_fraction": float(np.mean((rec.flags_e & Flag.SECOND_PEAK) != 0)),
+        "cloud_fraction": float(rec.info["heights"][z].get("cloud_fraction", 0.0)),
         "n_estimates": int(rec.time_e.size), "scans": {},
     }
     del field

@@ -83,7 +83,8 @@ def _scan_direction(vel_ec, rev, n_rev):
 def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, duration: float = 600.0,
                             scan_revs=(1, 3), tier: str = "los", spacing: float | None = None,
                             lateral_doubling: bool = True, params=None, reference: str = "previous",
-                            sub_dwells: int = 8, model: bool = True, lidar_overrides: dict | None = None) -> dict:
+                            sub_dwells: int = 8, model: bool = True, lidar_overrides: dict | None = None,
+                            excluded_flags: int | None = None) -> dict:
     """Simulate one period: a Mann box, the conical lidar, a cup and a sonic at one height.
 
     Parameters
@@ -113,7 +114,12 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
     model : bool
         Also evaluate CS's filter model (Kaimal and Mann spectra).
     lidar_overrides : dict, optional
-        Further :class:`ConicalLidar` fields (e.g. ``{'cnr_db': -15}``).
+        Further :class:`ConicalLidar` fields (e.g. ``{'cnr_db': -15}``, or a
+        cloud: ``{'cloud_base': 1000, 'cloud_strength': 1e4}``).
+    excluded_flags : int, optional
+        :class:`cwlidar_sim.signal.Flag` bits whose points the VAD fits leave
+        out (:func:`cwlidar_sim.analysis.vad.fit_record`); default its own
+        (every flag, SECOND_PEAK included).
 
     Returns
     -------
@@ -203,7 +209,8 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         else:
             ref = np.full(true_dir.shape, np.nan)
             ref[:1] = mean_dir
-        fit = fit_record(rec, z, n, half_angle_deg=lidar.half_angle_deg, reference_deg=ref)
+        fit = fit_record(rec, z, n, half_angle_deg=lidar.half_angle_deg, reference_deg=ref,
+                         excluded_flags=excluded_flags)
         st = period_statistics(fit)
         ok = np.isfinite(fit.direction_p)
         dd = np.abs((fit.direction_p[ok] - true_dir[ok] + 180.0) % 360.0 - 180.0)

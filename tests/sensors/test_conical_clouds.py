@@ -176,3 +176,25 @@ def test_cloud_inputs_are_validated_by_name():
         ConicalLidar(cloud_base="low", cloud_strength=1.0)
     with pytest.raises(ValueError, match="unknown key.*'cloud_height'"):
         ConicalLidar.from_dict({"cloud_height": 1000.0})
+
+
+def test_period_under_a_cloud_moving_with_the_wind():
+    from cwlidar_sim.sensors.conical_period import simulate_conical_period
+
+    kw = dict(speed=8.0, duration=30.0, scan_revs=(1,), model=False)
+    clear = simulate_conical_period(20.0, 3, **kw)
+    cloudy = simulate_conical_period(20.0, 3, lidar_overrides={"cloud_base": 100.0, "cloud_strength": 2e3}, **kw)
+    f = cloudy["cloud_fraction"]
+    assert f == pytest.approx(ConicalLidar(heights=(20.0,), cell_length=1.0, cloud_base=100.0,
+                                           cloud_strength=2e3).cloud_fraction(20.0), rel=1e-12)
+    assert 0.5 < f < 0.6 and cloudy["second_peak_fraction"] == 0.0 == clear["second_peak_fraction"]
+    a, b = clear["scans"][1], cloudy["scans"][1]
+    # tier 1: every speed is (1 - f) v_a + f n.(U, 0, 0), so each scan's horizontal wind vector is
+    # (1 - f) the clear one + f (U, 0): the fluctuations shrink by 1 - f, the mean moves toward U
+    # (to second order in the direction fluctuations, (sigma_v / U)^2 ~ 1 %)
+    assert b["lidar_std"] / a["lidar_std"] == pytest.approx(1 - f, rel=0.02)
+    assert b["lidar_mean"] == pytest.approx((1 - f) * a["lidar_mean"] + f * 8.0, abs=0.02)
+    # excluded_flags=0: the fits keep every finite point, the flagged ones near the zero crossings too
+    kept = simulate_conical_period(20.0, 3, excluded_flags=0, **kw)
+    assert kept["scans"][1]["points_used_fraction"] == pytest.approx(kept["availability"], abs=1e-12)
+    assert a["points_used_fraction"] < kept["availability"] - 0.05

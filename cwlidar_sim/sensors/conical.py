@@ -75,6 +75,38 @@ flagged ``NO_SIGNAL | NEAR_ZERO``, within ``edge_guard_speed`` above it the
 value is kept and flagged ``NEAR_ZERO``; near Nyquist ``NEAR_NYQUIST``.
 :func:`cwlidar_sim.analysis.vad.fit_scans` leaves flagged points out.
 
+Clouds (optional)
+-----------------
+A cloud layer above the cone (``cloud_base`` z_b above the telescope,
+``cloud_depth`` dz, backscatter ``cloud_strength`` = beta_cloud /
+beta_aerosol, both per metre) is reached by the far tail of the focused
+beam's weighting (``phi ~ z_R / (pi s^2)``).  Along a beam at Phi from the
+vertical the layer occupies the ranges ``[z_b, z_b + dz] / cos Phi``, where
+the weighting (the lidar's ``weighting``, exact or Lorentzian, the same
+density as the cells) integrates to ``I_c``; the cloud then carries
+``w_c = cloud_strength * I_c`` of the aerosol probe volume's (unit) weight:
+one more "cell" moving at the cloud's radial speed
+``n . (V_c cos psi, V_c sin psi, 0)`` (``V_c = cloud_speed``, by default the
+mean wind U; ``psi = cloud_direction_deg``; no vertical motion, no
+turbulence), the same look by look as the beam sweeps.  Tiers 2 and 3 renormalise
+the weights to 1 and add the cloud's power to the CNR
+(``cnr_db + 10 log10(1 + w_c)``, ``cnr_db`` stays the aerosol's), as
+:func:`cwlidar_sim.signal.doppler.simulate_uniform` does for the staring
+beam, so the spectrum holds a second Doppler line of relative power
+``f_c = w_c / (1 + w_c)`` that the estimator mixes in and the processing may
+flag ``SECOND_PEAK``.  Tier 1 returns the weighted mean
+``(v_a + w_c v_c) / (1 + w_c)`` of the signed aerosol and cloud speeds
+(the centroid of tier 2 wherever both lines have the same sign and are
+above the threshold); ``vlos_e`` stays the aerosol's (the clear-air ideal)
+in every tier.  Not modelled, all small beside the effect: the aerosol
+weight inside and beyond the cloud (the beam is not extinguished; its weight
+there is ``~ z_R / (pi R_b)`` of the total, 0.5 % at 100 m under a cloud at
+1 km, and ``1 / cloud_strength`` of the cloud's own), the cloud's own speckle
+time (the beam at the cloud is wider and the spot faster: its line is
+narrower than the aerosol's, whose ``tau_c`` it is given) and any spread of
+speeds within the cloud.  Inside the simulated span the cells would count the
+cloud twice, so the cloud must lie beyond it (validated).
+
 Heights
 -------
 One height: the lidar dwells there.  Several heights: it cycles, measuring
@@ -111,6 +143,8 @@ __all__ = [
     "TIERS",
     "DRAW_BLOCK",
     "SIGNAL_MAX_ESTIMATES",
+    "CLOUD_BASE_MAX",
+    "CLOUD_STRENGTH_MAX",
 ]
 
 #: Allowed cone half-angle from the vertical [deg]: the VAD needs both sin Phi
@@ -125,6 +159,10 @@ TIERS = ("los", "spectral", "signal")
 SIGNAL_MAX_ESTIMATES = 500
 #: Estimates per block of random draws (fixed: the draws do not depend on any chunking).
 DRAW_BLOCK = 2048
+#: Highest cloud base [m] (the troposphere).
+CLOUD_BASE_MAX = 20000.0
+#: Largest cloud backscatter relative to the aerosol's [-].
+CLOUD_STRENGTH_MAX = 1e9
 
 
 def _check_bool(name, value):
@@ -175,6 +213,26 @@ class ConicalLidar:
         Tier 2's speckle gain per bin or per estimate.
     exact_background : bool
         Use the exact noise floor instead of a measured background (tier 2).
+    cloud_base : float, optional
+        Height of a cloud layer's base above the telescope [m] (module notes);
+        default None, no cloud.  At most :data:`CLOUD_BASE_MAX`, and above
+        every height's simulated span (its range ``cloud_base / cos Phi``
+        beyond the span's far end).
+    cloud_strength : float
+        The cloud's backscatter coefficient relative to the aerosol's
+        (beta_cloud / beta_aerosol, both per metre) [-]; in
+        [0, :data:`CLOUD_STRENGTH_MAX`]; > 0 needs ``cloud_base``.  Water
+        clouds: 1e3-1e5 (the 1.5 um aerosol backscatter of a clean boundary
+        layer is ~1e-7 /m/sr, a cloud's 1e-4-1e-2 /m/sr).
+    cloud_depth : float
+        Vertical depth of the backscattering layer [m] (the beam's
+        penetration into an optically thick cloud: ~ 1 / (2 extinction),
+        10-50 m for water clouds); in (0, 10000].
+    cloud_speed : float, optional
+        Horizontal speed of the cloud [m/s], in [0, 200]; default None: the
+        mean wind ``U`` given to :func:`measure_conical` (no shear).
+    cloud_direction_deg : float
+        Direction the cloud moves toward [deg], from +x (the mean wind) toward +y.
     """
 
     heights: tuple = (100.0,)
@@ -194,6 +252,11 @@ class ConicalLidar:
     cnr_db: float = -10.0
     speckle: str = "independent"
     exact_background: bool = False
+    cloud_base: float | None = None
+    cloud_strength: float = 0.0
+    cloud_depth: float = 30.0
+    cloud_speed: float | None = None
+    cloud_direction_deg: float = 0.0
 
     def __post_init__(self):
         def put(k, v):
@@ -244,6 +307,27 @@ class ConicalLidar:
             raise ValueError(
                 f"instrument.blocks_per_estimate={inst.blocks_per_estimate} does not fit in one dwell of "
                 f"{self.dwell_time:g} s (revolution_time / estimates_per_rev); allowed: <= {math.floor(fit + 1e-9)}")
+        self._check_cloud(put)
+
+    def _check_cloud(self, put):
+        put("cloud_strength", check_real("cloud_strength", self.cloud_strength, lo=0.0, hi=CLOUD_STRENGTH_MAX))
+        put("cloud_depth", check_real("cloud_depth", self.cloud_depth, lo=0.0, hi=1e4, lo_open=True))
+        if self.cloud_speed is not None:
+            put("cloud_speed", check_real("cloud_speed", self.cloud_speed, lo=0.0, hi=200.0))
+        put("cloud_direction_deg", check_real("cloud_direction_deg", self.cloud_direction_deg))
+        if self.cloud_base is None:
+            if self.cloud_strength > 0.0:
+                raise ValueError(f"cloud_strength={self.cloud_strength!r} > 0 needs cloud_base [m] (the height of "
+                                 f"the cloud layer); allowed: cloud_strength=0 without a cloud_base")
+            return
+        base = check_real("cloud_base", self.cloud_base, lo=0.0, hi=CLOUD_BASE_MAX, lo_open=True)
+        c = math.cos(self._phi)
+        # the cloud must lie beyond every height's simulated span (module notes)
+        lo = max((self.focus(z) + self.cells(z).edges[-1]) * c for z in self.heights)
+        if base <= lo:
+            raise ValueError(f"cloud_base={base!r} m is inside the simulated span of the beam (its far end reaches "
+                             f"{lo:.4g} m); allowed: ({lo:.4g}, {CLOUD_BASE_MAX:g}] m")
+        put("cloud_base", base)
 
     # -- interchange -----------------------------------------------------
     def as_dict(self) -> dict:
@@ -326,6 +410,34 @@ class ConicalLidar:
         n = max(1, int(math.ceil((half + min(half, inst.focus)) / self.cell_length - 1e-9)))
         check_int("number of range cells", n, lo=1, hi=100_000)
         return weight_truncated(inst.optics(), self.weighting, span=self.span, n_cells=n, renormalise=False)
+
+    def cloud_weight(self, height: float) -> float:
+        """Weight of the cloud relative to the aerosol probe volume at height z, ``w_c`` [-] (module notes).
+
+        ``cloud_strength`` times the integral of the weighting over the
+        cloud's range interval ``[cloud_base, cloud_base + cloud_depth] / cos Phi``;
+        0 without a cloud.
+        """
+        if self.cloud_base is None:
+            return 0.0
+        from ..beam.optics import _cauchy_exact
+
+        inst = self.instrument_at(height)
+        c = math.cos(self._phi)
+        a = self.cloud_base / c - inst.focus
+        b = (self.cloud_base + self.cloud_depth) / c - inst.focus
+        if self.weighting == "exact":
+            s0, g, eps = _cauchy_exact(inst.focus, inst.wavelength, inst.telescope_radius)
+        else:
+            s0, g, eps = 0.0, inst.rayleigh_length, 0.0
+        # arctan((b - s0)/g) - arctan((a - s0)/g) without cancellation (a, b > s0)
+        integral = math.atan(g * (b - a) / (g * g + (a - s0) * (b - s0))) / (math.pi * (1.0 - eps))
+        return self.cloud_strength * integral
+
+    def cloud_fraction(self, height: float) -> float:
+        """Fraction of the received power from the cloud at height z, ``w_c / (1 + w_c)`` [-]."""
+        w = self.cloud_weight(height)
+        return w / (1.0 + w)
 
     def beam_extent(self, height: float) -> dict:
         """Horizontal radius and height range [m] that the simulated cells reach at height z."""
@@ -428,7 +540,9 @@ class ConicalRecord:
         Fraction of finite ``speed_e``.
     info : dict
         Per height: focus, circle diameter, Rayleigh length, cells, truncated
-        fraction, spot speed, speckle time and looks; tier, sub_dwells, flag counts.
+        fraction, spot speed, speckle time and looks (with a cloud also
+        ``cloud_range`` [m], ``cloud_weight`` w_c and ``cloud_fraction``
+        w_c / (1 + w_c)); tier, sub_dwells, flag counts.
     """
 
     time_e: np.ndarray
@@ -542,12 +656,26 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
                  cells.edges[0]), "truncated_fraction": tail, "spot_speed": lidar.spot_speed(z),
                  "speckle_time": lidar.speckle_time(z), "m_eff": lidar.speckle_looks(z),
                  "n_estimates": int(idx.size)}
+        cloud = lidar.cloud_base is not None
+        cnr_db = lidar.cnr_db
+        if cloud:
+            w_cl = lidar.cloud_weight(z)
+            hinfo.update(cloud_range=lidar.cloud_base / math.cos(lidar._phi), cloud_weight=w_cl,
+                         cloud_fraction=w_cl / (1.0 + w_cl))
+            v_cl = U if lidar.cloud_speed is None else lidar.cloud_speed
+            psi = math.radians(lidar.cloud_direction_deg)
+            vel_cl = np.array([v_cl * math.cos(psi), v_cl * math.sin(psi), 0.0])
+            # the cloud is one more cell: weights renormalised to 1, its power added to the CNR (module notes)
+            cnr_db = cnr_db + 10.0 * math.log10(1.0 + w_cl)
+            look_w = np.append(np.append(w_s, tail), w_cl) / (1.0 + w_cl)
+        else:
+            look_w = np.append(w_s, tail)
         if lidar.tier != "los":
             from ..signal.processing import background_spectrum
 
             s_bg, s_sim = height_seqs[ih].spawn(2)
             bg = None if lidar.exact_background else background_spectrum(inst, np.random.default_rng(s_bg))
-            weights_c = np.concatenate([np.tile(np.append(w_s, tail), nsub) / nsub])
+            weights_c = np.concatenate([np.tile(look_w, nsub) / nsub])
         for b0 in range(0, idx.size, DRAW_BLOCK):
             sel = idx[b0: b0 + DRAW_BLOCK]
             nb = sel.size
@@ -556,14 +684,22 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
             n_lc = np.ascontiguousarray(lidar.direction(az_l))
             vlos_ls, vlos_l = _sample_looks(fld, wrap, origin, n_lc, range_s, w_s, tail, t_l, U)
             vlos_e[sel] = vlos_l.reshape(nb, nsub).mean(axis=1)
+            nc = ns + 1
+            if cloud:
+                vcl_l = n_lc @ vel_cl  # the cloud's radial speed of every look
+                vlos_ls = np.ascontiguousarray(np.concatenate([vlos_ls, vcl_l[:, None]], axis=1))
+                nc += 1
             if lidar.tier == "los":
-                speed_e[sel], flags_e[sel] = _homodyne_flags(inst, vlos_e[sel])
+                v_mix = vlos_e[sel]
+                if cloud:
+                    v_mix = (v_mix + w_cl * vcl_l.reshape(nb, nsub).mean(axis=1)) / (1.0 + w_cl)
+                speed_e[sel], flags_e[sel] = _homodyne_flags(inst, v_mix)
             elif lidar.tier == "signal":
-                speed_e[sel], flags_e[sel] = _signal_block(inst, lidar, z, vlos_ls, np.append(w_s, tail), bg,
-                                                           s_sim, b0 // DRAW_BLOCK, nb)
+                speed_e[sel], flags_e[sel] = _signal_block(inst, lidar, z, vlos_ls, look_w, bg,
+                                                           s_sim, b0 // DRAW_BLOCK, nb, cnr_db)
             else:
-                sp, fl = _spectral_block(inst, lidar, z, vlos_ls.reshape(nb, nsub * (ns + 1)), weights_c, bg,
-                                         s_sim, b0 // DRAW_BLOCK)
+                sp, fl = _spectral_block(inst, lidar, z, vlos_ls.reshape(nb, nsub * nc), weights_c, bg,
+                                         s_sim, b0 // DRAW_BLOCK, cnr_db)
                 speed_e[sel], flags_e[sel] = sp, fl
         if lidar.tier != "los":
             hinfo["background"] = "exact" if lidar.exact_background else f"measured ({inst.background_blocks} blocks)"
@@ -587,14 +723,15 @@ def _sample_looks(fld, wrap, origin, n_lc, range_s, w_s, tail, t_l, U):
     return vlos_ls, vlos_l
 
 
-def _spectral_block(inst, lidar, z, vlos_ec, weights_c, bg, seq, block):
+def _spectral_block(inst, lidar, z, vlos_ec, weights_c, bg, seq, block, cnr_db=None):
     """Tier 2 for one block of estimates: the looks' spectra averaged, speckle, noise, processing."""
     from ..signal.processing import estimate
     from ..signal.spectral import sample_spectra
     from .lidar import expected_spectrum_exact
 
     tau = lidar.speckle_time(z)
-    sig, noise = expected_spectrum_exact(inst, vlos_ec, weights_c, lidar.cnr_db, correlation_time=tau)
+    cnr_db = lidar.cnr_db if cnr_db is None else cnr_db
+    sig, noise = expected_spectrum_exact(inst, vlos_ec, weights_c, cnr_db, correlation_time=tau)
     child = np.random.SeedSequence(seq.entropy, spawn_key=tuple(seq.spawn_key) + (block,))
     spec = sample_spectra(sig, noise, inst.blocks_per_estimate, lidar.speckle_looks(z),
                           np.random.default_rng(child), speckle=lidar.speckle)
@@ -602,16 +739,17 @@ def _spectral_block(inst, lidar, z, vlos_ec, weights_c, bg, seq, block):
     return est.speed_e, est.flags_e
 
 
-def _signal_block(inst, lidar, z, vlos_ls, weight_s, bg, seq, block, nb):
+def _signal_block(inst, lidar, z, vlos_ls, weight_s, bg, seq, block, nb, cnr_db=None):
     """Tier 3 for one block of estimates: each look's blocks in turn, the looks' periodograms averaged."""
     from ..signal.heterodyne import simulate_signal_spectra
     from ..signal.processing import estimate
 
     nsub = lidar.sub_dwells
+    cnr_db = lidar.cnr_db if cnr_db is None else cnr_db
     look = inst.replace(blocks_per_estimate=inst.blocks_per_estimate // nsub,
                         estimate_rate=inst.estimate_rate * nsub)
     child = np.random.SeedSequence(seq.entropy, spawn_key=tuple(seq.spawn_key) + (block,))
-    spec_l = simulate_signal_spectra(look, vlos_ls, weight_s, lidar.cnr_db, np.random.default_rng(child),
+    spec_l = simulate_signal_spectra(look, vlos_ls, weight_s, cnr_db, np.random.default_rng(child),
                                      correlation_time=lidar.speckle_time(z))
     spec = spec_l.reshape(nb, nsub, -1).mean(axis=1)
     est = estimate(spec, inst, bg)

@@ -83,7 +83,8 @@ def _scan_direction(vel_ec, rev, n_rev):
 def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, duration: float = 600.0,
                             scan_revs=(1, 3), tier: str = "los", spacing: float | None = None,
                             lateral_doubling: bool = True, params=None, reference: str = "previous",
-                            sub_dwells: int = 8, model: bool = True, lidar_overrides: dict | None = None) -> dict:
+                            sub_dwells: int = 8, model: bool = True, lidar_overrides: dict | None = None,
+                            excluded_flags: int | None = None) -> dict:
     """Simulate one period: a Mann box, the conical lidar, a cup and a sonic at one height.
 
     Parameters
@@ -113,7 +114,12 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
     model : bool
         Also evaluate CS's filter model (Kaimal and Mann spectra).
     lidar_overrides : dict, optional
-        Further :class:`ConicalLidar` fields (e.g. ``{'cnr_db': -15}``).
+        Further :class:`ConicalLidar` fields (e.g. ``{'cnr_db': -15}``, or a
+        cloud: ``{'cloud_base': 1000, 'cloud_strength': 1e4}``).
+    excluded_flags : int, optional
+        :class:`cwlidar_sim.signal.Flag` bits whose points the VAD fits leave
+        out (:func:`cwlidar_sim.analysis.vad.fit_record`); default its own
+        (every flag, SECOND_PEAK included).
 
     Returns
     -------
@@ -124,7 +130,9 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         ``cup_std``, ``sonic_std`` (horizontal speed), ``sonic_radial_variance``
         [m^2/s^2] (the projected point variance, :mod:`cwlidar_sim.analysis.vad`),
         ``availability`` (finite estimates), ``zero_crossing_loss`` (fraction
-        of estimates flagged NO_SIGNAL or NEAR_ZERO), ``cost_s`` (wall time of
+        of estimates flagged NO_SIGNAL or NEAR_ZERO), ``second_peak_fraction``
+        (fraction flagged SECOND_PEAK), ``cloud_fraction`` (the cloud's share
+        of the received power, 0 without a cloud), ``cost_s`` (wall time of
         the stages) and ``scans``: for each n in ``scan_revs`` a dict with
         ``lidar_mean``, ``lidar_std`` [m/s], ``std_ratio`` (lidar/cup),
         ``mean_speed_bias`` (lidar mean / cup mean - 1), ``tp`` (mean TP),
@@ -187,6 +195,8 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         "sonic_radial_variance": sonic_radial_variance(vel_ec, rec.azimuth_e, lidar.half_angle_deg),
         "availability": rec.availability,
         "zero_crossing_loss": float(np.mean((rec.flags_e & (Flag.NO_SIGNAL | Flag.NEAR_ZERO)) != 0)),
+        "second_peak_fraction": float(np.mean((rec.flags_e & Flag.SECOND_PEAK) != 0)),
+        "cloud_fraction": float(rec.info["heights"][z].get("cloud_fraction", 0.0)),
         "n_estimates": int(rec.time_e.size), "scans": {},
     }
     del field
@@ -199,7 +209,8 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         else:
             ref = np.full(true_dir.shape, np.nan)
             ref[:1] = mean_dir
-        fit = fit_record(rec, z, n, half_angle_deg=lidar.half_angle_deg, reference_deg=ref)
+        fit = fit_record(rec, z, n, half_angle_deg=lidar.half_angle_deg, reference_deg=ref,
+                         excluded_flags=excluded_flags)
         st = period_statistics(fit)
         ok = np.isfinite(fit.direction_p)
         dd = np.abs((fit.direction_p[ok] - true_dir[ok] + 180.0) % 360.0 - 180.0)

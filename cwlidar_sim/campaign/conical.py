@@ -58,6 +58,8 @@ UNIT_VARS = {
     "sonic_radial_variance": ("m2 s-2", "sonic-equivalent radial variance (point sonic projected on the rotating beam)"),
     "availability": ("1", "fraction of finite line-of-sight estimates"),
     "zero_crossing_loss": ("1", "fraction of estimates flagged NO_SIGNAL or NEAR_ZERO (cross-wind zero crossings)"),
+    "second_peak_fraction": ("1", "fraction of estimates flagged SECOND_PEAK (e.g. a cloud return)"),
+    "cloud_fraction": ("1", "the cloud's share of the received power (0: clear air)"),
 }
 #: Per-scan-length results of one unit.
 SCAN_VARS = {
@@ -471,7 +473,7 @@ def summarise(ds):
             out[f"{var}_sigma"] = (HS, err, {"units": attrs.get("units", "1"), "long_name": f"standard error of {var}"})
         if var == "std_ratio":
             out["n_selected"] = (HS, n.astype(np.int64), {"units": "1", "long_name": "periods passing CS's selection"})
-    for var in ("availability", "zero_crossing_loss"):
+    for var in ("availability", "zero_crossing_loss", "second_peak_fraction", "cloud_fraction"):
         mean, _, n = by_height(var, False)
         out[var] = (("height",), mean, {**ds[var].attrs, "long_name": ds[var].attrs["long_name"] + " (mean over periods)"})
     out["n_periods"] = (("height",), n.astype(np.int64), {"units": "1", "long_name": "periods simulated"})

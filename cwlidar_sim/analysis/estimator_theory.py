@@ -165,7 +165,7 @@ def _line_cells(instrument, weighting, span, cell_length):
 def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k_edges=None,
                        cnr_db=-10.0, weighting="exact", span=20.0, dx=0.5, cell_length=None,
                        subcell_spread=None, transverse_speed=None, n_lines=8, n_points=4096, seed=THEORY_SEED,
-                       band=DEFAULT_BAND, modulation=None, chunk=1024) -> EstimatorTransfer:
+                       band=DEFAULT_BAND, modulation=None, gain=1.0, chunk=1024) -> EstimatorTransfer:
     """Expected method-2 transfer function of each estimator for the beam along the wind (module notes).
 
     Parameters
@@ -207,6 +207,11 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
         backscatter factors frozen in the flow (see
         :mod:`cwlidar_sim.signal.aerosol`); each estimate's cell weights are
         multiplied by it at the cells' positions and renormalised.
+    gain : float
+        Receiver gain relative to the background calibration [-]; in
+        [0.5, 2] (``1 + instrument.background_mismatch`` of a campaign at the
+        calibration's end; :func:`cwlidar_sim.signal.processing.background_gain`):
+        every spectrum is multiplied by it before the estimator.
     chunk : int
         Estimates per batch (memory only).
 
@@ -238,6 +243,7 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
     seed = check_seed("seed", seed)
     band = _check_band(band)
     chunk = check_int("chunk", chunk, lo=1, hi=10**6)
+    gain = check_real("gain", gain, lo=0.5, hi=2.0)
     if k_edges is None:
         from .spectra import log_bins
 
@@ -296,6 +302,8 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
                 mean, var = _modulated_moments(instrument, vlos_es, w_s, (1.0 - f_s) * mod_x[i0] + f_s * mod_x[i1],
                                                cnr_db, spread, tau)
             spec = sample_moments(mean, var, key, e0=c0)
+            if gain != 1.0:
+                spec *= gain
             for a, pinst in enumerate(insts):
                 v_ex[a, c0:c1] = estimate(spec, pinst).speed_e
         u_f = np.fft.rfft(u_x - u_x.mean())
@@ -344,7 +352,7 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
     info = {"U": U, "dx": dx, "cell_length": cell_length, "n_cells": int(w_s.size), "weighting": weighting,
             "span": span, "cnr_db": cnr_db, "subcell_spread": spread, "transverse_speed": vt,
             "correlation_time": tau, "n_lines": n_lines, "n_points": n_points, "seed": seed,
-            "modulated": modulation is not None, "line_mean_log_T2": lm, "band_bins": int(inb.sum()),
+            "modulated": modulation is not None, "gain": gain, "line_mean_log_T2": lm, "band_bins": int(inb.sum()),
             "line_sd_predicted": pred, "wall_time": time.perf_counter() - t0}
     return EstimatorTransfer(estimators=est, k_k=k_k, k_edges=e_k, T2_ek=T2, sigma_T2_ek=sT2, n_modes_k=n_modes,
                              zR_eff_e=z[:, 0], zR_eff_sigma_e=z[:, 1], band=band,

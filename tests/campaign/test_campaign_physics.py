@@ -313,3 +313,17 @@ def test_estimator_theory_follows_each_estimators_method_2(aligned_spectral):
     # effective probe lengths in the order of their attenuation, all shorter than zR for these estimators
     zr = dict(zip(ests, ds.probe_length_effective.values))
     assert zr["peak"] < zr["median"] < zr["centroid"] < ds.attrs["rayleigh_length"]
+
+
+def test_probe_length_of_the_run_is_its_telescope(aligned_spectral):
+    """fit_probe_length on the run's own method 2 (which its theory never saw) recovers zR = 5.61 m, a0 = 20 mm."""
+    from cwlidar_sim.analysis import ProbeLengthError, fit_probe_length_results
+
+    ds = aligned_spectral
+    fit = fit_probe_length_results(ds, n_lines=2, zR_factors=(0.71, 1.0, 1.41))
+    zR = ds.attrs["rayleigh_length"]
+    assert abs(fit.zR - zR) < 2.5 * fit.zR_sigma and abs(fit.a0 - 0.020) < 2.5 * fit.a0_sigma
+    assert fit.zR_sigma < 0.15 * zR                               # a real constraint
+    assert fit.zR_eff < 0.75 * zR                                 # the median's own exp fit is far shorter
+    with pytest.raises(ProbeLengthError, match="'ml' is not in these results"):
+        fit_probe_length_results(ds, estimator="ml")

@@ -50,6 +50,14 @@ import time
 
 RESULT_TAG = "@@BENCH_RESULT@@"
 
+#: The checkout holding this benchmarks/ folder.  ``python benchmarks/x.py`` puts only
+#: benchmarks/ on sys.path, so an installed cwlidar_sim (e.g. an editable install of
+#: another checkout) would be imported; the checkout goes right after PYTHONPATH's
+#: entries instead, so that ``--pythonpath DIR`` still wins.
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if REPO_ROOT not in sys.path:
+    sys.path.insert(1 + len([p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]), REPO_ROOT)
+
 __all__ = ["RESULT_TAG", "vmhwm", "vmrss", "ru_maxrss", "TreeRssSampler", "timed", "time_repeats",
            "child_main", "spawn", "spawn_rounds", "summarize", "machine", "versions", "log"]
 
@@ -264,3 +272,16 @@ def write_json(path, obj):
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     with open(path, "w") as f:
         json.dump(obj, f, indent=1, default=float)
+
+
+def reset_peak() -> bool:
+    """Reset this process's VmHWM to its current RSS (``/proc/self/clear_refs`` = 5); False if refused.
+
+    Lets one child report the peak of each of several measurements in turn.
+    """
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+        return True
+    except OSError:
+        return False

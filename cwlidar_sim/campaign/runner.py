@@ -252,8 +252,13 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
 
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a Scene, got {type(scene).__name__}")
+    from .auto import resolve
+
     say = log or (lambda s: None)
     t0 = time.perf_counter()
+    scene, auto_why = resolve(scene)  # "auto" tier / field.dx / cell_length: the cheapest sufficient setting
+    for key, why in auto_why.items():
+        say(f"{key} = {why}")
     preflight(out_dir, estimate_bytes(scene))
     params, fit_info = scene_params(scene)
     if fit_info is not None:
@@ -309,6 +314,7 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
     ds = combine_periods([done[i] for i in range(len(scene.periods))])
     ds.attrs["wall_time"] = float(time.perf_counter() - t0)
     ds.attrs["periods_reused"] = json.dumps(reused)
+    ds.attrs["auto_choice"] = json.dumps(auto_why)
     if fit_info is not None:
         ds.attrs["turbulence_fit"] = json.dumps(fit_info)
     if store is not None:

@@ -340,9 +340,11 @@ def estimate_task(scene: Scene) -> dict:
     box's transform), its raw series in float64 (results and analysis
     copies) and 250 MB of interpreter and libraries.
     """
+    from .auto import resolve
     from .runner import plan_field, scene_params
     from .store import estimate_bytes
 
+    scene = resolve(scene)[0]
     params, _ = scene_params(scene)
     seconds = TASK_OVERHEAD_S
     peak = 0.0

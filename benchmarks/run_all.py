@@ -73,7 +73,8 @@ def ratios_scaling(rep):
 def ratios_speed(rep):
     recs = rep.get("records", [])
     best = min((r["wall_s_per_sim_hour"] for r in recs if r.get("wall_s_per_sim_hour")), default=None)
-    return {r["label"]: {"wall_s_per_sim_hour": r["wall_s_per_sim_hour"], "error": r["error"],
+    return {f"{r['scene']}: {r['label']}": {"wall_s_per_sim_hour": r["wall_s_per_sim_hour"],
+                                          "cpu_s_per_sim_hour": r.get("cpu_s_per_sim_hour"), "error": r["error"],
                          "over_cheapest": (r["wall_s_per_sim_hour"] / best) if best else None,
                          "pareto": r.get("pareto")} for r in recs}
 

@@ -35,8 +35,8 @@ resolved by the chart).
 * **Field spacing along the wind** ``dx``: the coarsest of
   :data:`DX_LADDER` whose chart error, scaled by the Rayleigh length
   (``dx / z_R``), is within the tolerance -- :data:`DX_MAX_PER_ZR` (the
-  chart: ``dx / z_R`` = 0.089 within, 0.18 at the tolerance's edge, for
-  A2012's z_R = 5.61 m), and never coarser than the analysis needs: the
+  chart: 0.5 m and 1 m, 0.089 and 0.18 z_R for A2012's z_R = 5.61 m, are
+  both within it; coarser was not charted), and never coarser than the analysis needs: the
   field's Nyquist wavenumber ``pi / dx`` at least ``k_used``, the smaller
   of ``analysis.k_max`` and the largest 10-Hz Nyquist wavenumber
   ``pi 10 / U`` of the periods, so that the sonic (which samples the same
@@ -45,7 +45,7 @@ resolved by the chart).
 
 * **Range cells** ``cell_length``: the longest cell, :data:`CELL_MAX_PER_ZR`
   ``x z_R`` (the chart: cells of 0.71 z_R are within the tolerance, at
-  half the cost of cells of the field spacing; the continuum speckle model
+  a quarter of the cost of cells of the field spacing; the continuum speckle model
   makes the Doppler statistics converge in the cell length), but not
   shorter than ``dx`` and only with continuum speckle (the point-cell
   models 'independent' / 'coherent' change their statistics with the cell
@@ -61,26 +61,31 @@ import math
 __all__ = ["TOLERANCE", "DX_LADDER", "DX_MAX_PER_ZR", "CELL_MAX_PER_ZR", "CHART", "needs_spectra", "resolve",
            "PROCESSING_KEYS"]
 
-#: The chart's measurements behind the rule (benchmarks/speed_vs_accuracy.py --quick,
-#: A2012 period C, 60 s; docs/speed_vs_accuracy_quick.json): setting -> (wall s per
-#: simulated hour on the 2-core machine, RMS log10 error of T2 against the reference).
+#: The chart's measurements behind the rule (``benchmarks/speed_vs_accuracy.py --groups hour
+#: --duration 600 --segment 60``, A2012 period C, 600 s; docs/speed_vs_accuracy_600s.json):
+#: setting -> (CPU s per simulated hour, one thread; RMS log10 error of T2 against the reference).
+#: The 60-s ``--quick`` chart gives the same order within its larger scatter (0.106).
 CHART = {
-    "plane dx.25 dy.25 c.25 (reference)": (569.3, 0.0),
-    "plane dx.5 dy.5": (234.2, 0.079),
-    "plane dx1 dy1": (230.2, 0.111),
-    "cells 1 m": (147.8, 0.080),
-    "cells 4 m": (127.6, 0.098),
-    "los tier": (83.7, 0.350),
-    "seed 2 (scatter of the reference)": (367.6, 0.106),
+    "plane dx.25 dy.25 c.25 (reference)": (141.1, 0.0),
+    "plane dx.5 dy.5": (58.2, 0.061),
+    "plane dx1 dy1": (28.0, 0.044),
+    "box dx1 dy4 dz4": (29.9, 0.107),
+    "cells 1 m": (34.9, 0.061),
+    "cells 2 m": (21.5, 0.058),
+    "cells 4 m": (15.6, 0.061),
+    "speckle independent": (21.7, 0.079),
+    "los tier": (8.5, 0.306),
+    "seed 2 (scatter of the reference)": (143.2, 0.090),
 }
 #: Tolerance on the chart's error: the seed-to-seed scatter of the reference.
 TOLERANCE = CHART["seed 2 (scatter of the reference)"][1]
 #: Field spacings the choice picks from [m].
 DX_LADDER = (0.25, 0.5, 1.0, 2.0)
-#: Coarsest field spacing within the tolerance, in Rayleigh lengths (the chart: 0.5 m at z_R = 5.61 m;
-#: 1 m, 0.18 z_R, is past the tolerance).
-DX_MAX_PER_ZR = 0.5 / 5.61
-#: Longest range cell within the tolerance, in Rayleigh lengths (the chart: 4 m at z_R = 5.61 m).
+#: Coarsest field spacing within the tolerance, in Rayleigh lengths (the chart: 1 m at z_R = 5.61 m,
+#: the coarsest charted).
+DX_MAX_PER_ZR = 1.0 / 5.61
+#: Longest range cell within the tolerance, in Rayleigh lengths (the chart: 4 m at z_R = 5.61 m,
+#: the longest charted).
 CELL_MAX_PER_ZR = 4.0 / 5.61
 #: Instrument overrides that configure the Doppler processing (a scene setting one asks for spectra).
 PROCESSING_KEYS = ("estimator", "threshold_kind", "threshold_value", "threshold_raise_percent",

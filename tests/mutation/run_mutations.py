@@ -157,6 +157,27 @@ MUTATIONS = [
       "    numba.set_num_threads(n)\n", "    numba.set_num_threads(1)\n",
       ("tests/test_threads.py",),
       "thread count never reaches numba"),
+    # --- failure modes and the automatic choice (docs/stability.md, campaign/auto.py) -----------
+    M("availability-counts-suspect", "failure modes", "cwlidar_sim/signal/processing.py",
+      "ok = np.isfinite(self.speed_e) & ((self.flags_e & np.uint8(SUSPECT_FLAGS)) == 0)",
+      "ok = np.isfinite(self.speed_e)",
+      ("tests/signal/test_failure_modes.py",),
+      "availability counts NEAR_ZERO / NEAR_NYQUIST estimates as usable"),
+    M("near-zero-flag-lost", "failure modes", "cwlidar_sim/signal/_kernels.py",
+      "    if x < k_lo + guard_bins:", "    if x < k_lo - guard_bins:",
+      ("tests/signal/test_failure_modes.py",),
+      "estimates in the edge guard of the blind zone no longer flagged NEAR_ZERO"),
+    M("tier2-noise-looks", "failure modes", "cwlidar_sim/signal/doppler.py",
+      "_draw_rows(sig, noise, instrument.blocks_per_estimate, gain",
+      "_draw_rows(sig, noise, int(0.9 * instrument.blocks_per_estimate), gain",
+      ("tests/signal/test_failure_modes.py",),
+      "tier-2 noise averaged over 10 % fewer blocks: false-alarm rate off the threshold's promise"),
+    M("auto-dx-finest", "automatic choice", "cwlidar_sim/campaign/auto.py",
+      "dx = max(ok) if ok else min(DX_LADDER)", "dx = min(ok) if ok else min(DX_LADDER)",
+      ("tests/campaign/test_auto.py",), "the finest field spacing chosen instead of the coarsest sufficient"),
+    M("auto-ignores-processing", "automatic choice", "cwlidar_sim/campaign/auto.py",
+      "keys = [k for k in lid.instrument if k in PROCESSING_KEYS]", "keys = []",
+      ("tests/campaign/test_auto.py",), "an estimator or threshold setting no longer asks for spectra"),
 ]
 
 

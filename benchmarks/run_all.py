@@ -12,6 +12,7 @@ of ``benchmarks/_protocol.py``), and keeps its full report under
   tier 3 against its FFT floor;
 * ``campaign``: ``bench_campaign.py`` -- the A2012 reproduction against its
   tier-1 floor;
+* ``cs``: ``bench_cs.py`` -- the CS conical reproduction against its tier-1 floor;
 * ``scaling``: ``bench_scaling.py`` -- campaign throughput, 1 and N workers;
 * ``speed_vs_accuracy``: ``speed_vs_accuracy.py`` -- the fidelity chart.
 
@@ -65,6 +66,11 @@ def ratios_campaign(rep):
             "peak_gib": rep.get("peak_gib")}
 
 
+def ratios_cs(rep):
+    return {"wall_s": rep.get("wall_s"), "over_tier1_floor": rep.get("ratio_to_floor"),
+            "peak_gib": (rep.get("peak_bytes") or 0) / 2**30}
+
+
 def ratios_scaling(rep):
     return {f"{r['workers']}w_x_{r['threads']}t": {"sim_h_per_wall_h": r["sim_h_per_wall_h"],
                                                    "efficiency": r["efficiency"]} for r in rep.get("runs", [])}
@@ -84,6 +90,7 @@ BENCHMARKS = {
     "turbulence": ("bench_turbulence.py", [], ["--quick"], ratios_turbulence, "--json"),
     "signal": ("bench_signal.py", [], ["--quick"], ratios_signal, "--json"),
     "campaign": ("bench_campaign.py", [], ["--quick", "--children", "1"], ratios_campaign, "--json"),
+    "cs": ("bench_cs.py", [], ["--quick"], ratios_cs, "--json"),
     "scaling": ("bench_scaling.py", [], ["--quick"], ratios_scaling, "--json"),
     "speed_vs_accuracy": ("speed_vs_accuracy.py", [], ["--quick"], ratios_speed, "--out"),
 }

@@ -179,11 +179,14 @@ def _add_campaign(sub):
     p.add_argument("--out", default=None, metavar="FIGDIR", help="figure folder (default DIR)")
     p.set_defaults(func=_cmd_report)
 
-    p = sub.add_parser("reproduce", help="reproduce a published result (a2012)",
+    p = sub.add_parser("reproduce", help="reproduce a published result (a2012, cs)",
                        description="Run a bundled scene and write its results and figures. a2012: Angelou et al. "
-                                   "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods.")
-    p.add_argument("paper", choices=("a2012",))
-    p.add_argument("--quick", action="store_true", help="shortened periods (about a minute)")
+                                   "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods. "
+                                   "cs: a conically scanning ZephIR against a cup, 40-100 m, 1 s and 3 s scans, "
+                                   "six 10-min periods per height.")
+    p.add_argument("paper", choices=("a2012", "cs"))
+    p.add_argument("--quick", action="store_true",
+                   help="a2012: shortened periods; cs: two periods per height (about a minute each)")
     p.add_argument("--out", default="results", metavar="DIR", help="output folder (default: results)")
     p.add_argument("--dask", default=None, metavar="ADDRESS")
     p.add_argument("--threads", type=int, default=None)
@@ -213,7 +216,8 @@ def _run_and_report(scene, args, figures):
     from . import _config
     from .campaign import run_scene
     from .campaign.figures import make_figures
-    from .campaign.store import estimate_bytes, preflight
+    from .campaign.runner import _sensor
+    from .campaign.store import preflight
 
     if args.threads is not None:
         _config.set_num_threads(args.threads)
@@ -222,7 +226,7 @@ def _run_and_report(scene, args, figures):
         print(line, file=sys.stderr)
 
     # every check before the first period: folder, engine, disk, scheduler
-    preflight(args.out, estimate_bytes(scene), scheduler=args.dask)
+    preflight(args.out, _sensor(scene)[1](scene), scheduler=args.dask)
     client = _client(args.dask)
     try:
         ds = run_scene(scene, args.out, client=client, progress=not args.no_progress, log=log)
@@ -238,9 +242,14 @@ def _run_and_report(scene, args, figures):
         "results": os.path.join(args.out, f"{scene.name}.nc"),
         "wall_time_s": round(ds.attrs["wall_time"], 2),
         "periods_reused": json.loads(ds.attrs["periods_reused"]),
-        "rayleigh_length_m": ds.attrs["rayleigh_length"],
-        "availability": {str(p): round(float(a), 4) for p, a in zip(ds.period.values, ds.availability.values)},
     }
+    if scene.kind == "conical":
+        summary["std_ratio"] = {f"{float(z):g} m": [round(float(x), 3) for x in row]
+                                for z, row in zip(ds.height.values, ds.std_ratio.values)}
+        summary["scan_s"] = [float(s) for s in ds.scan_s.values]
+    else:
+        summary["rayleigh_length_m"] = ds.attrs["rayleigh_length"]
+        summary["availability"] = {str(p): round(float(a), 4) for p, a in zip(ds.period.values, ds.availability.values)}
     if figures:
         summary["figures"] = make_figures(ds, args.out)
     print(json.dumps(summary, indent=2))

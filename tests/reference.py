@@ -746,3 +746,25 @@ def signal_continuum_moments(x_s, amp_s, g_t, rn_t, window_n, m_blocks):
     var[0] *= 2.0
     var[-1] *= 2.0
     return mean, var
+
+
+# =============================================================================
+# cup anemometer (cwlidar_sim/sensors/_cup_kernels.py)
+# =============================================================================
+def cup_first_order(V, h, l0, mean_speed, speed_dependent=False):
+    """Reference for ``first_order_kernel``: the convolution integral, input linear between samples.
+
+    ``S(t_{n+1}) = a S(t_n) + int_0^h exp(-(h - s)/tau) / tau * V(t_n + s) ds`` with V linear,
+    integrated by composite Simpson with 2000 panels (not the closed form).
+    """
+    out = [float(V[0])]
+    for i in range(len(V) - 1):
+        tau = l0 / (max(out[-1], 1e-3) if speed_dependent else mean_speed)
+        s = np.linspace(0.0, h, 2001)
+        g = np.exp(-(h - s) / tau) / tau * (V[i] + (V[i + 1] - V[i]) * s / h)
+        wts = np.ones(2001)
+        wts[1:-1:2] = 4
+        wts[2:-1:2] = 2
+        integral = (h / 2000) / 3 * np.dot(wts, g)
+        out.append(math.exp(-h / tau) * out[-1] + integral)
+    return np.array(out)

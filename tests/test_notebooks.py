@@ -1,6 +1,7 @@
 """Every notebook in notebooks/ runs top to bottom in quick mode (CWLIDAR_SIM_QUICK=1), and what it shows is right."""
 
 import math
+import os
 import pathlib
 
 import numpy as np
@@ -8,7 +9,8 @@ import pytest
 
 import reference
 
-NOTEBOOKS = sorted((pathlib.Path(__file__).resolve().parents[1] / "notebooks").glob("*.ipynb"))
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 
 
 def _stdout(nb):
@@ -55,6 +57,8 @@ def test_notebook_runs_in_quick_mode(path, tmp_path, monkeypatch):
     nbclient = pytest.importorskip("nbclient")
     monkeypatch.setenv("CWLIDAR_SIM_QUICK", "1")
     monkeypatch.setenv("CWLIDAR_SIM_OUT", str(tmp_path / "out"))
+    # the kernel runs in tmp_path: put this checkout first, or it would import an installed cwlidar_sim
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(ROOT)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
     nb = nbformat.read(path, as_version=4)
     client = nbclient.NotebookClient(nb, timeout=900, kernel_name="python3",
                                      resources={"metadata": {"path": str(tmp_path)}})
@@ -66,3 +70,32 @@ def test_notebook_runs_in_quick_mode(path, tmp_path, monkeypatch):
     assert len(images) >= 5
     if "a2012" in path.name:
         _check_a2012(nb, tmp_path / "out" / "a2012.nc")
+    if "cs_" in path.name:
+        _check_cs(nb, tmp_path / "out" / "cs.nc")
+
+
+def _check_cs(nb, results):
+    """The CS notebook: printed geometry, and ratios that are physics, not just numbers."""
+    from cwlidar_sim.campaign import read_results
+
+    text = _stdout(nb)
+    # CS's geometry at 100 m: focus z / cos 30 deg, circle 2 z tan 30 deg, spot speed 2 pi r sin 30 deg per second
+    r = 100.0 / math.cos(math.radians(30.0))
+    assert f"focus {r:6.1f} m" in text and f"circle D = {200 * math.tan(math.radians(30)):5.1f} m" in text
+    assert f"spot speed {2 * math.pi * r * 0.5:5.0f} m/s" in text
+    ds = read_results(results)
+    assert ds.std_ratio.dims == ("height", "scan_s") and list(ds.scan_s.values) == [1.0, 3.0]
+    # a volume- and scan-averaging lidar sees less variance than a cup; CS: about 0.8
+    assert np.all((ds.std_ratio.values > 0.5) & (ds.std_ratio.values < 1.0)), ds.std_ratio.values
+    # the filter model's values against CS Eq. 4's scan length and the probe filter: below 1, falling with n
+    assert np.all(ds.std_ratio_model.values[:, 1] < ds.std_ratio_model.values[:, 0])
+    # the mean speed of the VAD fits follows the cup's (tier 1, clean air): a circle's and a point's means
+    # over U T metres of turbulence differ by about (sigma_u / U) sqrt(2 L / (U T)) (1.4 % here); 3 of those
+    U, T = ds.mean_speed_unit.values, 300.0
+    tol = 3 * ds.cup_std_unit.values / ds.cup_mean_unit.values * np.sqrt(2 * ds.mann_length_scale_unit.values / (U * T))
+    bias = ds.mean_speed_bias_unit.values[:, 0]
+    assert np.all(np.abs(bias) < tol), (bias, tol)
+    # the homodyne zero crossings cost points twice per revolution, and they are counted
+    assert np.all((ds.zero_crossing_loss.values > 0.02) & (ds.zero_crossing_loss.values < 0.3))
+    for z in ds.height.values:
+        assert f"std ratio at {z:g} m:" in text

@@ -9,6 +9,14 @@
 ``theory``
     exp(-2 |k| zR) (A2012 Eq. 9) and the misaligned-beam spectra of A2012
     Eqs. 12-14 from the Mann tensor (:func:`misaligned_spectra`, two-sided).
+``vad``
+    The conical scan's rectified-cosine fit (:func:`fit_rectified_cosine`,
+    :func:`fit_record`), CS's turbulence parameter and radial variances,
+    the sonic-equivalent radial variance, period statistics with CS's
+    65 % selection.
+``cs_model``
+    CS's filter model (Kaimal or Mann spectra, probe and scan filters):
+    :func:`cs_model.std_ratio`, :func:`cs_model.radial_variance_ratio`.  One-sided spectra.
 ``fitting``
     Least-squares fit of the Mann tensor parameters to measured one-point
     spectra (:func:`fit_mann`).
@@ -26,7 +34,9 @@ from .spectra import (
     segment_spectra,
     transfer_functions,
 )
+from . import cs_model
 from .theory import misaligned_spectra, transfer_aligned
+from .vad import VadFit, VadFlag, fit_record, fit_rectified_cosine, period_statistics, sonic_radial_variance
 
 __all__ = [
     "log_bins",
@@ -40,4 +50,6 @@ __all__ = [
     "misaligned_spectra",
     "MannFit",
     "fit_mann",
+    "VadFit", "VadFlag", "fit_rectified_cosine", "fit_record", "period_statistics", "sonic_radial_variance",
+    "cs_model",
 ]

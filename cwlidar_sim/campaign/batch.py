@@ -86,8 +86,7 @@ def dry_run(spec: CampaignSpec) -> list[dict]:
     for t in expand(spec):
         est = estimate_task(t.scene)
         rows.append({"task_id": t.task_id, "label": t.label(), "values": t.values, "replica": t.replica,
-                     "seed": t.seed, "periods": len(t.scene.periods),
-                     "sim_hours": sum(t.scene.period_duration(p) for p in t.scene.periods) / 3600.0,
+                     "seed": t.seed, "periods": len(t.scene.unit_names()), "sim_hours": t.scene.simulated_hours(),
                      "est_seconds": round(est["seconds"], 1), "est_memory_gb": round(est["memory_bytes"] / 1e9, 3)})
     return rows
 
@@ -243,7 +242,7 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
         nonlocal sim_hours
         if error is None:
             write_results(ds, path[task.task_id])
-            hours = sum(task.scene.period_duration(p) for p in task.scene.periods) / 3600.0
+            hours = task.scene.simulated_hours()
             sim_hours += hours
             finished.append(task)
             record(task, "done", wall_s=round(wall, 3), sim_hours=hours, result=os.path.relpath(path[task.task_id], out_dir))

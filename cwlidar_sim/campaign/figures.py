@@ -190,7 +190,11 @@ def plot_variants(ds, group="threshold", i=None):
 
 
 def make_figures(ds, out_dir) -> list:
-    """Write every figure as PNG into ``out_dir``; returns the paths."""
+    """Write every figure as PNG into ``out_dir``; returns the paths (conical scenes: :mod:`.figures_cs`)."""
+    if ds.attrs.get("sensor") == "conical":
+        from .figures_cs import make_cs_figures
+
+        return make_cs_figures(ds, out_dir)
     plt = _plt()
     os.makedirs(out_dir, exist_ok=True)
     figs = {

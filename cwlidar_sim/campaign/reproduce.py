@@ -1,8 +1,10 @@
-"""Bundled reproductions: ``cwlidar-sim reproduce a2012``.
+"""Bundled reproductions: ``cwlidar-sim reproduce a2012`` and ``reproduce cs``.
 
 The scenes ship with the package (``cwlidar_sim/campaign/scenes/*.toml``).
-Quick mode keeps the physics and the geometry and shortens the record, so
-the low-wavenumber end is noisier; the full run is the reproduction.
+Quick mode keeps the physics and the geometry and does less: a2012 shortens
+every period (the low-wavenumber end is noisier), cs keeps the first two
+periods at every height (the ratios' standard errors are larger); the full
+run is the reproduction.
 """
 
 from __future__ import annotations
@@ -13,8 +15,8 @@ from .scene import Scene, loads_scene
 
 __all__ = ["BUNDLED", "bundled_scene", "bundled_text"]
 
-#: Bundled scenes: name -> (file, quick-mode period duration [s]).
-BUNDLED = {"a2012": ("a2012.toml", 1200.0)}
+#: Bundled scenes: name -> (file, quick mode: period duration [s] (staring) or periods kept (conical)).
+BUNDLED = {"a2012": ("a2012.toml", 1200.0), "cs": ("cs.toml", 2)}
 
 
 def bundled_text(name: str) -> str:
@@ -26,11 +28,15 @@ def bundled_text(name: str) -> str:
 
 
 def bundled_scene(name: str, *, quick: bool = False) -> Scene:
-    """A bundled scene; ``quick`` shortens every period to the quick duration (same seeds and geometry)."""
+    """A bundled scene; ``quick`` shortens it (module notes; same seeds and geometry)."""
+    import dataclasses
+
     scene = loads_scene(bundled_text(name))
     if quick:
-        import dataclasses
-
         q = BUNDLED[name][1]
-        scene = scene.replace(duration=q, periods=tuple(dataclasses.replace(p, duration=None) for p in scene.periods))
+        if scene.kind == "conical":
+            scene = scene.replace(periods=scene.periods[:q])
+        else:
+            scene = scene.replace(duration=q,
+                                  periods=tuple(dataclasses.replace(p, duration=None) for p in scene.periods))
     return scene

@@ -205,11 +205,25 @@ def generate_field(plan: FieldPlan, params, seed):
     return generate_box(params, plan.shape, plan.spacing, seed)
 
 
-def _period_task(scene: Scene):
-    """The function that computes one period of ``scene``: (scene, index, params) -> one-period Dataset."""
-    from .staring import run_period
+def _sensor(scene):
+    """What the runner needs of a scene kind: (unit task, size estimate, finishing step or None).
 
-    return run_period
+    The unit task maps (scene, index, params, status=...) to a one-unit
+    Dataset (dimension ``period``); the finishing step, if any, turns the
+    joined units into the scene's results.
+    """
+    from .conical import ConicalScene
+
+    if isinstance(scene, ConicalScene):
+        from .conical import estimate_bytes, run_unit, summarise
+
+        return run_unit, estimate_bytes, summarise
+    if isinstance(scene, Scene):
+        from .staring import run_period
+        from .store import estimate_bytes
+
+        return run_period, estimate_bytes, None
+    raise TypeError(f"scene must be a Scene or a ConicalScene, got {type(scene).__name__}")
 
 
 def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True, log=None, on_period=None):
@@ -217,7 +231,9 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
 
     Parameters
     ----------
-    scene : Scene
+    scene : Scene or ConicalScene
+        A staring scene (its units are its periods) or a conical one (its
+        units are period x height, :mod:`cwlidar_sim.campaign.conical`).
     out_dir : str or path, optional
         Folder for ``<scene.name>.nc`` and the per-period files
         ``<scene.name>.periods/*.nc`` (created); None: write nothing.  Periods
@@ -248,44 +264,47 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
     ResultsWriteError
         When writing a finished period fails (the periods written before stay).
     """
-    from .store import PeriodStore, combine_periods, estimate_bytes, preflight, write_results
+    from .store import PeriodStore, combine_periods, preflight, write_results
 
-    if not isinstance(scene, Scene):
-        raise TypeError(f"scene must be a Scene, got {type(scene).__name__}")
+    task, estimate_bytes, finalise = _sensor(scene)
     from .auto import resolve
 
     say = log or (lambda s: None)
     t0 = time.perf_counter()
-    scene, auto_why = resolve(scene)  # "auto" tier / field.dx / cell_length: the cheapest sufficient setting
+    auto_why = {}
+    if scene.kind == "staring":  # "auto" tier / field.dx / cell_length: the cheapest sufficient setting
+        scene, auto_why = resolve(scene)
     for key, why in auto_why.items():
         say(f"{key} = {why}")
     preflight(out_dir, estimate_bytes(scene))
-    params, fit_info = scene_params(scene)
-    if fit_info is not None:
-        say(f"turbulence fitted to {fit_info['path']}: {params}")
-    for p in scene.periods:
-        kind, why = choose_field(scene, p)
-        say(f"period {p.name}: {kind} field ({why})")
+    params = fit_info = None
+    if scene.kind == "staring":
+        params, fit_info = scene_params(scene)
+        if fit_info is not None:
+            say(f"turbulence fitted to {fit_info['path']}: {params}")
+        for p in scene.periods:
+            kind, why = choose_field(scene, p)
+            say(f"period {p.name}: {kind} field ({why})")
+    names = scene.unit_names()
     store = PeriodStore(out_dir, scene, params) if out_dir is not None else None
     done = {}
     if store is not None:
-        for i, p in enumerate(scene.periods):
+        for i, name in enumerate(names):
             ds = store.load(i)
             if ds is not None:
                 done[i] = ds
-                say(f"period {p.name}: reused {store.path(i)}")
-    reused = [scene.periods[i].name for i in sorted(done)]
-    todo = [i for i in range(len(scene.periods)) if i not in done]
+                say(f"period {name}: reused {store.path(i)}")
+    reused = [names[i] for i in sorted(done)]
+    todo = [i for i in range(len(names)) if i not in done]
 
     def finish(i, ds):
         if store is not None:
             ds = store.save(i, ds)
-            say(f"period {scene.periods[i].name}: written to {store.path(i)}")
+            say(f"period {names[i]}: written to {store.path(i)}")
         done[i] = ds
         if on_period is not None:
             on_period(i, ds)
 
-    task = _period_task(scene)
     if client is not None and todo:
         from dask.distributed import as_completed
 
@@ -301,7 +320,7 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         if progress:
             from tqdm.auto import tqdm
 
-            bar = tqdm(total=len(scene.periods), initial=len(done), desc=scene.name, unit="period")
+            bar = tqdm(total=len(names), initial=len(done), desc=scene.name, unit="period")
         try:
             for i in todo:
                 status = (lambda s, b=bar: b.set_postfix_str(s, refresh=True)) if bar is not None else None
@@ -311,7 +330,9 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         finally:
             if bar is not None:
                 bar.close()
-    ds = combine_periods([done[i] for i in range(len(scene.periods))])
+    ds = combine_periods([done[i] for i in range(len(names))])
+    if finalise is not None:
+        ds = finalise(ds)
     ds.attrs["wall_time"] = float(time.perf_counter() - t0)
     ds.attrs["periods_reused"] = json.dumps(reused)
     ds.attrs["auto_choice"] = json.dumps(auto_why)

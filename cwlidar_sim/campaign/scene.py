@@ -536,9 +536,20 @@ class Scene:
                 raise ValueError(f"period {p.name!r} lasts {dur} s, shorter than analysis.segment_duration = "
                                  f"{self.analysis.segment_duration} s")
 
+    #: The sensor layout (the runner's dispatch key; a conical scene's is 'conical').
+    kind = "staring"
+
     def period_duration(self, period: PeriodSpec) -> float:
         """Length of a period [s]."""
         return self.duration if period.duration is None else period.duration
+
+    def unit_names(self) -> list:
+        """Names of the units of work, in run order: the periods."""
+        return [p.name for p in self.periods]
+
+    def simulated_hours(self) -> float:
+        """Simulated time of all units [h]."""
+        return sum(self.period_duration(p) for p in self.periods) / 3600.0
 
     def period_seed(self, index: int) -> int:
         """Seed of period ``index``: its own, or a child of the scene seed."""
@@ -562,10 +573,12 @@ class Scene:
         """Build from a TOML-shaped mapping; unknown keys are rejected by name."""
         if not isinstance(d, dict):
             raise TypeError(f"a scene must be a table, got {type(d).__name__}")
-        allowed = {"name", "description", "seed", "duration", "period", *_TABLES}
+        allowed = {"name", "kind", "description", "seed", "duration", "period", *_TABLES}
         unknown = sorted(set(d) - allowed)
         if unknown:
             raise ValueError(f"unknown key(s) in scene: {unknown}; allowed: {sorted(allowed)}")
+        if d.get("kind", "staring") != "staring":
+            raise ValueError(f"kind = {d['kind']!r} is not a staring scene; allowed: {list(SCENE_KINDS)}")
         for key in ("name", "turbulence", "period"):
             if key not in d:
                 raise ValueError(f"scene is missing the required key {key!r}")
@@ -596,6 +609,21 @@ def loads_scene(text: str, *, base_dir: str = ".") -> Scene:
         d = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"scene is not valid TOML: {e}") from None
+    return scene_from_dict(d, base_dir=base_dir)
+
+
+#: Scene kinds: ``kind`` in a scene file (default 'staring').
+SCENE_KINDS = ("staring", "conical")
+
+
+def scene_from_dict(d: dict, *, base_dir: str = "."):
+    """A staring :class:`Scene` or a :class:`~cwlidar_sim.campaign.conical.ConicalScene`, by ``d['kind']``."""
+    if isinstance(d, dict) and d.get("kind", "staring") == "conical":
+        from .conical import ConicalScene
+
+        return ConicalScene.from_dict(d, base_dir=base_dir)
+    if isinstance(d, dict) and "kind" in d:
+        check_choice("kind", d["kind"], SCENE_KINDS)
     return Scene.from_dict(d, base_dir=base_dir)
 
 

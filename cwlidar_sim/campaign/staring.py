@@ -31,14 +31,12 @@ import numpy as np
 from .runner import RESULTS_VERSION, plan_field, generate_field
 from .scene import Scene
 
-__all__ = ["run_period", "period_dataset", "LIDAR_BLOCK", "SONIC_DELAY", "PAUSE_LENGTH", "PAUSE_EVERY"]
+__all__ = ["run_period", "period_dataset", "LIDAR_BLOCK", "SONIC_DELAY"]
 
 #: The lidar's 50 Hz estimates are block-averaged by this to 10 Hz (A2012).
 LIDAR_BLOCK = 5
 #: Sonic sampling starts this late [s] so its 10 Hz centres match the lidar's.
 SONIC_DELAY = 1.0 / 64.0
-#: Background cycle of the prototype: a pause of this length [s] every period [s].
-PAUSE_LENGTH, PAUSE_EVERY = 600.0, 10800.0
 
 
 def _transverse_speed(scene, period, params):
@@ -125,12 +123,16 @@ def run_period(scene: Scene, index: int, params, *, status=None):
     variants = [dict(v) for v in scene.lidar.variants]
     say(f"{period.name}: lidar ({scene.lidar.tier})")
     t1 = time.perf_counter()
-    rec = measure_staring(field, lidar, t50, U, s_lidar, variants=variants or None, wrap=plan.wrap)
+    # the background drifts from its last calibration (the 3-h schedule counted from the campaign start)
+    rec = measure_staring(field, lidar, t50, U, s_lidar, variants=variants or None, wrap=plan.wrap,
+                          calibration_time=period.start)
     t_lidar = time.perf_counter() - t1
     del field
     paused = np.zeros(n50, dtype=bool)
     if scene.lidar.background_pause:
-        paused = np.mod(period.start + t50, PAUSE_EVERY) < PAUSE_LENGTH
+        # the instrument's calibration schedule (A2012: 10 min every 3 h), the one its background drifts on
+        inst = lidar.instrument
+        paused = np.mod(period.start + t50, inst.background_interval) < inst.background_duration
 
     def lidar_series(speed_e, flags_e):
         speed = np.array(speed_e, dtype=np.float64)

@@ -50,7 +50,8 @@ def scene_key(scene, params, index: int) -> str:
     from .. import __version__
     from .runner import RESULTS_VERSION
 
-    blob = json.dumps({"scene": scene.as_dict(), "params": [params.alpha_eps, params.length_scale, params.gamma],
+    tensor = None if params is None else [params.alpha_eps, params.length_scale, params.gamma]
+    blob = json.dumps({"scene": scene.as_dict(), "params": tensor,
                        "index": int(index), "version": __version__, "results_version": RESULTS_VERSION},
                       sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
@@ -111,18 +112,20 @@ class PeriodStore:
     out_dir : str or path
         The run's output folder.
     scene : Scene
-    params : MannParameters
-        Turbulence of the scene's fields (part of each period's identity).
+    params : MannParameters or None
+        Turbulence of the scene's fields (part of each period's identity;
+        None where the scene itself fixes it per unit).
     """
 
     def __init__(self, out_dir, scene, params):
         self.folder = os.path.join(os.fspath(out_dir), f"{scene.name}.periods")
         self.scene = scene
-        self.keys = [scene_key(scene, params, i) for i in range(len(scene.periods))]
+        self.names = scene.unit_names()
+        self.keys = [scene_key(scene, params, i) for i in range(len(self.names))]
 
     def path(self, index: int) -> str:
         """File of period ``index``."""
-        return os.path.join(self.folder, f"{index:03d}_{self.scene.periods[index].name}.nc")
+        return os.path.join(self.folder, f"{index:03d}_{self.names[index]}.nc")
 
     def load(self, index: int):
         """The stored Dataset of period ``index`` if it is whole and of this scene, else None."""

@@ -50,7 +50,7 @@ import math
 import os
 
 from .._validation import check_int, check_keys, check_seed
-from .scene import Scene
+from .scene import Scene, scene_from_dict
 
 __all__ = ["CampaignSpec", "Task", "load_campaign", "loads_campaign", "expand", "estimate_task", "COST_S_PER_SIM_HOUR"]
 
@@ -320,7 +320,7 @@ def expand(spec: CampaignSpec) -> list[Task]:
             t["seed"] = seed
             t["name"] = base.name
             try:
-                scene = Scene.from_dict(t, base_dir=base.base_dir)
+                scene = scene_from_dict(t, base_dir=base.base_dir)
             except (ValueError, TypeError) as e:
                 raise type(e)(f"campaign task {values} (replica {r}): {e}") from None
             tasks.append(Task(task_id, dict(values), r, seed, scene))
@@ -344,6 +344,12 @@ def estimate_task(scene: Scene) -> dict:
     from .runner import plan_field, scene_params
     from .store import estimate_bytes
 
+    if scene.kind == "conical":
+        from .conical import estimate_unit
+
+        per = [estimate_unit(scene, i) for i in range(len(scene.unit_names()))]
+        return {"seconds": TASK_OVERHEAD_S + sum(e["seconds"] for e in per),
+                "memory_bytes": max(e["memory_bytes"] for e in per) + 250e6}
     scene = resolve(scene)[0]
     params, _ = scene_params(scene)
     seconds = TASK_OVERHEAD_S

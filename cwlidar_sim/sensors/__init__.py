@@ -1,4 +1,4 @@
-"""Virtual sensors: a sonic anemometer and a staring cw lidar sampling a turbulence field.
+"""Virtual sensors: sonic and cup anemometers, staring and conically scanning cw lidars in a turbulence field.
 
 ``sonic``
     :class:`Sonic` and :func:`sample_sonic` (three components of the total
@@ -11,6 +11,16 @@
     expected Doppler spectra from every range cell, speckle, noise,
     processing) or tier 3 (the heterodyne signal), with processing variants
     applied to the same spectra.
+``conical``
+    :class:`ConicalLidar` and :func:`measure_conical`: the conically scanning
+    ZephIR of CS (sweep within each 20 ms dwell, scanning speckle, homodyne
+    zero crossing, dwell or height cycle), :func:`conical_field` (a Mann box
+    holding the cone, optionally laterally doubled) and
+    :func:`surface_layer_parameters`.
+``cup``
+    :class:`Cup`: horizontal speed through a first-order response (distance constant).
+``conical_period``
+    :func:`simulate_conical_period`: one CS period (box, lidar, cup, sonic) as a dict of numbers.
 
 Importing this package does not import numba; kernels compile on first use.
 """
@@ -26,6 +36,9 @@ from .lidar import (
     instrument_from_spec,
     measure_staring,
 )
+from .conical import ConicalLidar, ConicalRecord, conical_field, measure_conical, surface_layer_parameters
+from .conical_period import simulate_conical_period
+from .cup import Cup, cup_response, cup_transfer, sample_cup
 from .sonic import (
     A2012_OUTPUTS,
     A2012_PARTITION,
@@ -42,4 +55,6 @@ __all__ = [
     "A2012_PARTITION", "A2012_OUTPUTS",
     "StaringLidar", "LidarRecord", "measure_staring", "expected_spectrum_exact", "instrument_from_spec",
     "TIERS", "VARIANT_KEYS", "SIGNAL_MAX_ESTIMATES", "DRAW_BLOCK",
+    "ConicalLidar", "ConicalRecord", "measure_conical", "conical_field", "surface_layer_parameters",
+    "simulate_conical_period", "Cup", "sample_cup", "cup_response", "cup_transfer",
 ]

@@ -107,7 +107,6 @@ the speckle correlation time ``w0 / v_perp`` and ``M_eff``.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 
 import numpy as np
@@ -127,6 +126,7 @@ __all__ = [
     "DRAW_BLOCK",
     "SPECKLE_MODELS",
     "field_subcell_spread",
+    "cnr_series",
 ]
 
 TIERS = ("los", "spectral", "signal")
@@ -211,6 +211,12 @@ class StaringLidar:
     subcell_spread : float or None
         Standard deviation of the scatterers' speeds about their cell's speed
         [m/s], in [0, 100]; None: from the field's tensor (module notes).
+    cnr_variation_db : float
+        Standard deviation of the CNR over a record [dB], in [0, 20] (0:
+        constant): the aerosol load varies as a stationary Gauss-Markov
+        process in dB (:func:`cnr_series`).  Tier 2 only.
+    cnr_time_scale : float
+        Correlation time of that variation [s]; in (0, 1e6].
     """
 
     instrument: Instrument = PROTOTYPE_2003
@@ -226,6 +232,8 @@ class StaringLidar:
     speckle: str = "continuum"
     exact_background: bool = False
     subcell_spread: float | None = None
+    cnr_variation_db: float = 0.0
+    cnr_time_scale: float = 600.0
 
     def __post_init__(self):
         def put(k, v):
@@ -248,6 +256,11 @@ class StaringLidar:
         put("exact_background", _check_bool("exact_background", self.exact_background))
         if self.subcell_spread is not None:
             put("subcell_spread", check_real("subcell_spread", self.subcell_spread, lo=0.0, hi=100.0))
+        put("cnr_variation_db", check_real("cnr_variation_db", self.cnr_variation_db, lo=0.0, hi=20.0))
+        put("cnr_time_scale", check_real("cnr_time_scale", self.cnr_time_scale, lo=0.0, hi=1e6, lo_open=True))
+        if self.cnr_variation_db > 0.0 and self.tier == "signal":
+            raise ValueError("cnr_variation_db > 0 is available in tiers 'los' and 'spectral'; allowed with "
+                             "tier 'signal': 0")
         check_int("number of range cells", self.n_cells, lo=1, hi=100_000)
 
     # -- interchange -----------------------------------------------------
@@ -348,18 +361,11 @@ class LidarRecord:
 # ---------------------------------------------------------------------------
 # tier-2 expected spectrum
 # ---------------------------------------------------------------------------
-@functools.lru_cache(maxsize=16)
 def _lag_coefficients(n_fft: int, window: str, rho: float) -> np.ndarray:
-    """a_d = R_w(d) rho^d / R_w(0), d = 0..N-1 (read-only)."""
-    from ..signal.spectral import window_samples
+    """a_d = R_w(d) rho^d / R_w(0), d = 0..N-1 (read-only; :func:`cwlidar_sim.signal.spectral.lag_coefficients`)."""
+    from ..signal.spectral import lag_coefficients
 
-    w = window_samples(n_fft, window)
-    r = np.array([np.dot(w[: n_fft - d], w[d:]) for d in range(n_fft)])
-    a = r / r[0]
-    if rho < 1.0:
-        a = a * rho ** np.arange(n_fft)
-    a.setflags(write=False)
-    return a
+    return lag_coefficients(n_fft, window, rho)
 
 
 def _rho(instrument, correlation_time):
@@ -500,6 +506,30 @@ def field_subcell_spread(field):
         x = np.asarray(field["x"].values, dtype=np.float64)
         dx = float(x[1] - x[0])
     return math.sqrt(subcell_variance(params, dx))
+
+
+def cnr_series(time_e, std_db: float, time_scale: float, seed) -> np.ndarray:
+    """CNR offsets [dB] at the estimate times: a stationary Gauss-Markov process.
+
+    ``x_0 ~ N(0, std^2)``, ``x_{e+1} = r x_e + sqrt(1 - r^2) std z``,
+    ``r = exp(-(t_{e+1} - t_e) / time_scale)``: correlation
+    ``exp(-|dt| / time_scale)`` at any spacing of the times (sorted).
+    """
+    t = np.asarray(time_e, dtype=np.float64)
+    std = check_real("std_db", std_db, lo=0.0, hi=20.0)
+    ts = check_real("time_scale", time_scale, lo=0.0, hi=1e6, lo_open=True)
+    if t.ndim != 1 or np.any(np.diff(t) < 0):
+        raise ValueError("time_e must be 1-D and sorted")
+    rng = np.random.default_rng(seed)
+    z = rng.standard_normal(t.size)
+    x = np.empty(t.size)
+    if t.size:
+        x[0] = std * z[0]
+        r = np.exp(-np.diff(t) / ts)
+        q = np.sqrt(1.0 - r * r) * std
+        for e in range(1, t.size):
+            x[e] = r[e - 1] * x[e - 1] + q[e - 1] * z[e]
+    return x
 
 
 def _seed_sequence(seed):
@@ -644,6 +674,10 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
     elif spread == 0.0:
         speckle = "independent"
     s_bg, s_sim = ss.spawn(2)
+    cnr_gain_e = None
+    if lidar.cnr_variation_db > 0.0:
+        (s_cnr,) = ss.spawn(1)
+        cnr_gain_e = 10.0 ** (cnr_series(time_e, lidar.cnr_variation_db, lidar.cnr_time_scale, s_cnr) / 10.0)
     bg = None if lidar.exact_background else background_spectrum(inst, np.random.default_rng(s_bg))
     table = line_shape_table(inst.n_fft, inst.window)
     cnr = 10.0 ** (lidar.cnr_db / 10.0)
@@ -670,7 +704,8 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
         for c0 in range(0, ne, chunk):
             c1 = min(ne, c0 + chunk)
             vlos_es, vlos_e[c0:c1] = sample_cells(c0, c1, buf)
-            mean, var, _ = continuum_moments(inst, vlos_es, w_s, lidar.cnr_db, spread, correlation_time=tau)
+            mean, var, _ = continuum_moments(inst, vlos_es, w_s, lidar.cnr_db, spread, correlation_time=tau,
+                                             cnr_gain_e=None if cnr_gain_e is None else cnr_gain_e[c0:c1])
             process(c0, c1, sample_moments(mean, var, key, e0=c0))
     elif lidar.tier == "spectral":
         a_d = _lag_coefficients(inst.n_fft, inst.window, _rho(inst, tau))
@@ -684,6 +719,8 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
             c1 = min(ne, c0 + chunk)
             vlos_es, vlos_e[c0:c1] = sample_cells(c0, c1, buf)
             sig = _signal_rows(inst, vlos_es, amp_s, a_d)
+            if cnr_gain_e is not None:
+                sig *= cnr_gain_e[c0:c1, None]
             spec = spec_buf[: c1 - c0]
             for lo, hi, key, gain in draws.pieces(c0, c1):
                 _draw_rows(sig[lo - c0: hi - c0], noise, inst.blocks_per_estimate, gain, key, lo,
@@ -704,6 +741,8 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
                          else "tier 3 (AR(1) per cell)"),
                 subcell_spread=spread, subcell_spread_source=spread_src,
                 background_gain=None if gain_e is None else (float(gain_e.min()), float(gain_e.max())),
+                cnr_db_range=None if cnr_gain_e is None else (lidar.cnr_db + 10 * math.log10(cnr_gain_e.min()),
+                                                             lidar.cnr_db + 10 * math.log10(cnr_gain_e.max())),
                 background="exact" if lidar.exact_background else f"measured ({inst.background_blocks} blocks)",
                 flag_counts={f.name: int(np.count_nonzero(flags & f.value)) for f in Flag},
                 n_failed=int(np.count_nonzero(flags & int(FAIL_FLAGS))),

@@ -34,6 +34,7 @@ _LO32 = np.uint64(0xFFFFFFFF)
 _TWO_M32 = 2.0**-32
 _TWOPI = 2.0 * math.pi
 _DBL_MAX = float(np.finfo(np.float64).max)
+_START_STREAM = np.uint64(1 << 62)
 
 # Estimator ids (the registry in processing.py maps names to these).
 EST_MEDIAN, EST_CENTROID, EST_PEAK, EST_PEAK_PARABOLIC, EST_PEAK_GAUSSIAN, EST_ML = 0, 1, 2, 3, 4, 5
@@ -815,31 +816,45 @@ def combine_partials_kernel(partial_erf, factor, out_ef):
 def cell_cosines_row(x_s, amp_s, n_fft, t_max, out_t):
     """``out_t[t] = 2 sum_s amp_s cos(2 pi x_s t / N)`` for t < t_max, 0 beyond.
 
-    Chebyshev recurrence per cell (``x_s`` reduced to [0, N) first, so an
-    aliased speed is exactly periodic), cells summed in order.
+    Chebyshev recurrence ``y_{t+1} = 2 cos(theta) y_t - y_{t-1}`` per cell
+    (``x_s`` reduced to [0, N) first, so an aliased speed is exactly
+    periodic; rounding grows like ``t^2 eps``), the cells updated together
+    (a loop the compiler vectorises) and summed in 8 fixed partial sums and
+    a fixed tree, as ``sensors._kernels.lag_sequence_kernel``.
     """
     ns = x_s.shape[0]
     nt = out_t.shape[0]
-    for t in range(nt):
-        out_t[t] = 0.0
     tm = min(t_max, nt)
+    nsp = ((ns + 7) // 8) * 8
+    ya = np.zeros(nsp)
+    yb = np.zeros(nsp)
+    c2 = np.zeros(nsp)
     for s in range(ns):
-        a = amp_s[s]
-        if a == 0.0:
-            continue
         x = x_s[s] - n_fft * math.floor(x_s[s] / n_fft)
         c = math.cos(2.0 * math.pi * x / n_fft)
-        c2 = 2.0 * c
-        y0 = 2.0 * a
-        y1 = 2.0 * a * c
-        out_t[0] += y0
-        if tm > 1:
-            out_t[1] += y1
-        for t in range(2, tm):
-            y2 = c2 * y1 - y0
-            y0 = y1
-            y1 = y2
-            out_t[t] += y2
+        ya[s] = amp_s[s]
+        yb[s] = amp_s[s] * c
+        c2[s] = 2.0 * c
+    for t in range(tm):
+        if t >= 2:
+            for s in range(nsp):
+                ya[s] = c2[s] * yb[s] - ya[s]
+            ya, yb = yb, ya
+        cur = ya if t == 0 else yb
+        a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
+        for b in range(nsp // 8):
+            s0 = 8 * b
+            a0 += cur[s0]
+            a1 += cur[s0 + 1]
+            a2 += cur[s0 + 2]
+            a3 += cur[s0 + 3]
+            a4 += cur[s0 + 4]
+            a5 += cur[s0 + 5]
+            a6 += cur[s0 + 6]
+            a7 += cur[s0 + 7]
+        out_t[t] = 2.0 * (((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7)))
+    for t in range(tm, nt):
+        out_t[t] = 0.0
 
 
 @numba.njit(**NJIT)
@@ -1007,3 +1022,40 @@ def real_part_into(buf_p, n, out_n):
     """``out_n[:n] = Re buf_p[:n]``."""
     for i in range(n):
         out_n[i] = buf_p[i].real
+
+
+@numba.njit(**NJIT)
+def ar1_noise_kernel(key, stream, var_c, rho_c, words_w, tails_n, tmp_n, out_t):
+    """``out_t[:] = sum_c x_c``, each ``x_c`` a stationary real AR(1) process of variance ``var_c[c]``.
+
+    ``x[0] = sqrt(var) z_0``, ``x[t] = rho x[t-1] + sqrt(var (1 - rho^2)) z_t``: correlation
+    ``var rho^|tau|`` exactly (the RIN and reflection of ``spectral.noise_correlation``).
+    Normals from the counter-based streams ``stream_start(mix64(key ^ stream), j)``, one per
+    chunk j of ``B = tmp_n.shape[0] // n_c`` samples (component c takes normals
+    ``c B .. (c + 1) B - 1`` of its chunk), the starting values from stream 2^62; the
+    components' recursions run side by side.
+    """
+    nt = out_t.shape[0]
+    nc = var_c.shape[0]
+    bl = tmp_n.shape[0] // nc
+    skey = mix64(np.uint64(key) ^ mix64(np.uint64(stream) + _GOLDEN))
+    x = np.zeros(nc)
+    sdi = np.empty(nc)
+    for c in range(nc):
+        sdi[c] = math.sqrt(var_c[c] * (1.0 - rho_c[c] * rho_c[c]))
+    # stationary start: x[-1] ~ N(0, var) (a stream of its own), so x[0] = rho x[-1] + innovation is too
+    st = stream_start(skey, _START_STREAM)
+    for c in range(nc):
+        st, z0, _z1 = normal_pair(st)
+        x[c] = math.sqrt(var_c[c]) * z0
+    j = 0
+    for t0 in range(0, nt, bl):
+        block_normals(stream_start(skey, j), 1.0, words_w, tails_n, tmp_n)
+        j += 1
+        t1 = min(nt, t0 + bl)
+        for t in range(t0, t1):
+            acc = 0.0
+            for c in range(nc):
+                x[c] = rho_c[c] * x[c] + sdi[c] * tmp_n[c * bl + (t - t0)]
+                acc += x[c]
+            out_t[t] = acc

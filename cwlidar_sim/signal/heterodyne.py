@@ -43,6 +43,15 @@ Implementation notes
   Marsaglia's polar method (same seed, different noise samples; same law).
 * The speed of a cell is held constant over an estimate (the Doppler phase
   is continuous across estimates).
+* Continuum cells (``speed_spread > 0``: the sub-cell spread of
+  docs/signal_chain.md) and the noise above shot noise (RIN, the 0 Hz
+  reflection) are one Gaussian process given the speeds; it is synthesised
+  per estimate from its spectrum (:class:`_Continuum`: the DFT of its
+  correlation on a circular length ``P >= M N + t_max``, random phases,
+  one inverse FFT of length P) and its real part is added to the samples
+  before the window.  Its cost does not grow with the number of cells; its
+  randomness is a third stream of the seed, drawn only when needed (runs
+  without it keep their earlier bits).
 """
 
 from __future__ import annotations
@@ -86,7 +95,7 @@ class _Continuum:
     def __init__(self, instrument, v_es, w_s, cnr, spread, tau, key):
         from scipy.fft import next_fast_len
 
-        from .spectral import _noise_lag_count, continuum_lags, line_correlation, noise_correlation
+        from .spectral import _noise_components, _noise_lag_count, continuum_lags, line_correlation, noise_correlation
 
         self.inst = instrument
         self.key = key
@@ -101,11 +110,18 @@ class _Continuum:
         self.amp2_s = np.ascontiguousarray(2.0 * cnr * w_s) if self.with_cells else np.zeros(w_s.size)
         self.n_samples = instrument.blocks_per_estimate * instrument.n_fft
         self.P = int(next_fast_len(self.n_samples + t))
+        comps = _noise_components(instrument)
+        self.rho_c = np.array([math.exp(-2.0 * math.pi * fc / instrument.sample_rate) for _, fc in comps])
+        self.var_c = np.array([p0 * (1.0 - r) / (1.0 + r) for (p0, _), r in zip(comps, self.rho_c)])
 
     def fill(self, w, e, out_t):
         """The real samples of estimate e into ``out_t`` (``w`` a :class:`_Scratch`)."""
         from . import _kernels as K
 
+        if not self.with_cells:
+            # noise processes alone: their exact AR(1) recursions, far cheaper than the FFT route
+            K.ar1_noise_kernel(np.uint64(self.key), e, self.var_c, self.rho_c, w.cwords, w.ctails, w.ctmp, out_t)
+            return
         line = w.line(self.P)
         K.continuum_correlation_fill(self.x_es[e], self.amp2_s, self.g, self.rn, self.inst.n_fft, self.t_max, line.x)
         line.forward()

@@ -61,6 +61,22 @@ at 1 m/s, so the prototype's 1953 blocks of 10.24 us give M_eff = 12).  The
 real transit correlation of a Gaussian beam is Gaussian in time with the
 same 1/e time; the exponential (Markov) form is used in both tiers.
 
+Continuum speckle (derived; docs/signal_chain.md)
+-------------------------------------------------
+Cells are continua of scatterers whose speeds spread about the cell's by
+the sub-cell spread sigma_v (the field's unresolved scales,
+:func:`cwlidar_sim.turbulence.subcell_variance`): a cell's amplitude then has
+correlation ``g(tau) = exp(-2 pi^2 sigma_f^2 tau^2) exp(-|tau| / tau_c)``,
+``sigma_f = 2 sigma_v / lambda`` (:func:`line_correlation`), and given the
+speeds the signal is a Gaussian process.  :func:`continuum_moments` gives
+every bin's exact mean and variance from the block-to-block correlations
+``c_k(j)`` of its DFT; the scatterers inside a bin dephase within
+``1 / (2 pi sigma_f)``, about a tenth of a block, so a turbulent volume's
+bins have nearly M looks and the result converges as the beam is cut
+finer.  :func:`sample_moments` draws them.  The point-cell models below
+('coherent', 'independent') remain for a single speed (exact there) and for
+comparison.
+
 The draw (:func:`sample_spectra`): per estimate a signal gain
 ``G_sig ~ Gamma(M_eff, 1/M_eff)`` (numpy), common to all bins ('coherent':
 exact for one speed, where every bin of a block scales with the same
@@ -85,6 +101,12 @@ from .._validation import check_choice, check_int, check_real
 from .processing import _rng, noise_floor
 
 __all__ = [
+    "continuum_moments",
+    "sample_moments",
+    "continuum_lags",
+    "line_correlation",
+    "noise_correlation",
+    "spread_frequency",
     "window_samples",
     "line_shape_table",
     "line_shape",
@@ -448,10 +470,20 @@ def noise_correlation(instrument, n_lags: int) -> np.ndarray:
     return r
 
 
-def _window_lags(instrument):
-    from ..sensors.lidar import _lag_coefficients
+@functools.lru_cache(maxsize=16)
+def lag_coefficients(n_fft: int, window: str, rho: float) -> np.ndarray:
+    """``a_d = R_w(d) rho^d / R_w(0)``, d = 0..N-1: the window's autocorrelation times an AR(1) factor (read-only)."""
+    w = window_samples(n_fft, window)
+    r = np.array([np.dot(w[: n_fft - d], w[d:]) for d in range(n_fft)])
+    a = r / r[0]
+    if rho < 1.0:
+        a = a * rho ** np.arange(n_fft)
+    a.setflags(write=False)
+    return a
 
-    return _lag_coefficients(instrument.n_fft, instrument.window, 1.0)
+
+def _window_lags(instrument):
+    return lag_coefficients(instrument.n_fft, instrument.window, 1.0)
 
 
 def _fold_noise(instrument, n_j=None):
@@ -469,7 +501,7 @@ def _fold_noise(instrument, n_j=None):
 
 
 def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread: float, *,
-                      correlation_time: float = math.inf):
+                      correlation_time: float = math.inf, cnr_gain_e=None):
     """Mean and variance of every bin of every estimate's M-block average, and the signal's looks (tier 2).
 
     Model (the cells of :mod:`cwlidar_sim.signal.spectral`, each a continuum
@@ -512,6 +544,9 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
         for the smallest allowed.
     correlation_time : float
         Transit correlation time tau_c [s] (inf: none).
+    cnr_gain_e : array_like, shape (n_estimates,), optional
+        Per-estimate factor on the signal power (aerosol load varying over
+        a record); > 0.
 
     Returns
     -------
@@ -544,6 +579,11 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
                              min(ne, (t + 1) * _ROWS_PER_TASK), np.empty((n_j + 2) * n), lags)
 
     _run_tasks(nt, fold)
+    if cnr_gain_e is not None:
+        c = np.asarray(cnr_gain_e, dtype=np.float64)
+        if c.shape != (ne,) or not np.all(np.isfinite(c)) or np.any(c <= 0):
+            raise ValueError(f"cnr_gain_e must have shape ({ne},) with finite values > 0")
+        lags *= c[:, None, None]
     f = rfft_rows(lags.reshape(ne * (n_j + 1), n)).reshape(ne, n_j + 1, n // 2 + 1)
     noise = noise_floor(instrument)
     mean = np.empty((ne, instrument.n_bins))

@@ -27,7 +27,14 @@ VARIANTS = ('[{ name = "raise5", threshold_raise_percent = 5.0 }, '
             '{ name = "centroid", estimator = "centroid" }, { name = "peak", estimator = "peak" }]')
 
 
-def scene(tier="los", weighting="lorentzian", theta=0.0, variants="[]", duration=1200.0, dy=0.5, seed=7):
+# The point-cell speckle model ('independent': Gamma(M_eff ~ 12) per bin) gives the
+# estimator noise (~0.03 m/s at 50 Hz) with which A2012's Fig. 4 rise of T1 appears between
+# 0.3 and 2 rad/m at -10 dB.  The physical continuum speckle (the default since issue 10)
+# averages the speckle out (~0.006 m/s): T1's floor then sits at ~2.2 rad/m and the rise
+# needs another noise source (lower CNR, background drift).  Until the A2012 scene's noise
+# budget is settled these tests keep the earlier model.
+def scene(tier="los", weighting="lorentzian", theta=0.0, variants="[]", duration=1200.0, dy=0.5, seed=7,
+          speckle="independent"):
     return loads_scene(f"""
 name = "t"
 seed = {seed}
@@ -37,6 +44,7 @@ duration = {duration}
 tier = "{tier}"
 weighting = "{weighting}"
 cnr_db = -10.0
+speckle = "{speckle}"
 variants = {variants}
 [field]
 dy = {dy}

@@ -198,7 +198,9 @@ def _pytest(cwd, tests, timeout):
     t0 = time.perf_counter()
     try:
         r = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
-        code, tail = r.returncode, (r.stdout + r.stderr)[-1500:]
+        out = r.stdout + r.stderr
+        errs = [ln for ln in out.splitlines() if ln.startswith("E ")][:6]
+        code, tail = r.returncode, "\n".join(errs) + "\n" + out[-1500:]
     except subprocess.TimeoutExpired:
         code, tail = -9, "timeout"
     return code, tail, time.perf_counter() - t0
@@ -256,7 +258,7 @@ def main(argv=None):
             failed = [ln.split()[1] for ln in tail.splitlines() if ln.startswith("FAILED ")]
             results.append({**dataclasses.asdict(m), "exit_code": code, "caught": code == 1, "status": status,
                             "failed_test": failed[0] if failed else None,
-                            "seconds": round(sec, 1), "output_tail": tail if code != 1 else tail[-400:]})
+                            "seconds": round(sec, 1), "output_tail": tail if code != 1 else tail[:1500]})
             print(f"{m.id:32s} {status:10s} {sec:7.1f} s  {' '.join(m.tests)}"
                   + (f"\n{'':32s} failed: {failed[0]}" if failed else ""), flush=True)
     print()

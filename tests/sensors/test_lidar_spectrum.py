@@ -11,7 +11,8 @@ from cwlidar_sim.signal import PROTOTYPE_2003, expected_spectrum, fejer, window_
 
 import reference  # noqa: E402
 
-P = PROTOTYPE_2003
+# shot-noise-limited: RIN and reflection off (they are tested in tests/signal/test_continuum.py)
+P = PROTOTYPE_2003.replace(rin_level=0.0, reflection_level=0.0)
 N = P.n_fft
 NF = P.n_bins
 

@@ -8,10 +8,11 @@ import xarray as xr
 from scipy.stats import gamma
 
 from cwlidar_sim.sensors import StaringLidar, measure_staring
-from cwlidar_sim.signal import PROTOTYPE_2003, Flag, estimate
+from cwlidar_sim.signal import PROTOTYPE_2003, estimate
 from cwlidar_sim.signal.processing import background_gain, raised_level, threshold_levels
 
-P = PROTOTYPE_2003
+# shot-noise-limited: RIN and reflection off (they are tested in test_continuum)
+P = PROTOTYPE_2003.replace(rin_level=0.0, reflection_level=0.0)
 
 
 def test_background_gain_follows_the_a2012_schedule():

@@ -26,6 +26,7 @@ import reference  # noqa: E402
 
 A2012 = MannParameters(0.06224407174474577, 18.76, 3.9)
 M64 = PROTOTYPE_2003.replace(blocks_per_estimate=64)
+SHOT = PROTOTYPE_2003.replace(rin_level=0.0, reflection_level=0.0)
 U = 8.0
 
 
@@ -243,7 +244,7 @@ def test_uniform_target_converges_when_cells_are_halved():
 # RIN and the 0 Hz reflection
 # ---------------------------------------------------------------------------
 def test_noise_floor_against_the_definition():
-    inst = PROTOTYPE_2003.replace(rin_level=20.0, rin_corner=2e6, reflection_level=500.0, reflection_corner=4e4)
+    inst = SHOT.replace(rin_level=20.0, rin_corner=2e6, reflection_level=500.0, reflection_corner=4e4)
     nf = noise_floor(inst)
     n = inst.n_fft
     d = np.arange(-(n - 1), n)
@@ -253,7 +254,7 @@ def test_noise_floor_against_the_definition():
     ref = 1.0 + np.array([np.sum((1 - np.abs(d) / n) * r[np.abs(d)] * np.cos(2 * np.pi * kk * d / n)) for kk in k])
     assert np.allclose(nf, ref, rtol=1e-10)
     # and, for the RIN alone away from 0 Hz (smooth on the scale of a bin), the AR(1) density
-    rin = PROTOTYPE_2003.replace(rin_level=20.0, rin_corner=2e6)
+    rin = SHOT.replace(rin_level=20.0, rin_corner=2e6)
     rho = math.exp(-2 * math.pi * 2e6 / inst.sample_rate)
     om = 2 * np.pi * k / n
     dens = 20.0 * (1 - rho) ** 2 / (1 - 2 * rho * np.cos(om) + rho**2)
@@ -291,3 +292,24 @@ def test_rin_level_100_tier3_works_as_tier2():
     a = av["spectral"]
     assert 0.5 < a < 1.0
     assert abs(av["signal"] - a) < 4 * math.sqrt(2 * a * (1 - a) / n)
+
+
+def test_tier3_continuum_same_bits_for_any_thread_count_and_chunk():
+    from cwlidar_sim import _config
+
+    inst = M64.replace(blocks_per_estimate=16)
+    v = np.linspace(7.0, 8.0, 9)
+    w = np.full(9, 1 / 9)
+    kw = dict(correlation_time=TAU, speed_spread=0.08)
+    old = _config.get_num_threads()
+    try:
+        _config.set_num_threads(1)
+        ref = simulate_signal_spectra(inst, np.tile(v, (7, 1)), w, -8.0, 4, **kw)
+        _config.set_num_threads(2)
+        a = simulate_signal_spectra(inst, np.tile(v, (7, 1)), w, -8.0, 4, chunk_samples=3 * 16 * 512, **kw)
+    finally:
+        _config.set_num_threads(old)
+    assert np.array_equal(ref, a)
+    # the first estimates do not depend on how many follow
+    b = simulate_signal_spectra(inst, np.tile(v, (3, 1)), w, -8.0, 4, **kw)
+    assert np.array_equal(ref[:3], b)

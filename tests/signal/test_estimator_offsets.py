@@ -20,8 +20,11 @@ least 3 standard errors inside its bound.
 import numpy as np
 import pytest
 
-from cwlidar_sim.signal import PROTOTYPE_2003 as P
+from cwlidar_sim.signal import PROTOTYPE_2003
 from cwlidar_sim.signal.doppler import simulate_uniform
+
+# shot-noise-limited: RIN and reflection off (they are tested in test_continuum)
+P = PROTOTYPE_2003.replace(rin_level=0.0, reflection_level=0.0)
 
 OFFSETS = (0.0, 0.13, 0.25, 0.37, 0.5)
 

@@ -18,7 +18,8 @@ from cwlidar_sim.signal import (
 
 import reference  # noqa: E402
 
-P = PROTOTYPE_2003
+# shot-noise-limited: RIN and reflection off (they are tested in test_continuum)
+P = PROTOTYPE_2003.replace(rin_level=0.0, reflection_level=0.0)
 HANN = P.replace(window="hann")
 
 

@@ -12,7 +12,8 @@ from cwlidar_sim.signal import _kernels as K
 
 import reference  # noqa: E402
 
-P = PROTOTYPE_2003
+# shot-noise-limited: RIN and reflection off (they are tested in test_continuum)
+P = PROTOTYPE_2003.replace(rin_level=0.0, reflection_level=0.0)
 SMALL = P.replace(n_fft=64, blocks_per_estimate=50)
 
 
@@ -205,7 +206,7 @@ def test_synthesized_samples_are_the_transformed_ones():
 def test_fused_path_deterministic_over_threads_tasks_and_chunks():
     # N = 2048: tasks of 16 blocks, M = 40 -> three tasks per estimate (16, 16, 8);
     # tau_c = 4 us -> sub-steps of L = 4 samples (n_sub = 512) with a Hann window
-    inst = PROTOTYPE_2003.replace(n_fft=2048, blocks_per_estimate=40, window="hann")
+    inst = P.replace(n_fft=2048, blocks_per_estimate=40, window="hann")
     v = np.linspace(2, 14, 9).reshape(3, 3)
     w = [0.2, 0.3, 0.5]
     kw = dict(correlation_time=4e-6)

@@ -15,7 +15,8 @@ from cwlidar_sim.signal import (
 )
 
 # Short estimates (M = 64) keep tier 3 cheap; the statistics are those of any M.
-INST = PROTOTYPE_2003.replace(blocks_per_estimate=64)
+# shot-noise-limited: RIN and reflection off (they are tested in test_continuum)
+INST = PROTOTYPE_2003.replace(blocks_per_estimate=64, rin_level=0.0, reflection_level=0.0)
 # tau_c = 32 blocks (5 m/s across the beam): speckle frozen within a block, as tier 2 assumes
 # (the prototype at 1 m/s has tau_c = 162 blocks); M_eff = 2.4 and consecutive estimates
 # share an intensity correlation of only exp(-2 * 64 / 32) = 0.02
@@ -86,7 +87,8 @@ def test_los_equals_noise_free_centroid():
     (its window autocorrelation vanishes with its slope at lag N), so the centroid of
     sum_s w_s G(k - x_s) is sum_s w_s x_s up to the mirror line and band edges, O(1e-3) bin.
     """
-    inst = PROTOTYPE_2003.replace(window="hann", threshold_kind="snr", threshold_value=1e-12)
+    inst = INST.replace(blocks_per_estimate=PROTOTYPE_2003.blocks_per_estimate, window="hann", threshold_kind="snr",
+                        threshold_value=1e-12)
     w = np.array([0.1, 0.2, 0.4, 0.2, 0.1])
     v = np.array([8.3, 8.9, 9.4, 10.2, 11.0])
     sig, noise = expected_spectrum(inst, v, w, 0.0)

@@ -1,0 +1,131 @@
+"""Figures of a conical (CS) campaign's results, simulation beside CS's filter model.
+
+After CS Figs. 7-9 (lidar/cup standard deviation and mean speed) and 11-12
+(radial variance from the turbulence parameter against the sonic's).  Every
+function takes the results Dataset of a conical scene
+(:func:`cwlidar_sim.campaign.conical.summarise`) and returns a Figure.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+__all__ = ["plot_std_ratio", "plot_std_scatter", "plot_mean_speed", "plot_radial_variance", "make_cs_figures"]
+
+
+def _plt():
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _scan_label(ds, j):
+    return f"{float(ds.scan_s[j]):g} s scans"
+
+
+def plot_std_ratio(ds, var="std_ratio", ylabel="lidar / cup 10-min standard deviation"):
+    """Ratio against height: simulation (mean over selected periods +- s.e.), CS's model (Kaimal) and Mann."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    z = ds.height.values
+    for j in range(ds.sizes["scan_s"]):
+        c = f"C{j}"
+        ax.errorbar(ds[var][:, j], z, xerr=ds[f"{var}_sigma"][:, j], fmt="o-", color=c, capsize=3,
+                    label=f"simulation, {_scan_label(ds, j)}")
+        ax.plot(ds[f"{var}_model"][:, j], z, "s--", color=c, mfc="none", label=f"CS model (Kaimal), {_scan_label(ds, j)}")
+        ax.plot(ds[f"{var}_model_mann"][:, j], z, ":", color=c, label=f"CS model (Mann spectra), {_scan_label(ds, j)}")
+    ax.set_xlabel(ylabel)
+    ax.set_ylabel("height [m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def plot_std_scatter(ds):
+    """Each period: lidar against cup 10-min standard deviation, per height (CS Fig. 7-8)."""
+    plt = _plt()
+    nj = ds.sizes["scan_s"]
+    fig, axes = plt.subplots(1, nj, figsize=(5 * nj, 4.5), squeeze=False)
+    for j, ax in enumerate(axes[0]):
+        for i, z in enumerate(ds.height.values):
+            m = ds.unit_height.values == z
+            ax.plot(ds.cup_std_unit.values[m], ds.lidar_std_unit.values[m, j], "o", color=f"C{i}", label=f"{z:g} m")
+        top = float(np.nanmax(ds.cup_std_unit.values)) * 1.1
+        ax.plot([0, top], [0, top], "k-", lw=0.8)
+        ax.plot([0, top], [0, 0.8 * top], "k:", lw=0.8, label="ratio 0.8")
+        ax.set_xlabel("cup standard deviation [m/s]")
+        ax.set_ylabel("lidar standard deviation [m/s]")
+        ax.set_title(_scan_label(ds, j), fontsize=9)
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def plot_mean_speed(ds):
+    """Each period: lidar against cup 10-min mean speed (CS Fig. 9), with the mean bias per height."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(5, 4.5))
+    for i, z in enumerate(ds.height.values):
+        m = ds.unit_height.values == z
+        b = float(ds.mean_speed_bias[i, 0]) * 100
+        ax.plot(ds.cup_mean_unit.values[m], ds.lidar_mean_unit.values[m, 0], "o", color=f"C{i}",
+                label=f"{z:g} m (bias {b:+.2f} %)")
+    lo, hi = float(np.nanmin(ds.cup_mean_unit)) * 0.95, float(np.nanmax(ds.cup_mean_unit)) * 1.05
+    ax.plot([lo, hi], [lo, hi], "k-", lw=0.8)
+    ax.set_xlabel("cup mean speed [m/s]")
+    ax.set_ylabel(f"lidar mean speed, {_scan_label(ds, 0)} [m/s]")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def plot_radial_variance(ds):
+    """(TP U)^2 against the sonic-equivalent radial variance (CS Figs. 11-12): per period and per height."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+    ax = axes[0]
+    for i, z in enumerate(ds.height.values):
+        m = ds.unit_height.values == z
+        ax.plot(ds.sonic_radial_variance_unit.values[m], ds.radial_variance_unit.values[m, 0], "o", color=f"C{i}",
+                label=f"{z:g} m")
+    top = float(np.nanmax(ds.sonic_radial_variance_unit)) * 1.1
+    ax.plot([0, top], [0, top], "k-", lw=0.8)
+    ax.set_xlabel("sonic radial variance [m2/s2]")
+    ax.set_ylabel(f"(TP U)^2, {_scan_label(ds, 0)} [m2/s2]")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    ax = axes[1]
+    z = ds.height.values
+    for j in range(ds.sizes["scan_s"]):
+        c = f"C{j}"
+        ax.errorbar(ds.radial_variance_ratio[:, j], z, xerr=ds.radial_variance_ratio_sigma[:, j], fmt="o-", color=c,
+                    capsize=3, label=f"simulation, {_scan_label(ds, j)}")
+        ax.plot(ds.radial_variance_ratio_model[:, j], z, "s--", color=c, mfc="none", label="CS model (Kaimal)")
+        ax.plot(ds.radial_variance_ratio_model_mann[:, j], z, ":", color=c, label="CS model (Mann)")
+    ax.set_xlabel("radial variance ratio (TP U)^2 / sonic")
+    ax.set_ylabel("height [m]")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def make_cs_figures(ds, out_dir) -> list:
+    """Write the conical figures as PNG into ``out_dir``; returns the paths."""
+    plt = _plt()
+    os.makedirs(out_dir, exist_ok=True)
+    figs = {"cs_std_ratio": plot_std_ratio, "cs_std_scatter": plot_std_scatter, "cs_mean_speed": plot_mean_speed,
+            "cs_radial_variance": plot_radial_variance}
+    paths = []
+    for name, make in figs.items():
+        fig = make(ds)
+        path = os.path.join(os.fspath(out_dir), f"{name}.png")
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths

@@ -1,0 +1,98 @@
+"""Conical scenes in the campaign layer: validation, units, resume, per-height results, CLI."""
+
+import json
+
+import numpy as np
+import pytest
+
+from cwlidar_sim.campaign import loads_scene, read_results, run_scene
+from cwlidar_sim.campaign.conical import ConicalScene
+from cwlidar_sim.cli import main
+
+TEXT = """
+name = "cone"
+kind = "conical"
+seed = 4
+duration = 120.0
+[scan]
+heights = [40.0]
+scan_revs = [1, 3]
+tier = "los"
+[[period]]
+name = "a"
+mean_speed = 8.0
+[[period]]
+name = "b"
+mean_speed = 9.0
+"""
+
+
+def test_scene_validation_and_round_trip():
+    sc = loads_scene(TEXT)
+    assert isinstance(sc, ConicalScene) and sc.unit_names() == ["a_z40", "b_z40"]
+    assert ConicalScene.from_dict(sc.as_dict()) == sc
+    assert loads_scene(TEXT.replace("heights = [40.0]", "heights = [40.0, 60.0]")).unit_names() == \
+        ["a_z40", "a_z60", "b_z40", "b_z60"]
+    for bad, match in [
+        (TEXT.replace("tier = \"los\"", "tier = \"los\"\nfoo = 1"), r"unknown key\(s\) for ScanSpec: \['foo'\]"),
+        (TEXT.replace("seed = 4", "seed = 4\ncolour = 1"), r"unknown key\(s\) in conical scene: \['colour'\]"),
+        (TEXT.replace("heights = [40.0]", "heights = [5.0]"), r"heights\[0\]=5.0 m needs focus"),
+        (TEXT.replace("scan_revs = [1, 3]", "scan_revs = [0]"), r"scan.scan_revs\[0\]"),
+        (TEXT.replace("[scan]", "[scan]\nlidar = { half_angle_deg = 80.0 }"), "half_angle_deg"),
+        (TEXT.replace('kind = "conical"', 'kind = "orbital"'), "kind"),
+        (TEXT.replace("duration = 120.0", "duration = 5.0"), "duration"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            loads_scene(bad)
+
+
+@pytest.fixture(scope="module")
+def cone(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cone")
+    return run_scene(loads_scene(TEXT), out, progress=False), out
+
+
+def test_per_height_results_are_the_selected_periods_mean(cone):
+    ds, out = cone
+    assert ds.std_ratio.dims == ("height", "scan_s") and list(ds.height.values) == [40.0]
+    for var in ("std_ratio", "std_ratio_model", "radial_variance_ratio", "radial_variance_ratio_model",
+                "mean_speed_bias", "scan_availability"):
+        assert ds[var].attrs["units"] == "1", var
+    units = ds.std_ratio_unit.values  # (period, scan_s)
+    keep = ds.selected_unit.values > 0.5
+    for j in range(2):
+        x = units[keep[:, j], j]
+        assert ds.std_ratio.values[0, j] == pytest.approx(x.mean(), rel=1e-12)
+        if x.size > 1:
+            assert ds.std_ratio_sigma.values[0, j] == pytest.approx(x.std(ddof=1) / np.sqrt(x.size), rel=1e-12)
+    # each unit's ratio is its lidar std over its cup std
+    np.testing.assert_allclose(units, ds.lidar_std_unit.values / ds.cup_std_unit.values[:, None], rtol=1e-12)
+    assert ds.n_periods.values[0] == 2
+
+
+def test_conical_units_resume_and_same_bits(cone, monkeypatch):
+    ds, out = cone
+    from cwlidar_sim.campaign import conical
+
+    calls = []
+    real = conical.run_unit
+    monkeypatch.setattr(conical, "run_unit", lambda *a, **k: calls.append(a[1]) or real(*a, **k))
+    again = run_scene(loads_scene(TEXT), out, progress=False)
+    assert calls == [] and json.loads(again.attrs["periods_reused"]) == ["a_z40", "b_z40"]
+    fresh = run_scene(loads_scene(TEXT), None, progress=False)
+    assert calls == [0, 1]
+    np.testing.assert_array_equal(fresh.std_ratio.values, ds.std_ratio.values)
+    np.testing.assert_array_equal(fresh.tp_unit.values, ds.tp_unit.values)
+
+
+def test_cli_runs_a_conical_scene_file(tmp_path, capsys):
+    f = tmp_path / "cone.toml"
+    f.write_text(TEXT.replace('[[period]]\nname = "b"\nmean_speed = 9.0\n', ""))
+    out = tmp_path / "out"
+    assert main(["run", str(f), "--out", str(out), "--no-progress", "--figures"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["results"].endswith("cone.nc") and summary["scan_s"] == [1.0, 3.0]
+    assert {p.rsplit("/", 1)[-1] for p in summary["figures"]} == {
+        "cs_std_ratio.png", "cs_std_scatter.png", "cs_mean_speed.png", "cs_radial_variance.png"}
+    ds = read_results(out / "cone.nc")
+    assert ds.attrs["sensor"] == "conical" and "std_ratio" in ds

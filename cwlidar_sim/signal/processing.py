@@ -73,9 +73,12 @@ class Flag(enum.IntFlag):
 
     #: No bin above the threshold: the estimate is NaN.
     NO_SIGNAL = 1
-    #: Estimate within ``edge_guard_speed`` of Nyquist: possibly aliased.
+    #: Estimate within ``edge_guard_speed`` of Nyquist, or the strongest thresholded bin is
+    #: the last one scanned: possibly aliased.
     NEAR_NYQUIST = 2
-    #: Estimate within ``edge_guard_speed`` of the blind zone: homodyne ambiguity, RIN.
+    #: Estimate within ``edge_guard_speed`` of the blind zone, or the strongest thresholded bin
+    #: is the first one scanned (a line inside the blind zone seen by its tail): homodyne
+    #: ambiguity, RIN.
     NEAR_ZERO = 4
     #: A separate group of thresholded bins carries at least ``second_peak_fraction``
     #: of the main group's power: cloud return or second peak suspected.

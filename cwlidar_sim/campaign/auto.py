@@ -25,7 +25,7 @@ resolved by the chart).
     background pause or an exact background -- so it needs spectra: tier
     ``spectral`` (tier 2).  Tier 3 ``signal`` is never chosen: on the chart
     tier 2 with continuum speckle is within the tolerance of tier 3 (the
-    tiers' spectra agree in their first two moments) at about 1/25 of the
+    tiers' spectra agree in their first two moments) at about 1/30 of the
     cost, and tier 3 is limited to 60-s periods;
   - it asks for none of these: a noise-free line-of-sight study, tier
     ``los`` (tier 1, the probe volume's weighted average, A2012 Eq. 2).
@@ -45,7 +45,7 @@ resolved by the chart).
 
 * **Range cells** ``cell_length``: the longest cell, :data:`CELL_MAX_PER_ZR`
   ``x z_R`` (the chart: cells of 0.71 z_R are within the tolerance, at
-  a quarter of the cost of cells of the field spacing; the continuum speckle model
+  about half the cost of cells of the field spacing; the continuum speckle model
   makes the Doppler statistics converge in the cell length), but not
   shorter than ``dx`` and only with continuum speckle (the point-cell
   models 'independent' / 'coherent' change their statistics with the cell
@@ -64,18 +64,18 @@ __all__ = ["TOLERANCE", "DX_LADDER", "DX_MAX_PER_ZR", "CELL_MAX_PER_ZR", "CHART"
 #: The chart's measurements behind the rule (``benchmarks/speed_vs_accuracy.py --groups hour
 #: --duration 600 --segment 60``, A2012 period C, 600 s; docs/speed_vs_accuracy_600s.json):
 #: setting -> (CPU s per simulated hour, one thread; RMS log10 error of T2 against the reference).
-#: The 60-s ``--quick`` chart gives the same order within its larger scatter (0.106).
+#: The 60-s ``--quick`` chart gives the same order within its larger scatter (0.108).
 CHART = {
-    "plane dx.25 dy.25 c.25 (reference)": (141.1, 0.0),
-    "plane dx.5 dy.5": (58.2, 0.061),
-    "plane dx1 dy1": (28.0, 0.044),
-    "box dx1 dy4 dz4": (29.9, 0.107),
-    "cells 1 m": (34.9, 0.061),
-    "cells 2 m": (21.5, 0.058),
-    "cells 4 m": (15.6, 0.061),
-    "speckle independent": (21.7, 0.079),
-    "los tier": (8.5, 0.306),
-    "seed 2 (scatter of the reference)": (143.2, 0.090),
+    "plane dx.25 dy.25 c.25 (reference)": (45.6, 0.0),
+    "plane dx.5 dy.5": (21.9, 0.061),
+    "plane dx1 dy1": (14.5, 0.045),
+    "box dx1 dy4 dz4": (14.8, 0.107),
+    "cells 1 m": (16.2, 0.061),
+    "cells 2 m": (14.7, 0.058),
+    "cells 4 m": (12.3, 0.061),
+    "speckle independent": (20.3, 0.079),
+    "los tier": (8.1, 0.306),
+    "seed 2 (scatter of the reference)": (43.8, 0.09),
 }
 #: Tolerance on the chart's error: the seed-to-seed scatter of the reference.
 TOLERANCE = CHART["seed 2 (scatter of the reference)"][1]
@@ -138,7 +138,7 @@ def resolve(scene):
         if spectra:
             tier = "spectral"
             why["lidar.tier"] = (f"spectral: the scene asks for Doppler processing ({asked}); tier 2 with continuum "
-                                 f"speckle is within the chart's tolerance ({TOLERANCE:.3f}) of tier 3 at ~1/25 of "
+                                 f"speckle is within the chart's tolerance ({TOLERANCE:.3f}) of tier 3 at ~1/30 of "
                                  f"its cost")
         else:
             tier = "los"

@@ -374,6 +374,45 @@ def _cmd_campaign_report(args) -> int:
     return 0
 
 
+def _add_probe_length(sub):
+    p = sub.add_parser("probe-length", help="fit the probe length (zR and telescope radius) to method-2 results",
+                       description="Fit the Rayleigh length zR and the telescope radius a0 it implies to the "
+                       "method-2 transfer function of a results file, with the estimator-aware theory "
+                       "(cwlidar_sim.analysis.fit_probe_length); prints JSON.")
+    p.add_argument("results", help="a results file (DIR/<name>.nc) or a folder holding one")
+    p.add_argument("--estimator", default=None, help="the lidar's own estimator (default) or one of its variants'")
+    p.add_argument("--band", nargs=2, type=float, default=None, metavar=("K_LO", "K_HI"),
+                   help="wavenumber band [rad/m] (default 0.02 0.6)")
+    p.add_argument("--lines", type=int, default=4, help="theory ensemble: lines of 4096 points per zR (default 4)")
+    p.set_defaults(func=_cmd_probe_length)
+
+
+def _cmd_probe_length(args) -> int:
+    import glob
+    import os
+
+    from .analysis.estimator_theory import DEFAULT_BAND, fit_probe_length_results
+    from .campaign import read_results
+
+    path = args.results
+    if os.path.isdir(path):
+        files = sorted(glob.glob(os.path.join(path, "*.nc")))
+        if len(files) != 1:
+            raise ValueError(f"{path!r} holds {len(files)} results files (*.nc); name one")
+        path = files[0]
+    if not os.path.isfile(path):
+        raise ValueError(f"no results file {path!r}")
+    ds = read_results(path)
+    fit = fit_probe_length_results(ds, estimator=args.estimator, band=tuple(args.band or DEFAULT_BAND),
+                                   n_lines=args.lines)
+    out = fit.summary()
+    out.pop("zR_grid")
+    out.pop("chi2_grid")
+    out["results"] = os.path.abspath(path)
+    print(json.dumps(out, indent=2))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="cwlidar-sim",
@@ -387,6 +426,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_doppler(sub)
     _add_campaign(sub)
     _add_sweep(sub)
+    _add_probe_length(sub)
     return parser
 
 

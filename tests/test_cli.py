@@ -47,3 +47,12 @@ def test_bad_input_is_one_clear_line(tmp_path, capsys):
     assert rc == 2
     err = capsys.readouterr().err
     assert "length_scale" in err and "allowed" in err and "Traceback" not in err
+
+
+def test_probe_length_command_names_a_missing_results_file(tmp_path, capsys):
+    from cwlidar_sim.cli import main
+
+    assert main(["probe-length", str(tmp_path / "none.nc")]) == 2
+    assert "no results file" in capsys.readouterr().err
+    assert main(["probe-length", str(tmp_path)]) == 2
+    assert "holds 0 results files" in capsys.readouterr().err

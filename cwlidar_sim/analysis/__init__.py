@@ -17,6 +17,12 @@
 ``cs_model``
     CS's filter model (Kaimal or Mann spectra, probe and scan filters):
     :func:`cs_model.std_ratio`, :func:`cs_model.radial_variance_ratio`.  One-sided spectra.
+``estimator_theory``
+    Each Doppler estimator's expected method-2 transfer function for the
+    aligned beam from a seeded ensemble of cheap line fields
+    (:func:`estimator_transfer`) and its effective probe length
+    (:func:`fit_zr_eff`); the probe length from measured method-2 values
+    (:func:`fit_probe_length`).
 ``fitting``
     Least-squares fit of the Mann tensor parameters to measured one-point
     spectra (:func:`fit_mann`).
@@ -24,6 +30,15 @@
 Importing this package does not import numba or scipy; they load on first use.
 """
 
+from .estimator_theory import (
+    EstimatorTransfer,
+    ProbeLengthError,
+    ProbeLengthFit,
+    estimator_transfer,
+    fit_probe_length,
+    fit_probe_length_results,
+    fit_zr_eff,
+)
 from .fitting import MannFit, fit_mann
 from .spectra import (
     SegmentSpectra,
@@ -48,6 +63,13 @@ __all__ = [
     "component_spectra",
     "transfer_aligned",
     "misaligned_spectra",
+    "EstimatorTransfer",
+    "estimator_transfer",
+    "fit_zr_eff",
+    "ProbeLengthFit",
+    "ProbeLengthError",
+    "fit_probe_length",
+    "fit_probe_length_results",
     "MannFit",
     "fit_mann",
     "VadFit", "VadFlag", "fit_rectified_cosine", "fit_record", "period_statistics", "sonic_radial_variance",

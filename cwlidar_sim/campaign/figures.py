@@ -19,6 +19,7 @@ __all__ = [
     "plot_methods",
     "plot_misalignment",
     "plot_variants",
+    "plot_estimator_theory",
     "make_figures",
 ]
 
@@ -79,6 +80,16 @@ def _theory(ax, ds, i=None):
         ax.loglog(k, ds.transfer_theory_cross[i], "k:", lw=1, label="Eqs. 12, 14 (misaligned)")
 
 
+def _estimator_theory(ax, ds, name, **kw):
+    """Draw ``transfer_theory_estimator`` of estimator ``name`` (when the results carry it)."""
+    if "transfer_theory_estimator" not in ds or name not in list(ds.estimator.values):
+        return
+    j = list(ds.estimator.values).index(name)
+    z = float(ds.probe_length_effective[j])
+    kw.setdefault("label", f"{name} theory (zR_eff = {z:.2f} m)")
+    ax.loglog(ds.k.values, ds.transfer_theory_estimator[j], **kw)
+
+
 def _setup(ax):
     ax.set_ylim(1e-4, 3)
     ax.set_xlabel("$k_1$ [rad/m]")
@@ -115,6 +126,7 @@ def plot_methods(ds, i=None):
     ax.loglog(k, ds.transfer_ratio_ideal[i], "-", color="C2", lw=1, label="method 1, noise-free tier 1")
     _theory(ax, ds, i)
     ax.loglog(k, ds.transfer_theory_ratio[i], "-.", color="0.4", lw=1, label="Eqs. 12, 13 (misaligned)")
+    _estimator_theory(ax, ds, ds.attrs.get("lidar_estimator", ""), color="C1", lw=1.5, ls="--")
     ax.set_xscale("log")
     ax.set_yscale("log")
     _setup(ax)
@@ -174,6 +186,11 @@ def plot_variants(ds, group="threshold", i=None):
     k = ds.k.values
     for ax, var, title in ((axes[0], "ratio", "method 1"), (axes[1], "cross", "method 2")):
         ax.loglog(k, ds[f"transfer_{var}"][i], "o-", ms=3, lw=1, color="k", label=main)
+        if var == "cross" and group == "estimator":
+            _estimator_theory(ax, ds, ds.attrs["lidar_estimator"], color="k", ls="--", lw=1)
+            for j, n in enumerate(names):
+                v = next(x for x in variants if x["name"] == n)
+                _estimator_theory(ax, ds, v["estimator"], color=f"C{j}", ls="--", lw=1)
         for j, n in enumerate(names):
             vi = list(ds.variant.values).index(n)
             v = next(x for x in variants if x["name"] == n)
@@ -185,6 +202,27 @@ def plot_variants(ds, group="threshold", i=None):
         ax.set_title(f"{title}, {_label(ds, i)}", fontsize=9)
     axes[0].set_ylabel("spectral transfer function")
     axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_estimator_theory(ds, i=None):
+    """Each estimator's expected method 2 (``transfer_theory_estimator``) with the run's own method 2 of one period."""
+    plt = _plt()
+    i = _best_period(ds) if i is None else i
+    fig, ax = plt.subplots(figsize=(7, 5))
+    k = ds.k.values
+    for j, name in enumerate(ds.estimator.values):
+        T, s = ds.transfer_theory_estimator[j].values, ds.transfer_theory_estimator_sigma[j].values
+        ax.fill_between(k, np.maximum(T - s, 1e-12), T + s, color=f"C{j}", alpha=0.25, lw=0)
+        _estimator_theory(ax, ds, str(name), color=f"C{j}", lw=1.5)
+    ax.loglog(k, ds.transfer_cross[i], "ko", ms=3, label=f"method 2 of the run ({ds.attrs['lidar_estimator']})")
+    zR = ds.attrs["rayleigh_length"]
+    ax.loglog(k, ds.transfer_theory, "k:", lw=1, label=f"exp(-2 k zR), zR = {zR:.2f} m")
+    _setup(ax)
+    ax.set_title(f"the estimator is part of the filter ({_label(ds, i)})", fontsize=9)
+    ax.set_ylabel("Re$(\\chi)^2/F_{v_s}^2$")
+    ax.legend(fontsize=7)
     fig.tight_layout()
     return fig
 
@@ -209,6 +247,8 @@ def make_figures(ds, out_dir) -> list:
         figs["thresholds"] = lambda: plot_variants(ds, "threshold")
     if est:
         figs["estimators"] = lambda: plot_variants(ds, "estimator")
+    if "transfer_theory_estimator" in ds:
+        figs["estimator_theory"] = lambda: plot_estimator_theory(ds)
     paths = []
     for name, make in figs.items():
         fig = make()

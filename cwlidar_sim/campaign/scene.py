@@ -214,6 +214,12 @@ class LidarSpec:
     background_pause : bool
         Pause 10 min every 3 h to measure the background (A2012: duty cycle
         94.5 %); the paused estimates are NaN and flagged.
+    line_broadening : float
+        Instrument broadening of the Doppler line (laser line width and phase
+        noise) as the standard deviation of a Gaussian in frequency [Hz]; in
+        [0, 5e6] (0: none).  It acts exactly like a sub-cell speed spread of
+        ``lambda / 2`` times it, added in quadrature to the tensor's
+        (continuum speckle, tiers 2 and 3).
     variants : list of dict
         Extra processings of the same spectra, each with a ``name`` and
         instrument overrides (e.g. ``{name = "raise10",
@@ -233,6 +239,7 @@ class LidarSpec:
     exact_background: bool = False
     background_pause: bool = False
     variants: tuple = ()
+    line_broadening: float = 0.0
 
     def __post_init__(self):
         from ..sensors.lidar import _variant_instruments
@@ -254,6 +261,7 @@ class LidarSpec:
         check_choice("lidar.speckle", self.speckle, ("continuum", "independent", "coherent"))
         _check_bool("lidar.exact_background", self.exact_background)
         _check_bool("lidar.background_pause", self.background_pause)
+        _set(self, "line_broadening", check_real("lidar.line_broadening", self.line_broadening, lo=0.0, hi=5e6))
         variants = tuple(self.variants)
         for i, v in enumerate(variants):
             if isinstance(v, dict) and v.get("name") == "main":
@@ -391,6 +399,12 @@ class AnalysisSpec:
         0.7 rad/m for a noise-free lidar), so the default is Hann.
     detrend : {'mean', 'linear'}
         What is removed from each segment.
+    estimator_theory_lines : int
+        Size of the estimator-aware theory's own ensemble (lines of 4096
+        points, :func:`cwlidar_sim.analysis.estimator_transfer`), computed
+        once per scene for tiers 'spectral' and 'signal' and stored as
+        ``transfer_theory_estimator``; in [0, 1000], 0: not computed.  Cost
+        about 1.5 s per line on one core.
     """
 
     segment_duration: float = 600.0
@@ -400,6 +414,7 @@ class AnalysisSpec:
     fit: bool = True
     window: str = "hann"
     detrend: str = "mean"
+    estimator_theory_lines: int = 4
 
     def __post_init__(self):
         _set(self, "segment_duration", check_real("analysis.segment_duration", self.segment_duration, lo=10.0, hi=86400.0))
@@ -409,6 +424,8 @@ class AnalysisSpec:
         _check_bool("analysis.fit", self.fit)
         check_choice("analysis.window", self.window, ("hann", "none"))
         check_choice("analysis.detrend", self.detrend, ("mean", "linear"))
+        _set(self, "estimator_theory_lines",
+             check_int("analysis.estimator_theory_lines", self.estimator_theory_lines, lo=0, hi=1000))
 
     def as_dict(self) -> dict:
         return _asdict(self)

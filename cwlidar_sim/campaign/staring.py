@@ -59,8 +59,18 @@ def _lidar(scene, plan, params, period, extra=None):
         elevation_deg=spec.elevation_deg, tier=spec.tier, weighting=spec.weighting, span=spec.span,
         cell_length=spec.cell_length or plan.spacing[0], cnr_db=spec.cnr_db,
         transverse_speed=_transverse_speed(scene, period, params), speckle=spec.speckle,
-        exact_background=spec.exact_background,
+        exact_background=spec.exact_background, subcell_spread=_subcell_spread(scene, params),
     )
+
+
+def _subcell_spread(scene, params):
+    """None (the sensor's default, from the field's tensor) unless ``lidar.line_broadening`` adds to it [m/s]."""
+    if scene.lidar.line_broadening == 0.0:
+        return None
+    from ..turbulence import subcell_variance
+
+    dv = 0.5 * scene.lidar.build_instrument().wavelength * scene.lidar.line_broadening
+    return math.sqrt(subcell_variance(params, scene.field.dx) + dv * dv)
 
 
 def run_period(scene: Scene, index: int, params, *, status=None):
@@ -321,6 +331,30 @@ def period_dataset(scene: Scene, params, r: dict):
         "lidar_10hz_valid": (("period", "time_10hz"), pk(r["lidar_10hz_valid"], np.int16),
                              {"units": "1", "long_name": "valid 50 Hz estimates in each 10 Hz block"}),
     }
+    theory = estimator_theory(scene, params)
+    if theory is not None:
+        coords["estimator"] = ("estimator", np.array(theory.estimators, dtype=object))
+        band = f"{theory.band[0]:g}-{theory.band[1]:g} rad/m"
+        note = (f"beam along the wind at U = {theory.info['U']:.3g} m/s (mean of the periods), the scene's "
+                f"Mann parameters, {theory.info['n_lines']} seeded lines of {theory.info['n_points']} points of "
+                "the theory's own (cwlidar_sim.analysis.estimator_transfer), not this run's field")
+        dv["transfer_theory_estimator"] = (("estimator", "k"), theory.T2_ek,
+                                           {"units": "1", "long_name": "expected method 2 (Re(chi)^2 / F_vs^2) of "
+                                            "each Doppler estimator: " + note})
+        dv["transfer_theory_estimator_sigma"] = (("estimator", "k"), theory.sigma_T2_ek,
+                                                 {"units": "1", "long_name": "1-sigma ensemble uncertainty of "
+                                                  "transfer_theory_estimator"})
+        dv["probe_length_effective"] = (("estimator",), theory.zR_eff_e,
+                                        {"units": "m", "long_name": f"zR_eff of the best exp(-2 k zR_eff) to "
+                                         f"transfer_theory_estimator over {band}"})
+        lm = theory.info["line_mean_log_T2"]
+        dv["transfer_theory_estimator_line_scatter"] = (
+            ("estimator",), np.std(lm, axis=1, ddof=1) if lm.shape[1] > 1 else np.full(lm.shape[0], np.nan),
+            {"units": "1", "long_name": f"standard deviation, line to line ({theory.info['n_points'] * scene.field.dx:g} m "
+             f"of field each), of the band mean ({band}) of log transfer_theory_estimator: the realisation scatter "
+             "of a record of that length"})
+        dv["probe_length_effective_sigma"] = (("estimator",), theory.zR_eff_sigma_e,
+                                              {"units": "m", "long_name": "1-sigma uncertainty of probe_length_effective"})
     if vnames:
         var = [r["variants"][n] for n in vnames]
         VPK = ("variant", "period", "k")
@@ -362,6 +396,41 @@ def period_dataset(scene: Scene, params, r: dict):
         "timing": json.dumps(r["timing"]),
     }
     return xr.Dataset(data_vars=dv, coords=coords, attrs=attrs)
+
+
+_THEORY_CACHE: dict = {}
+
+
+def estimator_theory(scene: Scene, params):
+    """The estimator-aware theory of a scene (:func:`cwlidar_sim.analysis.estimator_transfer`), or None.
+
+    Computed once per scene and process (cached on the scene's lidar, field
+    spacing, analysis grid and turbulence), for tiers 'spectral' and
+    'signal' with ``analysis.estimator_theory_lines > 0``: the scene's
+    instrument, CNR, weighting, span and cells, the scene's Mann parameters,
+    at the mean of the periods' mean speeds, on the analysis's k grid, with
+    the theory's own seed (never the run's field).
+    """
+    from ..analysis import estimator_transfer, log_bins
+    from ..analysis.estimator_theory import THEORY_ESTIMATORS
+
+    a, spec = scene.analysis, scene.lidar
+    if spec.tier == "los" or a.estimator_theory_lines == 0:
+        return None
+    U = float(np.mean([p.mean_speed for p in scene.periods]))
+    key = json.dumps([spec.as_dict(), scene.field.dx, a.k_min, a.k_max, a.per_decade, a.estimator_theory_lines,
+                      params.as_dict(), U], sort_keys=True, default=str)
+    if key not in _THEORY_CACHE:
+        if len(_THEORY_CACHE) > 16:
+            _THEORY_CACHE.clear()
+        _THEORY_CACHE[key] = estimator_transfer(
+            spec.build_instrument(), params, U, estimators=THEORY_ESTIMATORS, k_edges=log_bins(a.k_min, a.k_max,
+                                                                                              a.per_decade),
+            cnr_db=spec.cnr_db, weighting=spec.weighting, span=spec.span, dx=scene.field.dx,
+            cell_length=spec.cell_length or scene.field.dx, transverse_speed=spec.transverse_speed,
+            subcell_spread=_subcell_spread(scene, params),
+            n_lines=a.estimator_theory_lines, n_points=4096)
+    return _THEORY_CACHE[key]
 
 
 def _cells(scene):

@@ -13,6 +13,8 @@ of ``benchmarks/_protocol.py``), and keeps its full report under
 * ``campaign``: ``bench_campaign.py`` -- the A2012 reproduction against its
   tier-1 floor;
 * ``cs``: ``bench_cs.py`` -- the CS conical reproduction against its tier-1 floor;
+* ``estimator_theory``: ``bench_estimator_theory.py`` -- the estimator-aware
+  theory against one campaign period;
 * ``scaling``: ``bench_scaling.py`` -- campaign throughput, 1 and N workers;
 * ``speed_vs_accuracy``: ``speed_vs_accuracy.py`` -- the fidelity chart.
 
@@ -71,6 +73,15 @@ def ratios_cs(rep):
             "peak_gib": (rep.get("peak_bytes") or 0) / 2**30}
 
 
+def ratios_estimator_theory(rep):
+    rows = rep.get("rows", [])
+    camp = [r for r in rows if "campaign_period_s" in r]
+    out = {f"{r['estimators']} est, {r['lines']} lines, {r['grid']}": r["wall_s"] for r in rows if "grid" in r}
+    if camp and rows and "grid" in rows[0]:
+        out["theory_1_estimator_over_campaign_period"] = rows[0]["wall_s"] / camp[0]["wall_s"]
+    return out
+
+
 def ratios_scaling(rep):
     return {f"{r['workers']}w_x_{r['threads']}t": {"sim_h_per_wall_h": r["sim_h_per_wall_h"],
                                                    "efficiency": r["efficiency"]} for r in rep.get("runs", [])}
@@ -91,6 +102,7 @@ BENCHMARKS = {
     "signal": ("bench_signal.py", [], ["--quick"], ratios_signal, "--json"),
     "campaign": ("bench_campaign.py", [], ["--quick", "--children", "1"], ratios_campaign, "--json"),
     "cs": ("bench_cs.py", [], ["--quick"], ratios_cs, "--json"),
+    "estimator_theory": ("bench_estimator_theory.py", [], ["--quick"], ratios_estimator_theory, "--json"),
     "scaling": ("bench_scaling.py", [], ["--quick"], ratios_scaling, "--json"),
     "speed_vs_accuracy": ("speed_vs_accuracy.py", [], ["--quick"], ratios_speed, "--out"),
 }

@@ -2,8 +2,8 @@
 
     python benchmarks/bench_campaign.py [--quick] [--json PATH] [--children N] [--out DIR]
 
-Protocol
---------
+Protocol (the shared one, ``benchmarks/_protocol.py``)
+-----------------------------------------------------
 Each run is a fresh interpreter (``--child``) that imports the package, warms the JIT
 on a 2-period, 5-minute version of the scene (numba's on-disk cache load and any
 compilation excluded), records the load average, and then times
@@ -26,31 +26,19 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import _protocol  # noqa: E402  (the shared child-process protocol)
+from _protocol import child_main, machine, vmhwm, vmrss, write_json  # noqa: E402
+
 TARGET_S = 300.0
 
 
-def _vmhwm():
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) * 1024
-    raise RuntimeError("VmHWM not found")
-
-
-def _vmrss():
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) * 1024
-    raise RuntimeError("VmRSS not found")
-
-
-def _child(quick: bool, out: str) -> dict:
+def _child(task) -> dict:
+    quick, out = task["quick"], task["out"]
     import dataclasses
 
     from cwlidar_sim.campaign import bundled_scene, run_scene
@@ -60,7 +48,7 @@ def _child(quick: bool, out: str) -> dict:
     warm = scene.replace(duration=300.0, periods=scene.periods[:2],
                          analysis=dataclasses.replace(scene.analysis, segment_duration=150.0))
     run_scene(warm, progress=False)
-    base = _vmrss()
+    base = vmrss()
     load0 = os.getloadavg()
     w, c = time.perf_counter(), time.process_time()
     ds = run_scene(scene, out, progress=False)
@@ -73,7 +61,7 @@ def _child(quick: bool, out: str) -> dict:
     run_scene(los, progress=False)
     floor = time.perf_counter() - f0
     return {"wall_s": wall, "cpu_s": cpu, "cpu_per_wall": cpu / wall, "floor_s": floor,
-            "peak_bytes": _vmhwm(), "baseline_bytes": base, "load_before": load0, "load_after": os.getloadavg(),
+            "peak_bytes": vmhwm(), "baseline_bytes": base, "load_before": load0, "load_after": os.getloadavg(),
             "timing": json.loads(ds.attrs["timing"]), "periods": int(ds.sizes["period"])}
 
 
@@ -83,21 +71,19 @@ def main(argv=None) -> int:
     ap.add_argument("--children", type=int, default=2)
     ap.add_argument("--json", default=None, metavar="PATH")
     ap.add_argument("--out", default=None, metavar="DIR", help="results folder (default: a temporary one)")
-    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--child", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        print(json.dumps(_child(args.quick, args.out)))
-        return 0
+        child_main({"default": _child}, args.child)
     runs = []
     for i in range(args.children):
         with tempfile.TemporaryDirectory() as tmp:
             out = args.out or tmp
-            cmd = [sys.executable, __file__, "--child", "--out", out] + (["--quick"] if args.quick else [])
-            res = subprocess.run(cmd, capture_output=True, text=True, check=False)
-            if res.returncode != 0:
-                print(res.stderr, file=sys.stderr)
+            res = _protocol.spawn(__file__, {"quick": args.quick, "out": out})
+            if "error" in res:
+                print(res["error"], file=sys.stderr)
                 return 1
-            runs.append(json.loads(res.stdout.strip().splitlines()[-1]))
+            runs.append(res)
         r = runs[-1]
         print(f"run {i + 1}: {r['wall_s']:.1f} s wall (tier-1 floor {r['floor_s']:.1f} s), "
               f"cpu/wall {r['cpu_per_wall']:.2f}, peak {r['peak_bytes'] / 2**30:.2f} GiB, "
@@ -110,15 +96,13 @@ def main(argv=None) -> int:
         "floor_s": best["floor_s"], "ratio_to_floor": best["wall_s"] / best["floor_s"],
         "peak_gib": best["peak_bytes"] / 2**30, "peak_minus_baseline_gib": (best["peak_bytes"] - best["baseline_bytes"]) / 2**30,
         "target_s": TARGET_S, "met": min(walls) < TARGET_S, "cpu_count": os.cpu_count(), "runs": runs,
-        "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
+        "time": time.strftime("%Y-%m-%dT%H:%M:%S"), "machine": machine(),
     }
     print(f"reproduce a2012{' --quick' if args.quick else ''}: {summary['wall_s_min']:.1f} s "
           f"(median {summary['wall_s_median']:.1f} s; {summary['ratio_to_floor']:.2f}x the tier-1 floor), "
           f"peak {summary['peak_gib']:.2f} GiB; target < {TARGET_S:.0f} s: {'met' if summary['met'] else 'MISSED'}")
     if args.json:
-        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-        with open(args.json, "w") as f:
-            json.dump(summary, f, indent=2)
+        write_json(args.json, summary)
     return 0
 
 

@@ -2,7 +2,8 @@
 
     python benchmarks/bench_cs.py [--quick] [--json PATH] [--threads N]
 
-One fresh interpreter (``--child``) per measurement: it imports the package,
+One fresh interpreter (``--child``, the shared protocol of ``benchmarks/_protocol.py``)
+per measurement: it imports the package,
 warms the JIT on one 60-s unit at each tier, then times the bundled scene
 (``--quick``: two periods per height) with the spectral tier, and the same
 scene with the scanning lidar at tier 1 (weighted line-of-sight averages, no
@@ -16,25 +17,20 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import _protocol  # noqa: E402  (the shared child-process protocol)
+from _protocol import child_main, machine, vmhwm, write_json  # noqa: E402
+
 TARGET_S = {"full": 600.0, "quick": 180.0}
 
 
-def _vmhwm():
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) * 1024
-    return -1
-
-
-def _child(quick: bool, threads: int) -> dict:
+def _child(task) -> dict:
+    quick, threads = task["quick"], task["threads"]
     from cwlidar_sim import _config
     from cwlidar_sim.campaign import bundled_scene, run_scene
     from cwlidar_sim.campaign.figures import make_figures
@@ -56,7 +52,7 @@ def _child(quick: bool, threads: int) -> dict:
     run_scene(floor, progress=False)
     out["floor_s"] = time.perf_counter() - t
     out["units"] = len(scene.unit_names())
-    out["peak_bytes"] = _vmhwm()
+    out["peak_bytes"] = vmhwm()
     out["std_ratio"] = ds.std_ratio.values.round(4).tolist()
     return out
 
@@ -66,27 +62,22 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--threads", type=int, default=len(os.sched_getaffinity(0)))
     ap.add_argument("--json", default=None)
-    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--child", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.child:
-        print(json.dumps(_child(a.quick, a.threads)))
-        return 0
-    cmd = [sys.executable, os.path.abspath(__file__), "--child", "--threads", str(a.threads)] + (["--quick"] if a.quick else [])
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode:
-        print(p.stderr, file=sys.stderr)
+        child_main({"default": _child}, a.child)
+    r = _protocol.spawn(__file__, {"quick": a.quick, "threads": a.threads})
+    if "error" in r:
+        print(r["error"], file=sys.stderr)
         return 1
-    r = json.loads(p.stdout.strip().splitlines()[-1])
     mode = "quick" if a.quick else "full"
     r.update(mode=mode, target_s=TARGET_S[mode], met=r["wall_s"] < TARGET_S[mode], ratio_to_floor=r["wall_s"] / r["floor_s"],
-             threads=a.threads, load=os.getloadavg(), time=time.strftime("%Y-%m-%dT%H:%M:%S"))
+             threads=a.threads, load=os.getloadavg(), time=time.strftime("%Y-%m-%dT%H:%M:%S"), machine=machine())
     print(f"reproduce cs{' --quick' if a.quick else ''}: {r['wall_s']:.1f} s for {r['units']} units "
           f"({r['ratio_to_floor']:.2f}x the tier-1 floor of {r['floor_s']:.1f} s), peak {r['peak_bytes'] / 2**30:.2f} GiB; "
           f"target < {TARGET_S[mode]:.0f} s: {'met' if r['met'] else 'MISSED'}")
     if a.json:
-        os.makedirs(os.path.dirname(os.path.abspath(a.json)), exist_ok=True)
-        with open(a.json, "w") as f:
-            json.dump(r, f, indent=2)
+        write_json(a.json, r)
     return 0
 
 

@@ -15,7 +15,10 @@ included), the scaling efficiency against the baseline
 (throughput / (workers x baseline)), the scheduler's per-task overhead
 (measured with trivial tasks on the same cluster) and the size of one task's
 result, from which it extrapolates what a cluster of M machines would give.
-Results are bit-identical across the three runs (checked).
+Results are bit-identical across the three runs (checked).  Each run and the
+overhead measurement is a fresh interpreter under the shared protocol of
+``benchmarks/_protocol.py`` (``peak_bytes`` is the driver process's VmHWM; the
+workers are processes of their own).
 """
 
 from __future__ import annotations
@@ -26,6 +29,10 @@ import os
 import sys
 import tempfile
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import _protocol  # noqa: E402  (the shared child-process protocol)
+from _protocol import child_main, machine, write_json  # noqa: E402
 
 
 def campaign_text(tasks, duration):
@@ -64,6 +71,25 @@ def run(spec, out, workers, threads):
     return wall, s
 
 
+def _child_run(task):
+    from cwlidar_sim.campaign.sweep import loads_campaign
+
+    spec = loads_campaign(campaign_text(task["tasks"], task["duration"]))
+    wall, _ = run(spec, task["out"], task["workers"], task["threads"])
+    return {"wall_s": wall}
+
+
+def _child_overhead(task):
+    return {"s_per_task": scheduler_overhead()}
+
+
+def _spawn(task):
+    r = _protocol.spawn(__file__, task)
+    if "error" in r:
+        raise RuntimeError(r["error"])
+    return r
+
+
 def scheduler_overhead(n=200):
     from dask.distributed import Client, LocalCluster
 
@@ -80,24 +106,28 @@ def main(argv=None):
     ap.add_argument("--tasks", type=int, default=None)
     ap.add_argument("--duration", type=float, default=None)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--child", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
+    if a.child:
+        child_main({"run": _child_run, "overhead": _child_overhead}, a.child)
     tasks = a.tasks or 4
     duration = a.duration or (600.0 if a.quick else 1800.0)
     cores = len(os.sched_getaffinity(0))
     from cwlidar_sim.campaign.batch import merge_campaign
-    from cwlidar_sim.campaign.sweep import loads_campaign
 
-    spec = loads_campaign(campaign_text(tasks, duration))
     sim_h = tasks * duration / 3600.0
     rows = []
     merged = []
     with tempfile.TemporaryDirectory() as tmp:
         for workers, threads in ((1, 1), (1, cores), (cores, 1)):
             out = os.path.join(tmp, f"w{workers}t{threads}")
-            wall, s = run(spec, out, workers, threads)
+            r = _spawn({"kind": "run", "tasks": tasks, "duration": duration, "out": out, "workers": workers,
+                        "threads": threads})
+            wall = r["wall_s"]
             size = sum(os.path.getsize(os.path.join(out, "tasks", f)) for f in os.listdir(os.path.join(out, "tasks")))
             rows.append({"workers": workers, "threads": threads, "wall_s": round(wall, 2),
-                         "sim_h_per_wall_h": round(sim_h / (wall / 3600.0), 1), "result_bytes_per_task": size // tasks})
+                         "sim_h_per_wall_h": round(sim_h / (wall / 3600.0), 1), "result_bytes_per_task": size // tasks,
+                         "peak_bytes_driver": r["peak_bytes"]})
             merged.append(merge_campaign(out))
             print(f"{workers} worker(s) x {threads} thread(s): {wall:6.1f} s, "
                   f"{rows[-1]['sim_h_per_wall_h']:7.1f} sim-h/wall-h", flush=True)
@@ -108,9 +138,9 @@ def main(argv=None):
     base = rows[0]["sim_h_per_wall_h"]
     for r in rows:
         r["efficiency"] = round(r["sim_h_per_wall_h"] / (r["workers"] * r["threads"] * base), 3)
-    overhead = scheduler_overhead()
+    overhead = _spawn({"kind": "overhead"})["s_per_task"]
     task_s = rows[0]["wall_s"] / tasks
-    out = {"cores": cores, "tasks": tasks, "period_s": duration, "runs": rows, "identical_bits": True,
+    out = {"machine": machine(), "cores": cores, "tasks": tasks, "period_s": duration, "runs": rows, "identical_bits": True,
            "scheduler_overhead_s_per_task": round(overhead, 5), "task_seconds_1core": round(task_s, 2),
            "note": (f"a task of {duration:.0f} s simulated takes {task_s:.1f} s on one core and returns "
                     f"{rows[0]['result_bytes_per_task'] / 1e6:.1f} MB; the scheduler costs {overhead * 1e3:.1f} ms "
@@ -120,9 +150,7 @@ def main(argv=None):
                     f"write M*C*{rows[0]['result_bytes_per_task'] / 1e6:.1f} MB per {task_s:.0f} s")}
     print(json.dumps(out, indent=2))
     if a.json:
-        os.makedirs(os.path.dirname(os.path.abspath(a.json)), exist_ok=True)
-        with open(a.json, "w") as fh:
-            json.dump(out, fh, indent=2)
+        write_json(a.json, out)
     return 0
 
 

@@ -19,8 +19,8 @@ What is measured (prototype preset: 50 MHz, N = 512, M = 1953 blocks per estimat
   ``fft_in_cache`` is the FFT as tier 3 itself runs it (``_fft.RowsRFFT``, 64 rows at a
   time per thread, buffers in cache), for information.
 
-Protocol
---------
+Protocol (the shared one, ``benchmarks/_protocol.py``)
+-----------------------------------------------------
 Each tier runs in ``--children`` fresh interpreters (default 3, 1 with ``--quick``) so
 that no state (JIT, FFTW wisdom, allocator) carries over between tiers.  A child
 imports, runs a small warm-up of the same code (compilation and numba's cache load
@@ -43,19 +43,19 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import statistics
-import subprocess
 import sys
-import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import _protocol  # noqa: E402  (the shared child-process protocol)
+from _protocol import child_main, machine, summarize, timed  # noqa: E402
 
 TARGETS = {"tier2": 1e4, "tier3": 1.0}
 
 
 def _timed(fn):
-    w, c = time.perf_counter(), time.process_time()
-    fn()
-    return time.perf_counter() - w, time.process_time() - c
+    wall, cpu, _ = timed(fn)
+    return wall, cpu
 
 
 def _child(task):
@@ -127,29 +127,18 @@ def _child(task):
         out["fft_in_cache"] = cached
     out["runs"] = runs
     out["load_after"] = os.getloadavg()
-    print(json.dumps(out))
+    return out
 
 
 def _spawn(task, pythonpath):
-    env = dict(os.environ)
-    if pythonpath:
-        env["PYTHONPATH"] = os.path.abspath(pythonpath) + os.pathsep + env.get("PYTHONPATH", "")
-    cmd = [sys.executable, os.path.abspath(__file__), "--child", json.dumps(task)]
-    # run from a neutral directory so that --pythonpath decides which package is imported
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=os.path.dirname(os.path.abspath(__file__)))
-    if p.returncode != 0:
-        raise RuntimeError(f"child {task['tier']} failed:\n{p.stderr[-3000:]}")
-    return json.loads(p.stdout.strip().splitlines()[-1])
+    r = _protocol.spawn(__file__, task, pythonpath=pythonpath)
+    if "error" in r:
+        raise RuntimeError(f"child {task['tier']} failed:\n{r['error']}")
+    return r
 
 
 def _summary(children, sim_s, key="runs"):
-    walls = [r[0] for c in children for r in c[key]]
-    cpus = [r[1] for c in children for r in c[key]]
-    best = min(walls)
-    return {"wall_s_min": best, "wall_s_median": statistics.median(walls),
-            "realtime_factor": sim_s / best, "realtime_factor_median": sim_s / statistics.median(walls),
-            "cpu_per_wall": statistics.median([c / w for c, w in zip(cpus, walls)]),
-            "realtime_factor_per_cpu_s": sim_s / min(cpus), "n_runs": len(walls)}
+    return summarize([r for c in children for r in c[key]], sim_s)
 
 
 def main(argv=None):
@@ -163,16 +152,14 @@ def main(argv=None):
     ap.add_argument("--child", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        _child(json.loads(args.child))
-        return
+        child_main({"default": _child}, args.child)
     children = args.children or (1 if args.quick else 3)
     repeats = args.repeats or (3 if args.quick else 5)
     n2 = 50_000 if args.quick else 250_000
     n3 = 10 if args.quick else 50
     # the prototype's 50 Hz staring rate; its estimates cover 99.98 % of the 50 MHz stream
     rate = 50.0
-    rep = {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
-           "python": platform.python_version(), "pythonpath": args.pythonpath, "children": children,
+    rep = {"machine": machine(), "cores": os.cpu_count(), "pythonpath": args.pythonpath, "children": children,
            "repeats": repeats}
     for tier, n in (("tier2", n2), ("tier3", n3)):
         task = {"tier": tier, "estimates": n, "repeats": repeats, "threads": args.threads}
@@ -182,6 +169,7 @@ def main(argv=None):
         r.update(_summary(kids, sim_s))
         r["met"] = r["realtime_factor"] >= TARGETS[tier]
         r["loadavg_1min"] = [round(x, 2) for c in kids for x in (c["load_before"][0], c["load_after"][0])]
+        r["peak_bytes"] = max(c["peak_bytes"] for c in kids)
         if tier == "tier3":
             r["samples"] = n * 1953 * 512
             r["fft_floor"] = _summary(kids, sim_s, "floor")
@@ -205,8 +193,7 @@ def main(argv=None):
                 line += f"; FFT in cache {r['fft_in_cache']['realtime_factor']:.1f}x"
         print(line)
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rep, f, indent=2)
+        _protocol.write_json(args.json, rep)
 
 
 if __name__ == "__main__":

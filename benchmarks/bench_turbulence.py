@@ -8,89 +8,37 @@ Usage::
 A shape SPEC is ``NXxNYxNZ@D`` (one spacing for all axes) or ``NXxNYxNZ@DX/DY/DZ`` [m],
 e.g. ``16384x32x32@0.5/4/4``.
 
-What is measured (αε^(2/3) = 1 m^(4/3) s^-2, L = 33.6 m, Γ = 3.9)
-------------------------------------------------------------------
-Every timing runs in a fresh subprocess of this script (``--child``), so the peak
-resident set size (``getrusage(RUSAGE_SELF).ru_maxrss``) belongs to one generator
-only.  In each child:
-
-1. import the generator, record the RSS ("after imports");
-2. generate one tiny warm-up box of a *different* shape (64 x 8 x 8), so that
-   loading numba's on-disk JIT cache (ours), scipy.fft's lazy import (hipersim) or
-   hipersim's process pool is not counted in the timing; record the RSS again
-   ("baseline": Python, the libraries and the warm-up);
-3. time "tensor set-up + first box" end to end (seed 1);
-4. ours only: drop the first box and time a second box with the same parameters
-   and a different seed (seed 2); the tensor set-up is cached in-process;
-5. ours only, after the memory figures are taken: drop the box and time the FFT
-   floor (below) in the same process, so that "second box / floor" can also be
-   taken from two timings made back to back under one machine load.
-
-The peak RSS reported is absolute (it includes the interpreter and the libraries);
-"increment" is the peak minus the baseline of step 2.  Times are the minimum over
-``--repeats`` fresh children (3 in full mode, 1 with ``--quick``); peak RSS is the
-maximum over them.  The children run in rounds -- ours, the floor, then each peer,
-and again -- so that a change in the load of a shared machine reaches all of them.
-
-Peer settings.  "periodic" is the like-for-like setting: a box periodic in all three
-directions, as ours is, which is also each peer's fastest setting (mannrs
-``aperiodic_x/y/z=False`` with ``parallel=True`` for both build and synthesis;
-hipersim ``double_xyz=(False, False, False)`` with ``n_cpu=1`` and, separately,
-``n_cpu=<all cores>``).  "default" is each peer's out-of-the-box setting, which
-doubles the box in y and z to break the lateral periodicity and returns one
-quarter of it (mannrs ``aperiodic_y=aperiodic_z=True``, ``parallel=True``; hipersim
-``double_xyz=(False, True, True)``, ``n_cpu=1``); this is the setting that matches
-the peer timings quoted in issue 2.  Speed ratios are given against both; the
-headline ratio is against the faster of the two peers in the periodic setting.
-
-The FFT floor is three of FFTW's own threaded inverse real 3-D FFTs of the shape
-(``cwlidar_sim._fft.irfft3_floor``, all cores, ``FFTW_ESTIMATE``; planning and
-filling the buffers excluded; minimum of 3 repetitions in one child).
-
-Accuracy (``--no-accuracy`` skips it).  For each shape and generator, a few seeds
-(``--seeds``, 3 for the peers; ``--seeds-ours``, 10 for ours, which is cheap);
-per seed the sample variances of u, v, w about the box mean and the u-w sample
-covariance, and the x-periodogram of each component averaged over y and z,
-normalised to the two-sided convention ``sum_n F(k_n) dk1 = mean of u^2``
-(``F(k_n) = |X_n|^2 dx / (2 pi Nx)`` with ``X`` the unnormalised DFT along x).
-These are compared with (a) the tensor integrated over the wave vectors the grid
-holds, ``covariances(params, spacing)`` and ``one_point_spectra(k1, params,
-k2_max=pi/dy, k3_max=pi/dz)``, (b) the full-space integrals ``covariances(params)``
-and ``one_point_spectra(k1, params)``, and (c) what our box is built to have,
-``expected_box_covariance(...)``, which is (a) less the variance of the central
-wavenumber cell (the box mean, which any periodic box of this size loses from its
-sample variance).  Spectral ratios are ratios of sums over the bins of a band:
-the mid band k1 in [0.05, 0.3] rad/m and a high band k1 in [0.60, 0.68] x pi/dx
-(around 0.64 x Nyquist, where the lateral cut-off bites).  The "+-" given with
-each ratio is the standard error of the seed mean.  For periodic boxes it is computed
-from each box's own Fourier modes (see ``_mode_variances``: for independent Gaussian
-modes the sampling variance of a sum of mode powers is estimated without bias by the
-sum of the squared powers), which is far steadier than the scatter between 3 seeds;
-for the peers' doubled boxes it is the scatter between seeds / sqrt(number of seeds)
-(marked ``*``).  Both are estimated from the realised boxes, so a set of seeds that
-happens to be low in power also gets a small standard error: treat a 2-3 sigma
-deficit in var u from 10 seeds with caution (a 200-seed check of ours at
-4096x32x32 gave var u / exp = 1.020 +- 0.014).  With 3 seeds the variance of u in a long, thin box scatters
-by tens of percent, so only the spectral ratios resolve a few percent.  Peers are
-checked in both settings (hipersim's n_cpu changes only its speed; ``--quick``
-checks the periodic setting only).  ``ours+hf``
-is ours with ``hf_compensation=True`` (accuracy only, not timed).
+αε^(2/3) = 1 m^(4/3) s^-2, L = 33.6 m, Γ = 3.9.  Every measurement runs in a fresh
+interpreter under the shared protocol of ``benchmarks/_protocol.py`` (warm-up box
+64x8x8 first, minimum over children run in rounds -- ours, the FFT floor, each peer --
+peak memory as VmHWM).  Measured per shape: ours (set-up + first box, then a second
+box with the cached set-up, then the FFT floor in the same child), the floor (three
+FFTW threaded inverse real 3-D FFTs, planning excluded), and the peers ``mannrs`` and
+``hipersim`` in their periodic (like-for-like) and default (y, z doubled) settings.
+Accuracy (``--no-accuracy`` skips it): seed-averaged variances, u-w covariance and
+x-periodogram band sums against the tensor over the grid, over all of R^3 and
+``expected_box_covariance``, with standard errors from each box's own Fourier modes
+(periodic boxes) or the scatter between seeds (the peers' doubled boxes, marked ``*``).
+``ours+hf`` is ours with ``hf_compensation=True`` (accuracy only).  The settings, the
+references and the results are described in ``benchmarks/README.md``.
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
 import gc
-import json
 import math
 import os
-import platform
-import subprocess
 import sys
-import threading
 import time
 
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import _protocol  # noqa: E402  (the shared child-process protocol)
+from _protocol import TreeRssSampler, child_main, log, machine, ru_maxrss, write_json  # noqa: E402
+from _protocol import vmhwm as peak_rss  # noqa: E402
+from _protocol import vmrss as current_rss  # noqa: E402
 import numpy as np
 
 ALPHA_EPS = 1.0
@@ -103,7 +51,6 @@ WARMUP_SHAPE = (64, 8, 8)
 WARMUP_SPACING = (2.0, 2.0, 2.0)
 MID_BAND = (0.05, 0.3)  # rad/m
 HF_BAND_FRAC = (0.60, 0.68)  # x pi/dx
-RESULT_TAG = "@@BENCH_RESULT@@"
 COMPONENTS = ("u", "v", "w")
 
 
@@ -138,88 +85,6 @@ def output_bytes(shape) -> int:
     """Size of three float32 output arrays, 3 Nx Ny Nz 4 bytes."""
     return 3 * shape[0] * shape[1] * shape[2] * 4
 
-
-def current_rss() -> int:
-    """Current resident set size of this process [bytes]."""
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-
-
-def peak_rss() -> int:
-    """Peak resident set size of this process so far [bytes]: VmHWM.
-
-    ``getrusage(RUSAGE_SELF).ru_maxrss`` is not used for the figures: Linux carries
-    the high-water mark of the parent across fork + exec, so a child started by a
-    driver that has grown to 200 MB reports at least 200 MB.  VmHWM belongs to the
-    child's own address space (it equals ru_maxrss whenever the child's peak exceeds
-    the parent's); ru_maxrss is still recorded in the JSON.
-    """
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) * 1024
-    raise RuntimeError("VmHWM not found in /proc/self/status")
-
-
-def ru_maxrss() -> int:
-    import resource
-
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-
-
-class TreeRssSampler:
-    """Samples the summed RSS of this process and its descendants (for peers that fork)."""
-
-    def __init__(self, period=0.02):
-        self.period = period
-        self.peak = 0
-        self.saw_children = False
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-
-    @staticmethod
-    def _rss_of(pid):
-        try:
-            with open(f"/proc/{pid}/statm") as f:
-                return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-        except OSError:
-            return 0
-
-    @staticmethod
-    def _children(pid):
-        out = []
-        try:
-            for tid in os.listdir(f"/proc/{pid}/task"):
-                try:
-                    with open(f"/proc/{pid}/task/{tid}/children") as f:
-                        out.extend(int(c) for c in f.read().split())
-                except OSError:
-                    pass
-        except OSError:
-            pass
-        return out
-
-    def _run(self):
-        me = os.getpid()
-        while not self._stop.is_set():
-            total, stack = 0, [me]
-            while stack:
-                pid = stack.pop()
-                total += self._rss_of(pid)
-                ch = self._children(pid)
-                if ch and pid == me:
-                    self.saw_children = True
-                stack.extend(ch)
-            self.peak = max(self.peak, total)
-            self._stop.wait(self.period)
-
-    def __enter__(self):
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc):
-        self._stop.set()
-        self._thread.join()
 
 
 # ---------------------------------------------------------------------------
@@ -533,32 +398,13 @@ def child_accuracy(task):
 
 
 def run_child_main(task_json):
-    task = json.loads(task_json)
-    kind = task["kind"]
-    fn = {"time": child_time, "floor": child_floor, "accuracy": child_accuracy}[kind]
-    res = fn(task)
-    sys.stdout.write("\n" + RESULT_TAG + json.dumps(res) + "\n")
-    sys.stdout.flush()
-    # hipersim's process pool is never closed; leave without waiting for it.
-    os._exit(0)
+    # hipersim's process pool is never closed: child_main leaves with os._exit.
+    child_main({"time": child_time, "floor": child_floor, "accuracy": child_accuracy}, task_json)
 
 
 def spawn(task, timeout=900):
-    """Run one task in a fresh interpreter; return its result dict (or an error dict)."""
-    cmd = [sys.executable, os.path.abspath(__file__), "--child", json.dumps(task)]
-    t0 = time.perf_counter()
-    try:
-        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        return {"error": f"timeout after {timeout} s"}
-    wall = time.perf_counter() - t0
-    for line in reversed(p.stdout.splitlines()):
-        if line.startswith(RESULT_TAG):
-            r = json.loads(line[len(RESULT_TAG):])
-            r["child_wall_s"] = wall
-            return r
-    return {"error": f"child failed (rc={p.returncode}): {p.stderr[-2000:]}"}
-
+    """One task in a fresh interpreter (the shared protocol); its result dict, or an error dict."""
+    return _protocol.spawn(__file__, task, timeout=timeout)
 
 # ---------------------------------------------------------------------------
 # references for the accuracy section
@@ -663,22 +509,6 @@ def accuracy_ratios(acc, refs, gen):
 # ---------------------------------------------------------------------------
 def _gb(b):
     return b / 1e9
-
-
-def versions():
-    v = {"python": platform.python_version()}
-    for mod in ("numpy", "pyfftw", "numba", "scipy", "cwlidar_sim", "mannrs", "hipersim"):
-        try:
-            from importlib.metadata import version
-
-            v[mod] = version(mod)
-        except Exception:  # noqa: BLE001  (a missing package is reported, not fatal)
-            v[mod] = None
-    return v
-
-
-def log(msg):
-    print(msg, flush=True)
 
 
 def measure_shape(shape, spacing, peer_settings, repeats, do_accuracy, seeds, seeds_ours, acc_modes):
@@ -944,11 +774,7 @@ def main(argv=None):
 
     t_start = time.perf_counter()
     meta = {
-        "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "host": platform.node(),
-        "cpu_count": os.cpu_count(),
-        "mem_total_bytes": os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"),
-        "versions": versions(),
+        **machine(),
         "params": dict(alpha_eps=ALPHA_EPS, length_scale=LENGTH_SCALE, gamma=GAMMA),
         "mode": "quick" if args.quick else "full",
         "repeats": repeats,
@@ -963,7 +789,7 @@ def main(argv=None):
             "load, lazy imports, hipersim pool start), then timed tensor set-up + first box (seed 1); ours also "
             "a second box (seed 2) after dropping the first, and then the floor in the same process "
             "(t_floor_same_child). Times: min over repeats; peak RSS "
-            "(getrusage ru_maxrss, absolute, includes interpreter + libraries): max over repeats; "
+            "(VmHWM, absolute, includes interpreter + libraries): max over repeats; "
             "peak_increment = peak - RSS after imports and warm-up. Floor: 3 FFTW threaded c2r 3-D FFTs, "
             "planning excluded, min of 3. Output bytes = 3*Nx*Ny*Nz*4."
         ),
@@ -974,20 +800,13 @@ def main(argv=None):
         results.append(measure_shape(shape, spacing, settings, repeats, do_acc, seeds, seeds_ours,
                                      ("periodic",) if args.quick else ("periodic", "default")))
         if args.json:  # keep partial results if a later shape fails
-            _write_json(args.json, meta, results, time.perf_counter() - t_start)
+            write_json(args.json, {"meta": dict(meta, total_wall_s=time.perf_counter() - t_start), "shapes": results})
     print_tables(results)
     total = time.perf_counter() - t_start
     log(f"\ntotal benchmark wall time {total:.1f} s")
     if args.json:
-        _write_json(args.json, meta, results, total)
+        write_json(args.json, {"meta": dict(meta, total_wall_s=total), "shapes": results})
         log(f"JSON written to {args.json}")
-
-
-def _write_json(path, meta, results, total):
-    d = os.path.dirname(os.path.abspath(path))
-    os.makedirs(d, exist_ok=True)
-    with open(path, "w") as f:
-        json.dump({"meta": dict(meta, total_wall_s=total), "shapes": results}, f, indent=1, default=float)
 
 
 if __name__ == "__main__":

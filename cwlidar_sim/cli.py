@@ -154,7 +154,10 @@ def _cmd_doppler(args) -> int:
         mean = "nan" if rep["mean"] is None else f"{rep['mean']:.4f}"
         std = "nan" if rep["std"] is None else f"{rep['std']:.4f}"
         print(f"{args.tier} {rep['estimator']}: mean {mean} m/s, std {std} m/s, "
-              f"availability {rep['availability']:.3f}, flags {rep['flags']}")
+              f"availability {rep['availability']:.3f} (usable: finite, not NEAR_ZERO/NEAR_NYQUIST; "
+              f"finite {rep['valid_fraction']:.3f}), flags {rep['flags']}")
+        if rep.get("warning"):
+            print(f"warning: {rep['warning']}")
     return 0
 
 

@@ -267,8 +267,15 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
     from .store import PeriodStore, combine_periods, preflight, write_results
 
     task, estimate_bytes, finalise = _sensor(scene)
+    from .auto import resolve
+
     say = log or (lambda s: None)
     t0 = time.perf_counter()
+    auto_why = {}
+    if scene.kind == "staring":  # "auto" tier / field.dx / cell_length: the cheapest sufficient setting
+        scene, auto_why = resolve(scene)
+    for key, why in auto_why.items():
+        say(f"{key} = {why}")
     preflight(out_dir, estimate_bytes(scene))
     params = fit_info = None
     if scene.kind == "staring":
@@ -328,6 +335,7 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         ds = finalise(ds)
     ds.attrs["wall_time"] = float(time.perf_counter() - t0)
     ds.attrs["periods_reused"] = json.dumps(reused)
+    ds.attrs["auto_choice"] = json.dumps(auto_why)
     if fit_info is not None:
         ds.attrs["turbulence_fit"] = json.dumps(fit_info)
     if store is not None:

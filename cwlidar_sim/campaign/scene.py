@@ -183,8 +183,10 @@ class LidarSpec:
         Field-by-field overrides of the preset (e.g. ``focus``,
         ``estimator``, ``threshold_raise_percent``); validated by
         :class:`~cwlidar_sim.signal.Instrument`.
-    tier : {'los', 'spectral', 'signal'}
-        Fidelity tier (tier 'signal' only for short records).
+    tier : {'los', 'spectral', 'signal', 'auto'}
+        Fidelity tier (tier 'signal' only for short records); 'auto': the
+        cheapest one sufficient for what the scene asks
+        (:mod:`cwlidar_sim.campaign.auto`).
     cnr_db : float
         Carrier-to-noise ratio [dB]; in [-40, 60]: total signal power over
         the noise power in 0 .. f_s/2 (see :mod:`cwlidar_sim.signal.spectral`).
@@ -193,8 +195,9 @@ class LidarSpec:
         Beam weighting along the line of sight.
     span : float
         Half-width of the modelled probe volume in Rayleigh lengths [-]; in (0, 200].
-    cell_length : float, optional
-        Range-cell length [m]; default the field's x spacing.
+    cell_length : float or 'auto', optional
+        Range-cell length [m]; default the field's x spacing; 'auto': see
+        :mod:`cwlidar_sim.campaign.auto`.
     transverse_speed : float, optional
         Aerosol speed across the beam [m/s] that sets the speckle
         correlation time; default ``sqrt(sigma_v^2 + sigma_w^2 + (U sin theta)^2)``
@@ -246,11 +249,11 @@ class LidarSpec:
         if not isinstance(self.instrument, dict):
             raise TypeError(f"lidar.instrument must be a table of overrides, got {type(self.instrument).__name__}")
         self.build_instrument()
-        check_choice("lidar.tier", self.tier, TIERS)
+        check_choice("lidar.tier", self.tier, TIERS + ("auto",))
         _set(self, "cnr_db", check_real("lidar.cnr_db", self.cnr_db, lo=-40.0, hi=60.0))
         check_choice("lidar.weighting", self.weighting, ("exact", "lorentzian"))
         _set(self, "span", check_real("lidar.span", self.span, lo=0.0, hi=200.0, lo_open=True))
-        if self.cell_length is not None:
+        if self.cell_length is not None and self.cell_length != "auto":
             _set(self, "cell_length", check_real("lidar.cell_length", self.cell_length, lo=0.01, hi=100.0))
         if self.transverse_speed is not None:
             _set(self, "transverse_speed", check_real("lidar.transverse_speed", self.transverse_speed, lo=0.0, hi=100.0))
@@ -332,8 +335,9 @@ class FieldSpec:
         'auto' picks the cheapest field the sensors need (see
         :func:`cwlidar_sim.campaign.runner.choose_field`); the others force it
         (a forced field that cannot hold the sensors is an error).
-    dx : float
-        Spacing along the wind [m]; in [0.05, 10].
+    dx : float or 'auto'
+        Spacing along the wind [m]; in [0.05, 10]; 'auto': see
+        :mod:`cwlidar_sim.campaign.auto`.
     dy, dz : float
         Lateral and vertical spacing of planes and boxes [m]; in [0.1, 50].
         A beam misaligned by theta averages across the wind too: at k1 it
@@ -354,7 +358,8 @@ class FieldSpec:
 
     def __post_init__(self):
         check_choice("field.kind", self.kind, FIELD_KINDS)
-        _set(self, "dx", check_real("field.dx", self.dx, lo=0.05, hi=10.0))
+        if self.dx != "auto":
+            _set(self, "dx", check_real("field.dx", self.dx, lo=0.05, hi=10.0))
         _set(self, "dy", check_real("field.dy", self.dy, lo=0.1, hi=50.0))
         _set(self, "dz", check_real("field.dz", self.dz, lo=0.1, hi=50.0))
         if self.ny is not None:

@@ -340,6 +340,7 @@ def estimate_task(scene: Scene) -> dict:
     box's transform), its raw series in float64 (results and analysis
     copies) and 250 MB of interpreter and libraries.
     """
+    from .auto import resolve
     from .runner import plan_field, scene_params
     from .store import estimate_bytes
 
@@ -349,6 +350,7 @@ def estimate_task(scene: Scene) -> dict:
         per = [estimate_unit(scene, i) for i in range(len(scene.unit_names()))]
         return {"seconds": TASK_OVERHEAD_S + sum(e["seconds"] for e in per),
                 "memory_bytes": max(e["memory_bytes"] for e in per) + 250e6}
+    scene = resolve(scene)[0]
     params, _ = scene_params(scene)
     seconds = TASK_OVERHEAD_S
     peak = 0.0

@@ -467,6 +467,12 @@ def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, rai
     flags = 0
     if second >= second_frac * best:
         flags |= F_SECOND_PEAK
+    # the strongest thresholded bin at an edge of the scanned band: the line lies in the blind zone (or
+    # beyond Nyquist) and only its tail is seen, whatever the estimate (docs/stability.md)
+    if kp == k_lo:
+        flags |= F_NEAR_ZERO
+    if kp == k_hi - 1:
+        flags |= F_NEAR_NYQUIST
     if est_id == EST_MEDIAN:
         half = 0.5 * total
         cum = 0.0

@@ -204,4 +204,8 @@ def uniform_report(est: DopplerEstimates, info: dict, *, speed, cnr_db, tier, in
     }
     if "note" in info:
         rep["note"] = info["note"]
+    if tier != "los" and abs(float(speed)) > instrument.nyquist_speed:
+        # the instrument cannot see it (no flag can be set from the spectrum): the simulation says so
+        rep["warning"] = (f"|speed| {abs(float(speed)):g} m/s is beyond Nyquist ({instrument.nyquist_speed:.4g} m/s): "
+                          f"the estimates are the alias, not the speed")
     return rep

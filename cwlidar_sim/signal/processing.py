@@ -27,6 +27,19 @@ Steps, for every estimate
    loses the sign: estimates are >= 0.
 5. Flags (:class:`Flag`); failed estimates are NaN and flagged, and counted
    in :attr:`DopplerEstimates.availability`.
+
+What availability counts
+------------------------
+:attr:`DopplerEstimates.availability` is the fraction of *usable* estimates:
+finite and carrying none of :data:`SUSPECT_FLAGS` (NEAR_ZERO, NEAR_NYQUIST).
+An estimate within the edge guard of the blind zone or of Nyquist is finite
+but biased by the instrument's limits (at 0.3 m/s the prototype's median
+reports about 0.56 m/s, every estimate flagged NEAR_ZERO): a user reading
+"availability" as "usable" must not count it.  The fraction of finite
+estimates, flagged or not, is :attr:`DopplerEstimates.valid_fraction`.
+SECOND_PEAK estimates stay counted (the main peak's estimate is kept; the
+flag warns of a cloud).  A campaign's ``availability`` (finite 50 Hz
+estimates) is unchanged: its speeds are far from both edges.
 """
 
 from __future__ import annotations
@@ -43,6 +56,7 @@ __all__ = [
     "Flag",
     "ESTIMATORS",
     "FAIL_FLAGS",
+    "SUSPECT_FLAGS",
     "DopplerEstimates",
     "threshold_levels",
     "raised_level",
@@ -59,9 +73,12 @@ class Flag(enum.IntFlag):
 
     #: No bin above the threshold: the estimate is NaN.
     NO_SIGNAL = 1
-    #: Estimate within ``edge_guard_speed`` of Nyquist: possibly aliased.
+    #: Estimate within ``edge_guard_speed`` of Nyquist, or the strongest thresholded bin is
+    #: the last one scanned: possibly aliased.
     NEAR_NYQUIST = 2
-    #: Estimate within ``edge_guard_speed`` of the blind zone: homodyne ambiguity, RIN.
+    #: Estimate within ``edge_guard_speed`` of the blind zone, or the strongest thresholded bin
+    #: is the first one scanned (a line inside the blind zone seen by its tail): homodyne
+    #: ambiguity, RIN.
     NEAR_ZERO = 4
     #: A separate group of thresholded bins carries at least ``second_peak_fraction``
     #: of the main group's power: cloud return or second peak suspected.
@@ -75,6 +92,9 @@ class Flag(enum.IntFlag):
 
 #: Flags that make an estimate NaN.
 FAIL_FLAGS = Flag.NO_SIGNAL | Flag.FIT_FAILED | Flag.PAUSED
+
+#: Flags of finite estimates biased by the instrument's limits: not counted as available.
+SUSPECT_FLAGS = Flag.NEAR_ZERO | Flag.NEAR_NYQUIST
 
 #: Registry of Doppler estimators: name -> (kernel id, description).  All act
 #: on the thresholded, noise-normalised spectrum (see the module notes).
@@ -130,7 +150,15 @@ class DopplerEstimates:
 
     @property
     def availability(self) -> float:
-        """Fraction of estimates that are valid (not NaN) [-]."""
+        """Fraction of usable estimates [-]: finite and without a :data:`SUSPECT_FLAGS` flag (module notes)."""
+        if not self.n:
+            return float("nan")
+        ok = np.isfinite(self.speed_e) & ((self.flags_e & np.uint8(SUSPECT_FLAGS)) == 0)
+        return float(np.mean(ok))
+
+    @property
+    def valid_fraction(self) -> float:
+        """Fraction of finite estimates [-], suspect ones included."""
         return float(np.mean(np.isfinite(self.speed_e))) if self.n else float("nan")
 
     def flag_counts(self) -> dict:
@@ -143,7 +171,9 @@ class DopplerEstimates:
         return {
             "n": self.n,
             "n_valid": int(ok.size),
+            "n_usable": int(round(self.availability * self.n)) if self.n else 0,
             "availability": self.availability,
+            "valid_fraction": self.valid_fraction,
             "mean": float(ok.mean()) if ok.size else None,
             "std": float(ok.std(ddof=1)) if ok.size > 1 else None,
             "flags": self.flag_counts(),

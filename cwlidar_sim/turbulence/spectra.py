@@ -8,6 +8,7 @@ one-point spectra are even in k1, so the one-sided spectrum is ``2 F``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -190,6 +191,12 @@ def covariances(params: MannParameters, spacing=None) -> Covariances:
     else:
         d = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
         kmax = tuple(math.pi / di for di in d)
+    return _covariances(params, kmax)
+
+
+@functools.lru_cache(maxsize=64)
+def _covariances(params, kmax):
+    """covariances() of validated arguments, kept per process (a few seconds of quadrature each)."""
     x1, w1 = half_line_nodes(1.0 / params.length_scale, kmax[0])
     F = _onepoint_raw(x1, params, kmax[1], kmax[2])
     # Even in k1: twice the half-line integral.
@@ -241,6 +248,12 @@ def subcell_variance(params: MannParameters, field_spacing: float) -> float:
     """
     _check_params(params)
     dx = check_real("field_spacing", field_spacing, lo=0.0, hi=1e4, lo_open=True)
+    return _subcell_variance(params, dx)
+
+
+@functools.lru_cache(maxsize=64)
+def _subcell_variance(params, dx):
+    """subcell_variance() of validated arguments, kept per process."""
     kmax = math.pi / dx
     x, w = half_line_nodes(1.0 / params.length_scale, kmax, max(kmax, 1.0 / params.length_scale))
     f11 = _onepoint_raw(x, params, math.inf, math.inf)[:, 0]

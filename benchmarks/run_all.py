@@ -1,0 +1,147 @@
+"""Run every benchmark and write one JSON with every ratio.
+
+    python benchmarks/run_all.py [--quick] [--out DIR] [--only NAME ...]
+
+Runs, each as its own command (each under the shared child-process protocol
+of ``benchmarks/_protocol.py``), and keeps its full report under
+``DIR/<name>.json``:
+
+* ``turbulence``: ``bench_turbulence.py`` -- ours against the FFT floor and
+  against the peers mannrs and hipersim (periodic and default settings);
+* ``signal``: ``bench_signal.py`` -- the real-time factors of tiers 2 and 3,
+  tier 3 against its FFT floor;
+* ``campaign``: ``bench_campaign.py`` -- the A2012 reproduction against its
+  tier-1 floor;
+* ``cs``: ``bench_cs.py`` -- the CS conical reproduction against its tier-1 floor;
+* ``estimator_theory``: ``bench_estimator_theory.py`` -- the estimator-aware
+  theory against one campaign period;
+* ``scaling``: ``bench_scaling.py`` -- campaign throughput, 1 and N workers;
+* ``speed_vs_accuracy``: ``speed_vs_accuracy.py`` -- the fidelity chart.
+
+``DIR/run_all.json`` (default DIR ``results/benchmarks``) gathers the
+headline ratios of all of them (``ratios``), the machine and the wall time of
+each benchmark.  A benchmark that fails is reported with its error; the
+others still run.  ``--quick`` passes ``--quick`` to each (about 6-8
+minutes on 2 shared cores); without it the full set takes about 30 minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+from _protocol import log, machine, write_json  # noqa: E402
+
+
+def _get(d, *path):
+    for p in path:
+        if not isinstance(d, dict) or p not in d:
+            return None
+        d = d[p]
+    return d
+
+
+def ratios_turbulence(rep):
+    out = {}
+    for sh in rep.get("shapes", []):
+        rt = sh.get("ratios", {})
+        keep = {k: v for k, v in rt.items() if isinstance(v, (int, float))}
+        out[sh["label"]] = keep
+    return out
+
+
+def ratios_signal(rep):
+    return {"tier2_realtime_factor": _get(rep, "tier2", "realtime_factor"),
+            "tier3_realtime_factor": _get(rep, "tier3", "realtime_factor"),
+            "tier3_over_fft_floor": _get(rep, "tier3", "ratio_to_floor"),
+            "tier3_over_fft_floor_median": _get(rep, "tier3", "ratio_to_floor_median")}
+
+
+def ratios_campaign(rep):
+    return {"wall_s": rep.get("wall_s_min"), "over_tier1_floor": rep.get("ratio_to_floor"),
+            "peak_gib": rep.get("peak_gib")}
+
+
+def ratios_cs(rep):
+    return {"wall_s": rep.get("wall_s"), "over_tier1_floor": rep.get("ratio_to_floor"),
+            "peak_gib": (rep.get("peak_bytes") or 0) / 2**30}
+
+
+def ratios_estimator_theory(rep):
+    rows = rep.get("rows", [])
+    camp = [r for r in rows if "campaign_period_s" in r]
+    out = {f"{r['estimators']} est, {r['lines']} lines, {r['grid']}": r["wall_s"] for r in rows if "grid" in r}
+    if camp and rows and "grid" in rows[0]:
+        out["theory_1_estimator_over_campaign_period"] = rows[0]["wall_s"] / camp[0]["wall_s"]
+    return out
+
+
+def ratios_scaling(rep):
+    return {f"{r['workers']}w_x_{r['threads']}t": {"sim_h_per_wall_h": r["sim_h_per_wall_h"],
+                                                   "efficiency": r["efficiency"]} for r in rep.get("runs", [])}
+
+
+def ratios_speed(rep):
+    recs = rep.get("records", [])
+    best = min((r["wall_s_per_sim_hour"] for r in recs if r.get("wall_s_per_sim_hour")), default=None)
+    return {f"{r['scene']}: {r['label']}": {"wall_s_per_sim_hour": r["wall_s_per_sim_hour"],
+                                          "cpu_s_per_sim_hour": r.get("cpu_s_per_sim_hour"), "error": r["error"],
+                         "over_cheapest": (r["wall_s_per_sim_hour"] / best) if best else None,
+                         "pareto": r.get("pareto")} for r in recs}
+
+
+#: name -> (script, arguments full, arguments quick, ratio extractor, json flag)
+BENCHMARKS = {
+    "turbulence": ("bench_turbulence.py", [], ["--quick"], ratios_turbulence, "--json"),
+    "signal": ("bench_signal.py", [], ["--quick"], ratios_signal, "--json"),
+    "campaign": ("bench_campaign.py", [], ["--quick", "--children", "1"], ratios_campaign, "--json"),
+    "cs": ("bench_cs.py", [], ["--quick"], ratios_cs, "--json"),
+    "estimator_theory": ("bench_estimator_theory.py", [], ["--quick"], ratios_estimator_theory, "--json"),
+    "scaling": ("bench_scaling.py", [], ["--quick"], ratios_scaling, "--json"),
+    "speed_vs_accuracy": ("speed_vs_accuracy.py", [], ["--quick"], ratios_speed, "--out"),
+}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="each benchmark's --quick")
+    ap.add_argument("--out", default=os.path.join("results", "benchmarks"), metavar="DIR")
+    ap.add_argument("--only", nargs="+", choices=list(BENCHMARKS), help="run only these")
+    a = ap.parse_args(argv)
+    os.makedirs(a.out, exist_ok=True)
+    summary = {"machine": machine(), "mode": "quick" if a.quick else "full", "benchmarks": {}, "ratios": {}}
+    for name in a.only or BENCHMARKS:
+        script, full, quick, extract, flag = BENCHMARKS[name]
+        path = os.path.join(a.out, f"{name}.json")
+        if flag == "--out":
+            target = os.path.join(a.out, name)
+            path = os.path.join(target, f"{name}.json")
+        else:
+            target = path
+        cmd = [sys.executable, os.path.join(HERE, script), *(quick if a.quick else full), flag, target]
+        log(f"== {name}: {' '.join(cmd[1:])}")
+        t0 = time.perf_counter()
+        p = subprocess.run(cmd, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        entry = {"command": cmd[1:], "wall_s": wall, "returncode": p.returncode, "report": path}
+        if p.returncode != 0 or not os.path.isfile(path):
+            entry["error"] = p.stderr[-3000:]
+            log(f"   FAILED (rc={p.returncode}): {p.stderr[-500:]}")
+        else:
+            with open(path) as f:
+                summary["ratios"][name] = extract(json.load(f))
+            log(f"   {wall:.0f} s: {json.dumps(summary['ratios'][name], default=float)[:600]}")
+        summary["benchmarks"][name] = entry
+        write_json(os.path.join(a.out, "run_all.json"), summary)
+    log(f"written {os.path.join(a.out, 'run_all.json')}")
+    return 0 if all("error" not in e for e in summary["benchmarks"].values()) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -15,6 +15,7 @@ import numpy as np
 
 from .._config import NJIT, NJIT_PARALLEL
 from ..beam._kernels import los_point
+from ..signal._kernels import cell_cosines_row
 
 @numba.njit(**NJIT_PARALLEL)
 def los_cells_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n3, range_s, weight_s, time_e, U, add_mean,
@@ -45,41 +46,10 @@ def los_cells_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n3, range_s, weight_
 
 @numba.njit(**NJIT)
 def _lag_one(x_s, amp_s, a_d, out_d):
-    """One estimate of :func:`lag_sequence_kernel`."""
+    """One estimate of :func:`lag_sequence_kernel`: the cells' cosine sums, then the fold."""
     n = out_d.shape[0]
-    ns = x_s.shape[0]
-    nsp = ((ns + 7) // 8) * 8  # padded with zero-amplitude cells
-    ya = np.zeros(nsp)
-    yb = np.zeros(nsp)
-    c2 = np.zeros(nsp)
     cd = np.empty(n)
-    for s in range(ns):
-        # reduce to [0, N) before the cosine: exact periodicity for aliased speeds
-        x = x_s[s] - n * math.floor(x_s[s] / n)
-        c = math.cos(2.0 * math.pi * x / n)
-        ya[s] = amp_s[s]
-        yb[s] = amp_s[s] * c
-        c2[s] = 2.0 * c
-    for d in range(n):
-        if d >= 2:
-            # ya holds lag d - 2 and yb lag d - 1: overwrite ya with lag d, then swap the names
-            for s in range(nsp):
-                ya[s] = c2[s] * yb[s] - ya[s]
-            ya, yb = yb, ya
-        cur = ya if d == 0 else yb
-        # 8 fixed partial sums (cell 8 b + j goes to sum j), then a fixed tree
-        a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
-        for b in range(nsp // 8):
-            s0 = 8 * b
-            a0 += cur[s0]
-            a1 += cur[s0 + 1]
-            a2 += cur[s0 + 2]
-            a3 += cur[s0 + 3]
-            a4 += cur[s0 + 4]
-            a5 += cur[s0 + 5]
-            a6 += cur[s0 + 6]
-            a7 += cur[s0 + 7]
-        cd[d] = 2.0 * (((a0 + a1) + (a2 + a3)) + ((a4 + a5) + (a6 + a7)))
+    cell_cosines_row(x_s, amp_s, n, n, cd)
     out_d[0] = a_d[0] * cd[0]
     for d in range(1, n):
         out_d[d] = a_d[d] * cd[d] + a_d[n - d] * cd[n - d]

@@ -65,6 +65,16 @@ def test_per_height_results_are_the_selected_periods_mean(cone):
         assert ds.std_ratio.values[0, j] == pytest.approx(x.mean(), rel=1e-12)
         if x.size > 1:
             assert ds.std_ratio_sigma.values[0, j] == pytest.approx(x.std(ddof=1) / np.sqrt(x.size), rel=1e-12)
+    # a period that fails CS's selection (points used < 65 %) leaves the height's mean
+    from cwlidar_sim.campaign.conical import summarise
+
+    raw = ds[[v for v in ds.data_vars if v.endswith("_unit")]]
+    raw = raw.rename({v: v[:-5] for v in raw.data_vars}).drop_dims(["height"], errors="ignore")
+    sel = raw.selected.values.copy()
+    sel[1, 0] = 0.0
+    again = summarise(raw.assign(selected=(("period", "scan_s"), sel)))
+    assert again.std_ratio.values[0, 0] == units[0, 0] and again.n_selected.values[0, 0] == 1
+    assert again.std_ratio.values[0, 1] == pytest.approx(units[:, 1].mean(), rel=1e-12)
     # each unit's ratio is its lidar std over its cup std
     np.testing.assert_allclose(units, ds.lidar_std_unit.values / ds.cup_std_unit.values[:, None], rtol=1e-12)
     assert ds.n_periods.values[0] == 2

@@ -644,12 +644,18 @@ def scene_from_dict(d: dict, *, base_dir: str = "."):
     return Scene.from_dict(d, base_dir=base_dir)
 
 
-def load_scene(path) -> Scene:
-    """Read a scene TOML file."""
+def read_text_file(path, what: str) -> tuple[str, str]:
+    """(text, folder) of a TOML file; an unreadable file is a ValueError naming ``what`` and the path."""
     path = os.fspath(path)
     try:
         with open(path, encoding="utf-8") as fh:
             text = fh.read()
     except OSError as e:
-        raise ValueError(f"cannot read scene file {path!r}: {e.strerror}") from None
-    return loads_scene(text, base_dir=os.path.dirname(os.path.abspath(path)))
+        raise ValueError(f"cannot read {what} file {path!r}: {e.strerror}") from None
+    return text, os.path.dirname(os.path.abspath(path))
+
+
+def load_scene(path) -> Scene:
+    """Read a scene TOML file."""
+    text, folder = read_text_file(path, "scene")
+    return loads_scene(text, base_dir=folder)

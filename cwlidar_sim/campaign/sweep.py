@@ -50,7 +50,7 @@ import math
 import os
 
 from .._validation import check_int, check_keys, check_seed
-from .scene import Scene, scene_from_dict
+from .scene import Scene, read_text_file, scene_from_dict
 
 __all__ = ["CampaignSpec", "Task", "load_campaign", "loads_campaign", "expand", "estimate_task", "COST_S_PER_SIM_HOUR"]
 
@@ -275,13 +275,8 @@ def loads_campaign(text: str, *, base_dir: str = ".") -> CampaignSpec:
 
 def load_campaign(path) -> CampaignSpec:
     """Read a campaign TOML file."""
-    path = os.fspath(path)
-    try:
-        with open(path, encoding="utf-8") as fh:
-            text = fh.read()
-    except OSError as e:
-        raise ValueError(f"cannot read campaign file {path!r}: {e.strerror}") from None
-    return loads_campaign(text, base_dir=os.path.dirname(os.path.abspath(path)))
+    text, folder = read_text_file(path, "campaign")
+    return loads_campaign(text, base_dir=folder)
 
 
 def _task_seed(campaign_seed: int, identity) -> int:

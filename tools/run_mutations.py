@@ -3,7 +3,7 @@
 Run by hand (not collected by pytest: no ``test_`` prefix, and pytest only collects
 ``test_*.py``), from the repository root::
 
-    CWLIDAR_SIM_NUM_THREADS=1 python tests/mutation/run_mutations.py [--only ID ...] [--baseline]
+    CWLIDAR_SIM_NUM_THREADS=1 python tools/run_mutations.py [--only ID ...] [--baseline]
                                                                       [--json PATH] [--list]
 
 Each mutation is (id, stage, file, exact old text, new text, pytest selection, what it
@@ -32,7 +32,7 @@ import sys
 import tempfile
 import time
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 @dataclasses.dataclass(frozen=True)

@@ -97,7 +97,7 @@ def mann_amplitude(k1, k2, k3, alpha_eps, L, gamma):
 
 
 # =============================================================================
-# signal stage (cwlidar_sim/signal/_kernels.py)
+# signal stage (cwlidar_sim/signal/_kernels/)
 # =============================================================================
 _SIG_MASK = (1 << 64) - 1
 _SIG_GOLDEN = 0x9E3779B97F4A7C15
@@ -653,7 +653,7 @@ def box_half_spectrum(shape, spacing, seed, alpha_eps, L, gamma):
 
 
 # =============================================================================
-# signal stage, fused tier-3 path and row kernels (cwlidar_sim/signal/_kernels.py:
+# signal stage, fused tier-3 path and row kernels (cwlidar_sim/signal/_kernels/:
 # block_normals, tone_tables_kernel, synth_blocks_kernel, power_sum_kernel,
 # combine_partials_kernel)
 # =============================================================================

@@ -1,0 +1,388 @@
+"""Tier 3: the heterodyne signal (AR(1) amplitudes, tones, noise) and its block periodograms."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..._config import NJIT, NJIT_PARALLEL
+from .rng import _GOLDEN, _START_STREAM, _TWOPI, block_normals, mix64, normal_pair, normal_pair_polar, stream_start
+
+
+# ---------------------------------------------------------------------------
+# tier 3: heterodyne signal
+# ---------------------------------------------------------------------------
+@numba.njit(**NJIT)
+def ar1_cell(key, s, step0, rho, std, first_re, first_im, out_re_t, out_im_t):
+    """AR(1) amplitudes of range cell ``s`` for steps ``step0 .. step0 + len - 1`` (see ar1_amplitudes_kernel)."""
+    nt = out_re_t.shape[0]
+    inno = math.sqrt(max(0.0, 1.0 - rho * rho))
+    ckey = mix64(np.uint64(key) ^ mix64(np.uint64(s) + _GOLDEN))
+    sd = std * math.sqrt(0.5)
+    ar = first_re
+    ai = first_im
+    for t in range(nt):
+        st = stream_start(ckey, step0 + t)
+        st, z0, z1 = normal_pair(st)
+        if step0 + t == 0:
+            ar = sd * z0
+            ai = sd * z1
+        else:
+            ar = rho * ar + inno * sd * z0
+            ai = rho * ai + inno * sd * z1
+        out_re_t[t] = ar
+        out_im_t[t] = ai
+
+
+@numba.njit(**NJIT_PARALLEL)
+def ar1_amplitudes_kernel(key, step0, rho, std_s, first_re_s, first_im_s, out_re_ts, out_im_ts):
+    """AR(1) complex-Gaussian speckle amplitudes of each range cell.
+
+    ``a[t] = rho a[t-1] + sqrt(1 - rho^2) xi[t]`` with ``E|a|^2 = std_s^2``;
+    ``first_*`` is the amplitude before step ``step0`` (ignored when
+    ``step0 == 0``: the first step is drawn from the stationary law).  The
+    innovation of global step t of cell s comes from stream (cell s, step t).
+    """
+    ns = out_re_ts.shape[1]
+    for s in numba.prange(ns):
+        ar1_cell(key, s, step0, rho, std_s[s], first_re_s[s], first_im_s[s], out_re_ts[:, s], out_im_ts[:, s])
+
+
+@numba.njit(**NJIT_PARALLEL)
+def synth_kernel(key, block0, n_sub, amp_re_ts, amp_im_ts, phase0_bs, dtheta_bs, noise_std, window_n, use_window,
+                 out_bn):
+    """Real heterodyne samples of ``out_bn.shape[0]`` blocks starting at global block ``block0``.
+
+    ``x[n] = sum_s Re(a_s e^{i (phase0_s + dtheta_s n)}) + noise_std * xi[n]``;
+    the amplitude of cell s is constant over each of the ``n_sub`` sub-steps
+    of a block (row ``b * n_sub + j`` of ``amp_*_ts``).  The tones follow the
+    Chebyshev recurrence ``y[n] = 2 cos(theta) y[n-1] - y[n-2]`` (float64),
+    restarted at each sub-step, with the cells interleaved so that their
+    independent recurrences pipeline.  Noise of global block b comes from
+    stream b (Marsaglia's polar method).
+
+    The package now synthesises with :func:`synth_blocks_kernel` (table
+    normals, vectorised tones, fused with the FFT); this unfused form is
+    kept as a second, independent implementation of the same signal model
+    (it is checked against the plain-Python reference in the tests).
+    """
+    nb, nn = out_bn.shape
+    ns = dtheta_bs.shape[1]
+    ln = nn // n_sub
+    for b in numba.prange(nb):
+        st = stream_start(key, block0 + b)
+        for n in range(0, nn, 2):
+            st, z0, z1 = normal_pair_polar(st)
+            out_bn[b, n] = noise_std * z0
+            out_bn[b, n + 1] = noise_std * z1
+        y0 = np.empty(ns)
+        y1 = np.empty(ns)
+        c2 = np.empty(ns)
+        for j in range(n_sub):
+            n0 = j * ln
+            for s in range(ns):
+                ar = amp_re_ts[b * n_sub + j, s]
+                ai = amp_im_ts[b * n_sub + j, s]
+                th = dtheta_bs[b, s]
+                ph = phase0_bs[b, s] + th * n0
+                y0[s] = ar * math.cos(ph) - ai * math.sin(ph)
+                y1[s] = ar * math.cos(ph + th) - ai * math.sin(ph + th)
+                c2[s] = 2.0 * math.cos(th)
+            acc0 = 0.0
+            acc1 = 0.0
+            for s in range(ns):
+                acc0 += y0[s]
+                acc1 += y1[s]
+            out_bn[b, n0] += acc0
+            if ln > 1:
+                out_bn[b, n0 + 1] += acc1
+            for n in range(2, ln):
+                acc = 0.0
+                for s in range(ns):
+                    y2 = c2[s] * y1[s] - y0[s]
+                    y0[s] = y1[s]
+                    y1[s] = y2
+                    acc += y2
+                out_bn[b, n0 + n] += acc
+        if use_window:
+            for n in range(nn):
+                out_bn[b, n] *= window_n[n]
+
+
+@numba.njit(**NJIT_PARALLEL)
+def power_average_kernel(spec_bf, m_blocks, scale, out_ef):
+    """``out[e, k] = scale / M * sum_b |X[e M + b, k]|^2`` (blocks summed in order).
+
+    The unfused form of :func:`power_sum_kernel` + :func:`combine_partials_kernel`.
+    """
+    ne, nf = out_ef.shape
+    for e in numba.prange(ne):
+        for k in range(nf):
+            out_ef[e, k] = 0.0
+        for b in range(e * m_blocks, (e + 1) * m_blocks):
+            for k in range(nf):
+                v = spec_bf[b, k]
+                out_ef[e, k] += v.real * v.real + v.imag * v.imag
+        for k in range(nf):
+            out_ef[e, k] *= scale / m_blocks
+
+
+# ---------------------------------------------------------------------------
+# tier 3, fused path: one block at a time into a worker's FFT input buffer
+# ---------------------------------------------------------------------------
+#: Samples per group of the tone loop: the tone's phasor is stepped once per
+#: group and the samples of a group come from a table of ``exp(i j theta)``,
+#: so the inner loop has no carried dependence and vectorises.
+TONE_GROUP = 32
+
+
+@numba.njit(**NJIT)
+def tone_tables_kernel(dtheta_es, ln, rot_re_esq, rot_im_esq, step_es4):
+    """Rotation factors of each cell's tone in each estimate (speeds are constant over an estimate).
+
+    ``rot[e, s, q] = exp(i q dtheta)`` for q < G = :data:`TONE_GROUP` by the
+    complex recurrence (error O(G * 1e-16)); ``step[e, s] = (cos G dtheta,
+    sin G dtheta, cos L dtheta, sin L dtheta)`` from their own cos/sin, L the
+    sub-step length.
+    """
+    ne, ns = dtheta_es.shape
+    for e in range(ne):
+        for s in range(ns):
+            th = dtheta_es[e, s]
+            c1 = math.cos(th)
+            s1 = math.sin(th)
+            rr = 1.0
+            ri = 0.0
+            for q in range(TONE_GROUP):
+                rot_re_esq[e, s, q] = rr
+                rot_im_esq[e, s, q] = ri
+                rr, ri = rr * c1 - ri * s1, rr * s1 + ri * c1
+            step_es4[e, s, 0] = math.cos(TONE_GROUP * th)
+            step_es4[e, s, 1] = math.sin(TONE_GROUP * th)
+            step_es4[e, s, 2] = math.cos(ln * th)
+            step_es4[e, s, 3] = math.sin(ln * th)
+
+
+@numba.njit(**NJIT)
+def add_tones(n_sub, amp_re_j, amp_im_j, phase0, rot_re_q, rot_im_q, step_4, acc_n):
+    """``acc_n[n] += Re(a_j exp(i (phase0 + dtheta n)))``, ``a_j`` constant over sub-step j of L = len / n_sub.
+
+    The phasor ``exp(i (phase0 + dtheta n0))`` starts from cos/sin of
+    ``phase0`` (exact re-anchoring at every block) and is rotated by
+    ``exp(i L dtheta)`` from sub-step to sub-step; ``z = a_j exp(i (phase0 +
+    dtheta n))`` is rotated by ``exp(i G dtheta)`` (G = :data:`TONE_GROUP`)
+    from group to group of G samples, and within a group sample ``n + q`` is
+    ``Re(z exp(i q dtheta))`` with the factors of ``rot_*_q``
+    (:func:`tone_tables_kernel`), so the inner loop has no carried
+    dependence and vectorises.  All in float64: after the at most ``len``
+    rotations of a block the rounding error is O(len * 1e-16) of the amplitude.
+    """
+    nn = acc_n.shape[0]
+    ln = nn // n_sub
+    ng = ln // TONE_GROUP
+    cg = step_4[0]
+    sg = step_4[1]
+    cl = step_4[2]
+    sl = step_4[3]
+    pr = math.cos(phase0)
+    pi = math.sin(phase0)
+    for j in range(n_sub):
+        ar = amp_re_j[j]
+        ai = amp_im_j[j]
+        zr = ar * pr - ai * pi
+        zi = ar * pi + ai * pr
+        n0 = j * ln
+        # whole groups: a constant trip count over a slice (indices provably >= 0),
+        # which the compiler vectorises
+        for gi in range(ng):
+            seg = acc_n[n0 + gi * TONE_GROUP:n0 + (gi + 1) * TONE_GROUP]
+            for q in range(TONE_GROUP):
+                seg[q] += zr * rot_re_q[q] - zi * rot_im_q[q]
+            zr, zi = zr * cg - zi * sg, zr * sg + zi * cg
+        seg = acc_n[n0 + ng * TONE_GROUP:n0 + ln]
+        for q in range(seg.shape[0]):
+            seg[q] += zr * rot_re_q[q] - zi * rot_im_q[q]
+        pr, pi = pr * cl - pi * sl, pr * sl + pi * cl
+
+
+@numba.njit(**NJIT)
+def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp_im_st, phase_es, dtheta_es,
+                        rot_re_esq, rot_im_esq, step_es4, noise_std, window_n, use_window, extra_et, acc_n, words_w,
+                        tails_n, out_bn):
+    """Real heterodyne samples of blocks ``b_lo .. b_hi - 1`` of a chunk into rows 0.. of ``out_bn`` (float32).
+
+    The signal of :func:`synth_kernel`, ``x[n] = noise_std * xi[n] + sum_s
+    Re(a_s e^{i (phase0_s + dtheta_s n)})``, windowed.  Chunk block b is
+    global block ``block0 + b``, block ``i = b mod M`` of the chunk's
+    estimate ``e = b // M``, and starts at Doppler phase ``phase0_s =
+    (phase_es[e, s] + dtheta_es[e, s] N i) mod 2 pi``; tone tables from
+    :func:`tone_tables_kernel`; noise from stream ``block0 + b``
+    (:func:`block_normals`: table normals, where synth_kernel uses the
+    polar method); amplitudes ``amp_*_st[s, b n_sub + j]``, j < n_sub.
+    Cells are added in order in float64 (:func:`add_tones`), then the window
+    is applied and the sum rounded to float32.  Every block depends only on
+    its own inputs, so the result does not depend on how blocks are split
+    between calls or threads (serial and ``nogil``: worker threads call it
+    on disjoint blocks).  ``extra_et`` (rows: the chunk's estimates, M N
+    samples each; or 0 rows) is added to the samples before the window: the
+    continuum signal and the RIN (:func:`continuum_shape_noise`).
+    ``acc_n``, ``words_w``, ``tails_n`` are scratch (lengths N, ceil(N/2), N).
+    """
+    nn = acc_n.shape[0]
+    ns = phase_es.shape[1]
+    for b in range(b_lo, b_hi):
+        block_normals(stream_start(key, block0 + b), noise_std, words_w, tails_n, acc_n)
+        t0 = b * n_sub
+        e = b // m_blocks
+        i = b - e * m_blocks
+        for s in range(ns):
+            ph0 = (phase_es[e, s] + dtheta_es[e, s] * (nn * i)) % _TWOPI
+            add_tones(n_sub, amp_re_st[s, t0:t0 + n_sub], amp_im_st[s, t0:t0 + n_sub], ph0, rot_re_esq[e, s],
+                      rot_im_esq[e, s], step_es4[e, s], acc_n)
+        if extra_et.shape[0] > 0:
+            xr = extra_et[e, i * nn:(i + 1) * nn]
+            for n in range(nn):
+                acc_n[n] += xr[n]
+        r = b - b_lo
+        if use_window:
+            for n in range(nn):
+                out_bn[r, n] = np.float32(acc_n[n] * window_n[n])
+        else:
+            for n in range(nn):
+                out_bn[r, n] = np.float32(acc_n[n])
+
+
+@numba.njit(**NJIT)
+def power_sum_kernel(spec_bf, n_rows, out_f):
+    """``out_f[k] = sum_{b < n_rows} |X[b, k]|^2`` in float64, rows summed in order."""
+    nf = out_f.shape[0]
+    for k in range(nf):
+        out_f[k] = 0.0
+    for b in range(n_rows):
+        for k in range(nf):
+            v = spec_bf[b, k]
+            re = np.float64(v.real)
+            im = np.float64(v.imag)
+            out_f[k] += re * re + im * im
+
+
+@numba.njit(**NJIT)
+def combine_partials_kernel(partial_erf, factor, out_ef):
+    """``out[e, k] = factor * sum_r partial[e, r, k]`` (r in order)."""
+    ne, nr, nf = partial_erf.shape
+    for e in range(ne):
+        for k in range(nf):
+            out_ef[e, k] = 0.0
+        for r in range(nr):
+            for k in range(nf):
+                out_ef[e, k] += partial_erf[e, r, k]
+        for k in range(nf):
+            out_ef[e, k] *= factor
+
+
+# ---------------------------------------------------------------------------
+# tier 3, continuum path: a Gaussian process synthesised from its spectrum
+# ---------------------------------------------------------------------------
+@numba.njit(**NJIT)
+def continuum_correlation_fill(x_s, amp2_s, g_t, rn_t, n_fft, t_max, buf_p):
+    """``buf[tau] = sum_s amp2_s exp(i 2 pi x_s tau / N) g(tau) + 2 rn(tau)`` for tau < t_max, its conjugate at P - tau.
+
+    The complex correlation of the synthesised process (signal cells of
+    power ``amp2_s = E|a_s|^2`` at ``x_s`` bins, plus twice the real noise
+    correlation ``rn``, so that the real part carries ``rn``); 0 elsewhere.
+    The phasor of a cell is rotated lag by lag (error O(tau eps)).
+    """
+    p = buf_p.shape[0]
+    for i in range(p):
+        buf_p[i] = 0.0j
+    ns = x_s.shape[0]
+    for s in range(ns):
+        a = amp2_s[s]
+        if a == 0.0:
+            continue
+        x = x_s[s] - n_fft * math.floor(x_s[s] / n_fft)
+        th = 2.0 * math.pi * x / n_fft
+        c = math.cos(th)
+        sn = math.sin(th)
+        zr = a
+        zi = 0.0
+        for t in range(t_max):
+            buf_p[t] += complex(zr * g_t[t], zi * g_t[t])
+            zr, zi = zr * c - zi * sn, zr * sn + zi * c
+    for t in range(t_max):
+        buf_p[t] += 2.0 * rn_t[t]
+    for t in range(1, t_max):
+        buf_p[p - t] = buf_p[t].conjugate()
+
+
+@numba.njit(**NJIT)
+def continuum_shape_noise(key, stream, buf_p, words_w, tails_n, tmp_n):
+    """Replace the spectrum ``S_m`` in ``buf`` by ``sqrt(max(Re S_m, 0) / (2P)) (z0 + i z1)``.
+
+    ``z0, z1`` standard normals from the counter-based streams
+    ``stream_start(mix64(key ^ stream), c)``, c = 0, 1, .. (``tmp_n.shape[0]``
+    normals each); the inverse FFT of the result is a circular complex
+    Gaussian process with correlation ``(1/P) sum_m S_m exp(i 2 pi m n / P)``.
+    """
+    p = buf_p.shape[0]
+    nc = tmp_n.shape[0]
+    skey = mix64(np.uint64(key) ^ mix64(np.uint64(stream) + _GOLDEN))
+    inv = 1.0 / (2.0 * p)
+    c = 0
+    pos = nc
+    for m in range(p):
+        if pos + 2 > nc:
+            block_normals(stream_start(skey, c), 1.0, words_w, tails_n, tmp_n)
+            c += 1
+            pos = 0
+        s = buf_p[m].real
+        a = math.sqrt(s * inv) if s > 0.0 else 0.0
+        buf_p[m] = complex(a * tmp_n[pos], a * tmp_n[pos + 1])
+        pos += 2
+
+
+@numba.njit(**NJIT)
+def real_part_into(buf_p, n, out_n):
+    """``out_n[:n] = Re buf_p[:n]``."""
+    for i in range(n):
+        out_n[i] = buf_p[i].real
+
+
+@numba.njit(**NJIT)
+def ar1_noise_kernel(key, stream, var_c, rho_c, words_w, tails_n, tmp_n, out_t):
+    """``out_t[:] = sum_c x_c``, each ``x_c`` a stationary real AR(1) process of variance ``var_c[c]``.
+
+    ``x[0] = sqrt(var) z_0``, ``x[t] = rho x[t-1] + sqrt(var (1 - rho^2)) z_t``: correlation
+    ``var rho^|tau|`` exactly (the RIN and reflection of ``spectral.noise_correlation``).
+    Normals from the counter-based streams ``stream_start(mix64(key ^ stream), j)``, one per
+    chunk j of ``B = tmp_n.shape[0] // n_c`` samples (component c takes normals
+    ``c B .. (c + 1) B - 1`` of its chunk), the starting values from stream 2^62; the
+    components' recursions run side by side.
+    """
+    nt = out_t.shape[0]
+    nc = var_c.shape[0]
+    bl = tmp_n.shape[0] // nc
+    skey = mix64(np.uint64(key) ^ mix64(np.uint64(stream) + _GOLDEN))
+    x = np.zeros(nc)
+    sdi = np.empty(nc)
+    for c in range(nc):
+        sdi[c] = math.sqrt(var_c[c] * (1.0 - rho_c[c] * rho_c[c]))
+    # stationary start: x[-1] ~ N(0, var) (a stream of its own), so x[0] = rho x[-1] + innovation is too
+    st = stream_start(skey, _START_STREAM)
+    for c in range(nc):
+        st, z0, _z1 = normal_pair(st)
+        x[c] = math.sqrt(var_c[c]) * z0
+    j = 0
+    for t0 in range(0, nt, bl):
+        block_normals(stream_start(skey, j), 1.0, words_w, tails_n, tmp_n)
+        j += 1
+        t1 = min(nt, t0 + bl)
+        for t in range(t0, t1):
+            acc = 0.0
+            for c in range(nc):
+                x[c] = rho_c[c] * x[c] + sdi[c] * tmp_n[c * bl + (t - t0)]
+                acc += x[c]
+            out_t[t] = acc
+

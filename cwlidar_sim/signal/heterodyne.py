@@ -62,8 +62,9 @@ import queue
 import numpy as np
 
 from .._validation import check_int
-from .processing import _rng, _run_tasks
-from .spectral import _as_2d, _weights, cnr_linear, window_samples
+from ._tasks import _rng, _run_tasks
+from .noise import _noise_components, _noise_lag_count, noise_correlation, window_samples
+from .spectral import _as_2d, _weights, cnr_linear
 
 __all__ = ["simulate_signal_spectra", "synthesize_samples", "substep_length"]
 
@@ -95,7 +96,7 @@ class _Continuum:
     def __init__(self, instrument, v_es, w_s, cnr, spread, tau, key):
         from scipy.fft import next_fast_len
 
-        from .spectral import _noise_components, _noise_lag_count, continuum_lags, line_correlation, noise_correlation
+        from .spectral import continuum_lags, line_correlation
 
         self.inst = instrument
         self.key = key
@@ -146,7 +147,6 @@ class _Synth:
         self.cnr = cnr_linear(cnr_db)
         rng = _rng(seed)
         self.key_noise, self.key_amp = (int(k) for k in rng.integers(0, 2**63, size=2, dtype=np.int64))
-        from .spectral import _noise_components
 
         self.cont = None
         if spread > 0.0 or _noise_components(instrument):

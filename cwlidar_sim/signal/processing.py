@@ -51,6 +51,9 @@ import math
 import numpy as np
 
 from .._validation import check_choice, check_int
+from ._tasks import _ROWS_PER_TASK, _rng, _run_tasks  # noqa: F401  (_rng: used by sensors)
+from .noise import noise_floor
+from .spectral import line_shape_table
 
 __all__ = [
     "Flag",
@@ -178,23 +181,6 @@ class DopplerEstimates:
             "std": float(ok.std(ddof=1)) if ok.size > 1 else None,
             "flags": self.flag_counts(),
         }
-
-
-def noise_floor(instrument) -> np.ndarray:
-    """Expected noise spectrum per one-sided bin, in units of the shot-noise level [-].
-
-    White shot noise (1 in every bin) plus the relative-intensity noise and
-    the 0 Hz internal reflection, each a real Gaussian process of density
-    ``P0`` at 0 Hz and corner ``f_c`` (:func:`cwlidar_sim.signal.spectral.noise_correlation`):
-    the expected block periodogram of such a process is the exact lag sum
-    ``sum_{|d|<N} (R_w(d) / R_w(0)) r(d) exp(-i 2 pi k d / N)``, close to
-    ``P0 / (1 + (f / f_c)^2)`` for ``f << f_s`` and a corner of several bins.
-    """
-    from .spectral import _fold_noise, _noise_components
-
-    if not _noise_components(instrument):
-        return np.ones(instrument.n_bins)
-    return 1.0 + np.maximum(_fold_noise(instrument, 1)[0].real, 0.0)
 
 
 def background_spectrum(instrument, seed=None, *, n_blocks=None) -> np.ndarray:
@@ -369,7 +355,6 @@ def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_bac
     if not np.all(np.isfinite(bg)) or np.any(bg <= 0):
         raise ValueError("background_f must be finite and > 0 in every bin")
     if line_table is None:
-        from .spectral import line_shape_table
 
         line_table = line_shape_table(instrument.n_fft, instrument.window)
     table, over = line_table
@@ -388,34 +373,3 @@ def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_bac
     _run_tasks(n_tasks, run)
     freq = x * instrument.bin_width
     return DopplerEstimates(speed_e=freq * instrument.speed_per_hz, frequency_e=freq, flags_e=flags, estimator=name)
-
-
-def _rng(seed):
-    if isinstance(seed, np.random.Generator):
-        return seed
-    from .._validation import check_seed
-
-    return np.random.default_rng(check_seed("seed", seed))
-
-
-# ---------------------------------------------------------------------------
-# threads of the signal chain
-# ---------------------------------------------------------------------------
-#: Rows (estimates) per task of the row-wise kernels: about 0.1-0.5 ms of work.
-_ROWS_PER_TASK = 256
-
-def _run_tasks(n_tasks, fn):
-    """Call ``fn(t)`` for t = 0 .. n_tasks - 1 on the signal chain's threads.
-
-    ``fn`` must depend on ``t`` only and call ``nogil`` kernels.  Tasks are
-    handed out one at a time (dynamic scheduling), so a thread that another
-    process keeps off its core for a while only takes fewer tasks; with the
-    cores to ourselves this matches numba's static prange, and under load it
-    degrades to the throughput of the cores actually available, where a
-    static split waits for the slowest thread (and OpenMP threads spin).
-    Results never depend on which thread ran a task, hence on the thread
-    count.  Called from one of these threads, it runs the tasks inline.
-    """
-    from .._fft import run_dynamic
-
-    run_dynamic(range(n_tasks), lambda _w, t: fn(t))

@@ -98,7 +98,18 @@ import math
 import numpy as np
 
 from .._validation import check_choice, check_int, check_real
-from .processing import _rng, noise_floor
+from ._tasks import _ROWS_PER_TASK, _rng, _run_tasks
+from .noise import (  # noqa: F401  (re-exported: part of tier 2's public names)
+    _G_CUT,
+    _fold_noise,
+    _noise_components,
+    _noise_lag_count,
+    _window_lags,
+    lag_coefficients,
+    noise_correlation,
+    noise_floor,
+    window_samples,
+)
 
 __all__ = [
     "continuum_moments",
@@ -119,15 +130,6 @@ __all__ = [
 
 #: Nodes of the tabulated line shape per bin.
 OVERSAMPLE = 256
-
-
-def window_samples(n_fft: int, window: str) -> np.ndarray:
-    """Window ``w_n``, n = 0..N-1: 'rect' (ones) or 'hann' (periodic, ``sin^2(pi n / N)``)."""
-    n_fft = check_int("n_fft", n_fft, lo=2, hi=65536)
-    check_choice("window", window, ("rect", "hann"))
-    if window == "rect":
-        return np.ones(n_fft)
-    return np.sin(np.pi * np.arange(n_fft) / n_fft) ** 2
 
 
 @functools.lru_cache(maxsize=32)
@@ -333,7 +335,6 @@ def _speckle_draws(rng, ne, nf, m_eff, speckle):
 def _draw_rows(sig, noise, m, gain_eg, key, e0, out):
     """Rows e0 .. e0 + len(out) - 1 of a sample_spectra draw (gain_eg holds those rows only)."""
     from . import _kernels as K
-    from .processing import _ROWS_PER_TASK, _run_tasks
 
     sig = np.ascontiguousarray(sig)
     gain_eg = np.ascontiguousarray(gain_eg)
@@ -375,8 +376,6 @@ def _weights(weight_s, ns):
 #: Largest block lag J kept by the continuum speckle model (lags beyond are
 #: below :data:`_G_CUT` of the line's correlation, or the model is refused).
 CONTINUUM_MAX_LAG = 16
-#: Relative correlation below which a lag is dropped.
-_G_CUT = 1e-12
 
 
 def spread_frequency(instrument, speed_spread: float) -> float:
@@ -430,74 +429,6 @@ def continuum_lags(instrument, speed_spread: float, correlation_time: float = ma
             "(or use speckle 'coherent' / 'independent')")
     t_max = max(1, int(math.ceil(tmax)))
     return t_max, int(math.ceil(t_max / n))
-
-
-def _noise_components(instrument):
-    """(level, corner) of the Lorentzian noise processes above shot noise: RIN, internal reflection."""
-    out = []
-    if instrument.rin_level > 0.0:
-        out.append((instrument.rin_level, instrument.rin_corner))
-    if instrument.reflection_level > 0.0:
-        out.append((instrument.reflection_level, instrument.reflection_corner))
-    return out
-
-
-def _noise_lag_count(instrument):
-    cut = math.log(1.0 / _G_CUT)
-    t = 0.0
-    for _, fc in _noise_components(instrument):
-        t = max(t, cut * instrument.sample_rate / (2.0 * math.pi * fc))
-    return t
-
-
-def noise_correlation(instrument, n_lags: int) -> np.ndarray:
-    """Correlation of the noise above shot noise (RIN plus the 0 Hz reflection) at lags 0 .. n_lags - 1.
-
-    Each component of level ``P0`` (its density at 0 Hz relative to shot
-    noise) and corner ``f_c`` is a real Gaussian process with correlation
-    ``r(tau) = P0 (1 - rho) / (1 + rho) rho^|tau|``, ``rho = exp(-2 pi f_c / f_s)``
-    (sampled exponential, i.e. a discrete AR(1)): its spectrum is
-    ``P0 (1 - rho)^2 / (1 - 2 rho cos(2 pi f / f_s) + rho^2)``, exactly ``P0``
-    at 0 Hz and ``P0 / (1 + (f / f_c)^2)`` for ``f << f_s`` (the Lorentzian
-    of :attr:`Instrument.rin_level`).  In units of the shot-noise variance.
-    """
-    t = np.arange(check_int("n_lags", n_lags, lo=1), dtype=np.float64)
-    r = np.zeros(t.size)
-    for p0, fc in _noise_components(instrument):
-        rho = math.exp(-2.0 * math.pi * fc / instrument.sample_rate)
-        r += p0 * (1.0 - rho) / (1.0 + rho) * rho ** t
-    r[np.abs(r) < _G_CUT * max(1e-300, float(np.max(np.abs(r))) if r.size else 1.0)] = 0.0
-    return r
-
-
-@functools.lru_cache(maxsize=16)
-def lag_coefficients(n_fft: int, window: str, rho: float) -> np.ndarray:
-    """``a_d = R_w(d) rho^d / R_w(0)``, d = 0..N-1: the window's autocorrelation times an AR(1) factor (read-only)."""
-    w = window_samples(n_fft, window)
-    r = np.array([np.dot(w[: n_fft - d], w[d:]) for d in range(n_fft)])
-    a = r / r[0]
-    if rho < 1.0:
-        a = a * rho ** np.arange(n_fft)
-    a.setflags(write=False)
-    return a
-
-
-def _window_lags(instrument):
-    return lag_coefficients(instrument.n_fft, instrument.window, 1.0)
-
-
-def _fold_noise(instrument, n_j=None):
-    """DFT (k = 0..N/2) of the folded noise lag sequences for block lags j = 0 .. n_j - 1 (default: all needed)."""
-    from . import _kernels as K
-    from .._fft import rfft_rows
-
-    n = instrument.n_fft
-    if n_j is None:
-        n_j = int(math.ceil(_noise_lag_count(instrument) / n)) + 1
-    r = noise_correlation(instrument, (n_j + 1) * n)
-    lags = np.empty((n_j, n))
-    K.fold_block_lags(r, np.ones(r.size), _window_lags(instrument), n, lags)
-    return rfft_rows(lags)
 
 
 def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread: float, *,
@@ -557,7 +488,6 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
     """
     from . import _kernels as K
     from .._fft import rfft_rows
-    from .processing import _ROWS_PER_TASK, _run_tasks
 
     v = _as_2d("vlos_es", vlos_es)
     w = _weights(weight_s, v.shape[1])
@@ -622,7 +552,6 @@ def sample_moments(mean_ef, var_ef, seed, *, e0: int = 0):
     ndarray, shape (n_estimates, N/2 + 1)
     """
     from . import _kernels as K
-    from .processing import _ROWS_PER_TASK, _run_tasks
 
     mean = np.ascontiguousarray(mean_ef, dtype=np.float64)
     var = np.ascontiguousarray(var_ef, dtype=np.float64)

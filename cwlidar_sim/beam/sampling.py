@@ -517,8 +517,10 @@ def los_average(
     apply_numba_threads()
     vlos_t = np.empty(time_t.size)
     weight_s = np.ascontiguousarray(cells.weight_s, dtype=np.float64)
-    _kernels.los_weighted_kernel(
-        fld.u, fld.v, fld.w, fld.grid, wrap, wrap, origin, n_tc, range_s, weight_s, time_t, U, add_mean, vlos_t
+    ns = weight_s.size
+    _kernels.los_cells_kernel(
+        fld.u, fld.v, fld.w, fld.grid, wrap, wrap, origin, n_tc, range_s, np.ones(ns), np.arange(ns + 1), weight_s,
+        0.0, time_t, U, add_mean, False, np.empty((0, 0)), vlos_t
     )
     return LosAverage(
         vlos_t=vlos_t,

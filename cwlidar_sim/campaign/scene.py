@@ -242,7 +242,7 @@ class LidarSpec:
     line_broadening: float = 0.0
 
     def __post_init__(self):
-        from ..sensors.lidar import _variant_instruments
+        from ..signal.chain import variant_instruments
         from ..signal.instrument import PRESETS
 
         check_choice("lidar.preset", self.preset, tuple(PRESETS))
@@ -267,7 +267,7 @@ class LidarSpec:
             if isinstance(v, dict) and v.get("name") == "main":
                 raise ValueError(f"lidar.variants[{i}].name 'main' is reserved for the lidar's own processing")
         # the sensor's own check: names, and only the processing fields (the spectra stay the same)
-        _variant_instruments(self.build_instrument(), [dict(v) if isinstance(v, dict) else v for v in variants])
+        variant_instruments(self.build_instrument(), [dict(v) if isinstance(v, dict) else v for v in variants])
         _set(self, "variants", tuple(dict(v) for v in variants))
 
     def build_instrument(self, extra=None):

@@ -59,7 +59,8 @@ def measure_two_beams(field, lidar: TwoBeamLidar, duration: float, U: float, see
             return vlos_lc[:, None, :], vlos_l, None  # one look per estimate, no cloud
 
         groups.append(FocusGroup(instrument=inst, index_e=idx, time_e=time_e[idx], weight_c=cells.weight_c,
-                                 n_looks=1, sample=sample, seed=None if seeds is None else seeds[b],
+                                 tail=cells.tail_weight > 0.0, n_looks=1, sample=sample,
+                                 seed=None if seeds is None else seeds[b],
                                  transverse_speed=U * math.sin(math.radians(15.0))))
     rec = run_chain(lidar.chain_settings(), groups, n)
     return time_e, beam_e, rec.speed_e, rec.flags_e

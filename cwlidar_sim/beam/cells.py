@@ -25,7 +25,11 @@ The weight outside the simulated span, ``truncated_fraction``
 (``~ 2 / (pi span)`` for the Lorentzian), is either
 
 * ``'mean_wind'`` (default): carried by one more cell that sees the mean
-  wind ``n . (U, 0, 0)``, so a uniform wind is returned exactly; or
+  wind ``n . (U, 0, 0)``, so a uniform wind is returned exactly by the
+  weighted average (tier 1); in the Doppler spectrum (tiers 2, 3) that far
+  tail is a pedestal of the turbulence's whole speed distribution about the
+  mean, below any threshold, and the signal chain leaves it out
+  (:mod:`cwlidar_sim.signal.chain`); or
 * ``'renormalise'``: dropped, the cells' weights divided by the kept fraction.
 
 Why the mean wind: the far tail lies many turbulence length scales from the

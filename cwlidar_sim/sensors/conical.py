@@ -477,7 +477,8 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
             cloud = None if wc == 0.0 else (n_lc @ vel_cl).reshape(nb, nsub)
             return vlos_lc.reshape(nb, nsub, -1), vlos_l.reshape(nb, nsub).mean(axis=1), cloud
 
-        groups.append(FocusGroup(instrument=inst, index_e=idx, time_e=t_e, weight_c=cells.weight_c, n_looks=nsub,
+        groups.append(FocusGroup(instrument=inst, index_e=idx, time_e=t_e, weight_c=cells.weight_c,
+                                 tail=cells.tail_weight > 0.0, n_looks=nsub,
                                  sample=sample, seed=None if lidar.tier == "los" else height_seqs[ih],
                                  transverse_speed=lidar.transverse_speed_at(z), subcell_spread=spread,
                                  cloud_weight=wc, calibration_time=calibration_time))

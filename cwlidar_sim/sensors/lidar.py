@@ -260,7 +260,8 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
             spread = spread or 0.0
         if lidar.speckle != "continuum":
             spread, spread_src = 0.0, f"not used by speckle {lidar.speckle!r}"
-    group = FocusGroup(instrument=inst, index_e=np.arange(ne), time_e=time_e, weight_c=cells.weight_c, n_looks=1,
+    group = FocusGroup(instrument=inst, index_e=np.arange(ne), time_e=time_e, weight_c=cells.weight_c,
+                       tail=cells.tail_weight > 0.0, n_looks=1,
                        sample=sample, seed=None if lidar.tier == "los" else seed_sequence(seed),
                        transverse_speed=vt, subcell_spread=spread, cloud_weight=wc,
                        calibration_time=calibration_time)

@@ -15,8 +15,9 @@ estimate ``e`` of a group the chain asks the sensor, a chunk at a time, for
 * ``vlos_elc[e, l, c]``: the signed line-of-sight speed [m/s] of aerosol
   cell ``c`` in look ``l`` (looks are equal sub-intervals of the estimate's
   dwell, e.g. a scanning beam's sweep; one look for a staring beam), the
-  cells' weights ``weight_c`` summing to 1 (the weight beyond the simulated
-  span is one of the cells: :mod:`cwlidar_sim.beam.cells`);
+  cells' weights ``weight_c`` summing to 1; the weight beyond the simulated
+  span is the last cell (``tail = True``), which sees the mean wind
+  (:mod:`cwlidar_sim.beam.cells`);
 * ``vlos_e[e]``: the ideal, the mean over looks of the weighted sum (tier 1,
   A2012 Eq. 2);
 * optionally ``cloud_el[e, l]``: the radial speed of a cloud layer in each
@@ -47,6 +48,21 @@ Tiers
     speckle and Doppler phase continuous from look to look), the looks'
     periodograms averaged; then the same processing.  At most
     :data:`SIGNAL_MAX_ESTIMATES` estimates (200 s at 50 Hz).
+
+The tail cell in the spectrum
+----------------------------
+The weight beyond the span lies far from the focus, in air decorrelated
+from the probe volume's core: it sees the mean wind *on average* (tier 1
+adds ``tail_weight * n . U``), and its Doppler spectrum is the turbulence's
+whole distribution of line-of-sight speeds about the mean, a pedestal
+``~ 6 sigma_los`` wide carrying ``tail_weight`` of the power, far below the
+threshold of any bin.  Tiers 2 and 3 therefore leave it out of the spectrum
+(the other cells keep their weights, so the lines' power is the core's);
+modelling it as one cell at the mean wind would put a narrow line of
+``tail_weight`` of the power at the mean speed and pull every estimate
+toward it.  The pedestal's own power, left out, is below
+``tail_weight CNR N / (2 n_bins)`` per bin (0.04 of the noise floor for the
+CS lidar at 40 m with span 5, 0.002 for A2012's prototype at span 20).
 
 The speckle correlation time is the transit time across the waist,
 ``w0 / v_perp`` (:meth:`Instrument.speckle_time`), ``v_perp`` the speed of
@@ -198,6 +214,9 @@ class FocusGroup:
         ``sample(lo, hi) -> (vlos_elc, vlos_e, cloud_el)`` for the group's
         estimates ``lo .. hi - 1``: shapes ``(hi - lo, n_looks, n_c)``,
         ``(hi - lo,)`` and ``(hi - lo, n_looks)`` or None [m/s].
+    tail : bool
+        The last aerosol cell is the mean-wind tail (left out of the
+        spectrum: module notes).
     seed : numpy.random.SeedSequence or None
         The group's stream (None only for tier 'los').
     transverse_speed : float
@@ -216,6 +235,7 @@ class FocusGroup:
     weight_c: np.ndarray
     n_looks: int
     sample: Callable
+    tail: bool = False
     seed: object = None
     transverse_speed: float = 0.0
     subcell_spread: float = 0.0
@@ -347,8 +367,13 @@ class SpeckleBlocks:
             yield lo, hi, key, gain[lo - b * DRAW_BLOCK: hi - b * DRAW_BLOCK]
 
 
-def _with_cloud(vlos_elc, cloud_el, weight_c, wc):
-    """Cells and weights with the cloud as one more cell of every look (weights renormalised to 1)."""
+def _with_cloud(vlos_elc, cloud_el, weight_c, wc, tail):
+    """The spectrum's cells: the tail left out (module notes), the cloud one more cell of every look.
+
+    With a cloud, the weights are divided by ``1 + w_c`` and the CNR raised by ``10 log10(1 + w_c)``.
+    """
+    if tail:
+        vlos_elc, weight_c = vlos_elc[:, :, :-1], weight_c[:-1]
     if cloud_el is None or wc == 0.0:
         return vlos_elc, weight_c
     v = np.concatenate([vlos_elc, cloud_el[:, :, None]], axis=2)
@@ -535,14 +560,14 @@ def run_chain(settings: ChainSettings, groups, n_estimates: int, *, variants=Non
         if tier == "signal":
             vlos_elc, v, cloud = g.sample(0, n_g)
             vlos_e[g.index_e] = v
-            run.signal(*_with_cloud(vlos_elc, cloud, w_c, g.cloud_weight))
+            run.signal(*_with_cloud(vlos_elc, cloud, w_c, g.cloud_weight, g.tail))
         elif speckle == "continuum":
             key = np.uint64(int(np.random.default_rng(run.s_sim).integers(0, 2**63, dtype=np.int64)))
             for c0 in range(0, n_g, chunk):
                 c1 = min(n_g, c0 + chunk)
                 vlos_elc, v, cloud = g.sample(c0, c1)
                 vlos_e[g.index_e[c0:c1]] = v
-                run.continuum(*_with_cloud(vlos_elc, cloud, w_c, g.cloud_weight), c0, c1, key)
+                run.continuum(*_with_cloud(vlos_elc, cloud, w_c, g.cloud_weight, g.tail), c0, c1, key)
         else:
             draws = SpeckleBlocks(run.s_sim, inst.n_bins, run.m_eff, speckle)
             buf = np.empty((min(n_g, chunk), inst.n_bins))
@@ -550,7 +575,7 @@ def run_chain(settings: ChainSettings, groups, n_estimates: int, *, variants=Non
                 c1 = min(n_g, c0 + chunk)
                 vlos_elc, v, cloud = g.sample(c0, c1)
                 vlos_e[g.index_e[c0:c1]] = v
-                run.point_cells(*_with_cloud(vlos_elc, cloud, w_c, g.cloud_weight), c0, c1, draws, buf)
+                run.point_cells(*_with_cloud(vlos_elc, cloud, w_c, g.cloud_weight, g.tail), c0, c1, draws, buf)
         cnr_range = None
         if run.cnr_gain_e is not None:
             cnr_range = (settings.cnr_db + 10 * math.log10(run.cnr_gain_e.min()),

@@ -205,6 +205,11 @@ duration = 10.0
 heights = [20.0, 30.0]
 scan_revs = [1]
 tier = "los"
+[turbulence]
+source = "fixed"
+alpha_eps = 0.05
+length_scale = 15.0
+gamma = 3.9
 [[period]]
 name = "a"
 mean_speed = 8.0

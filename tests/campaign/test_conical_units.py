@@ -10,6 +10,7 @@ from cwlidar_sim.campaign import conical_period, loads_scene, run_scene
 from cwlidar_sim.campaign.conical_period import simulate_conical_cycle
 from cwlidar_sim.sensors import conical as sensors_conical
 from cwlidar_sim.sensors.conical import measure_conical
+from cwlidar_sim.turbulence import MannParameters
 
 PHI = math.radians(30.0)
 DWELL = math.radians(7.2)
@@ -24,6 +25,11 @@ heights = {heights}
 scan_revs = {revs}
 tier = "los"
 {scan}
+[turbulence]                # a fixed tensor: the surface layer's sigma_u would cost a one-point spectrum
+source = "fixed"
+alpha_eps = 0.05
+length_scale = 15.0
+gamma = 3.9
 {periods}
 """
 
@@ -68,6 +74,15 @@ def sheared(monkeypatch):
     return shear
 
 
+@pytest.fixture
+def no_model(monkeypatch):
+    """CS's filter model left out of a scene's units (it is tested in tests/analysis/test_cs_model.py; here it
+    would only cost a Mann one-point spectrum)."""
+    from cwlidar_sim.analysis import cs_model
+
+    monkeypatch.setattr(cs_model, "model_ratios", lambda *a, **k: {"std_ratio": np.nan, "radial_variance_ratio": np.nan})
+
+
 # ---------------------------------------------------------------------------
 # wind from every side
 # ---------------------------------------------------------------------------
@@ -98,7 +113,7 @@ def test_the_beam_turns_with_the_wind(direction):
     np.testing.assert_allclose(rec.vlos_e, want, rtol=0, atol=1e-12)
 
 
-def test_a_uniform_wind_from_every_side_gives_one_speed_and_its_direction(sheared):
+def test_a_uniform_wind_from_every_side_gives_one_speed_and_its_direction(sheared, no_model):
     """VAD speed, direction and the sonic's direction for winds toward 0, 90, 180, 270, 225 and -40 deg."""
     dirs = [0.0, 90.0, 180.0, 270.0, 225.0, -40.0]
     sc = scene("".join(period(f"d{i}", direction=d) for i, d in enumerate(dirs)))
@@ -149,7 +164,7 @@ def test_cycling_lidar_gives_each_height_its_share_and_its_own_cup_and_sonic(she
     a, U = 0.05, 8.0
     sheared.update(a=a, z0=25.0)
     rows = simulate_conical_cycle((20.0, 30.0), 7, revs_per_height=2, refocus_time=1.0, speed=U, duration=31.0,
-                                  scan_revs=(1, 2), model=False)
+                                  scan_revs=(1, 2), model=False, params=MannParameters(0.05, 15.0, 3.9))
     assert [r["height"] for r in rows] == [20.0, 30.0]
     for r in rows:
         assert r["n_estimates"] == 500 and r["scans"][1]["n_scans"] == 10 and r["scans"][2]["n_scans"] == 5
@@ -163,7 +178,7 @@ def test_cycling_lidar_gives_each_height_its_share_and_its_own_cup_and_sonic(she
         simulate_conical_cycle((20.0, 30.0), 7, revs_per_height=2, scan_revs=(3,), duration=31.0)
 
 
-def test_a_cycle_scene_runs_one_unit_per_period_with_results_per_height(sheared, tmp_path):
+def test_a_cycle_scene_runs_one_unit_per_period_with_results_per_height(sheared, no_model, tmp_path):
     sheared.update(a=0.05, z0=25.0)
     sc = scene(period("a"), CYCLE, heights="[20.0, 30.0]", revs="[1, 2]", duration=31.0)
     ds = run_scene(sc, tmp_path, progress=False)

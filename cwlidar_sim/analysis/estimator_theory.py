@@ -16,7 +16,8 @@ For the staring beam along the mean wind (A2012's geometry, misalignment 0):
    parameters and spacing ``dx``), seeded from ``seed`` alone: nothing is
    shared with a campaign's realisation.
 2. One estimate per grid point ``x_i`` (the focus there): the range cells of
-   the :class:`cwlidar_sim.sensors.StaringLidar` (its weighting, span and
+   the staring beam (:func:`_line_cells`, the rule of
+   :class:`cwlidar_sim.sensors.StaringLidar`: its weighting, span and
    cell length) at ``x_i - s_s`` (the beam looks upwind), their speeds
    ``U + u`` linearly interpolated on the periodic line, exactly as the
    sensor samples a line field.
@@ -66,7 +67,7 @@ import numpy as np
 from .._validation import check_choice, check_int, check_real, check_seed
 
 __all__ = ["EstimatorTransfer", "THEORY_ESTIMATORS", "estimator_transfer", "fit_zr_eff", "DEFAULT_BAND", "THEORY_SEED",
-           "ProbeLengthFit", "ProbeLengthError", "fit_probe_length", "fit_probe_length_results", "ZR_FACTORS"]
+           "ProbeLengthFit", "ProbeLengthError", "fit_probe_length", "ZR_FACTORS"]
 
 #: Band of k [rad/m] over which zR_eff is fitted by default.
 DEFAULT_BAND = (0.02, 0.6)
@@ -156,10 +157,41 @@ def fit_zr_eff(k_k, T2_k, sigma_T2_k=None, band=DEFAULT_BAND):
     return z, sig, n
 
 
-def _line_cells(instrument, weighting, span, cell_length):
-    from ..sensors import StaringLidar
+def _line_cells(instrument, weighting: str = "exact", span: float = 20.0, cell_length: float = 0.5):
+    """Range cells of the staring beam: equal cells of about ``cell_length`` over the span, renormalised.
 
-    return StaringLidar(instrument=instrument, weighting=weighting, span=span, cell_length=cell_length).cells()
+    Kept here rather than built from a ``StaringLidar`` so that the analysis does not import the sensors;
+    ``tests/analysis/test_estimator_theory.py`` holds it to the lidar's own cells.
+
+    The rule of :class:`cwlidar_sim.sensors.StaringLidar`: the span
+    ``[-span z_R, span z_R]`` around the focus, clipped at the telescope, cut
+    into ``ceil(length / cell_length)`` equal cells with the weighting's exact
+    integrals renormalised to 1 (:func:`cwlidar_sim.beam.weight_truncated`).
+
+    Parameters
+    ----------
+    instrument : Instrument
+        Focus, wavelength and telescope radius (the Rayleigh length).
+    weighting : {'exact', 'lorentzian'}
+    span : float
+        Half-width of the span in Rayleigh lengths [-]; in (0, 1000].
+    cell_length : float
+        Target cell length [m]; in (0, 1000].
+
+    Returns
+    -------
+    cwlidar_sim.beam.RangeCells
+    """
+    from ..beam.optics import weight_truncated
+
+    check_choice("weighting", weighting, ("exact", "lorentzian"))
+    span = check_real("span", span, lo=0.0, hi=1000.0, lo_open=True)
+    cell_length = check_real("cell_length", cell_length, lo=0.0, hi=1000.0, lo_open=True)
+    half = span * instrument.rayleigh_length
+    lo = max(-half, -instrument.focus)
+    n = max(1, int(math.ceil((half - lo) / cell_length - 1e-9)))
+    check_int("number of range cells", n, lo=1, hi=100_000)
+    return weight_truncated(instrument.optics(), weighting, span=span, n_cells=n, renormalise=True)
 
 
 def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k_edges=None,
@@ -185,7 +217,7 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
         Bin edges [rad/m]; default 10 per decade over 1e-3 .. pi/dx.
     cnr_db : float
         Wideband CNR [dB]; in [-40, 60].
-    weighting, span : as :class:`cwlidar_sim.sensors.StaringLidar`.
+    weighting, span : as :func:`_line_cells`.
     dx : float
         Line spacing [m]; in [0.05, 10] (the campaign's ``field.dx``).
     cell_length : float, optional
@@ -595,49 +627,3 @@ def fit_probe_length(k_k, T2_k, sigma_T2_k=None, *, instrument, params, U, estim
     return ProbeLengthFit(estimator=estimator, zR=zR, zR_sigma=zsig, a0=a0, a0_sigma=0.5 * a0 * zsig / zR,
                           zR_eff=ze, zR_eff_sigma=zes, band=band, n_bins=n, chi2=float(chi[i0]),
                           zR_grid=np.exp(fine), chi2_grid=chi, nominal_zR=zR0, nominal_a0=a00)
-
-
-def fit_probe_length_results(ds, *, estimator=None, **kw) -> ProbeLengthFit:
-    """:func:`fit_probe_length` on a campaign results Dataset (the periods' method 2, inverse-variance averaged).
-
-    ``estimator``: the lidar's own (default) or one of its estimator
-    variants.  The instrument, turbulence and cells come from the stored
-    scene; U is the mean of the periods' mean speeds.  The theory is for the
-    beam along the wind: misaligned periods lower method 2 further (A2012
-    Eqs. 12-14), which this fit would read as a longer probe.
-    """
-    import json as _json
-
-    from ..campaign.scene import Scene
-
-    scene = Scene.from_dict(_json.loads(ds.attrs["scene"]))
-    main = scene.lidar.build_instrument().estimator
-    est = main if estimator is None else estimator
-    if est == main:
-        T, S = ds.transfer_cross.values, ds.transfer_cross_sigma.values
-    else:
-        variants = _json.loads(ds.attrs.get("variants", "[]"))
-        names = [v["name"] for v in variants if v.get("estimator") == est and len(v) == 2]
-        if not names:
-            have = [main] + [v["estimator"] for v in variants if "estimator" in v]
-            raise ProbeLengthError(f"estimator {est!r} is not in these results; available: {have}")
-        vi = list(ds.variant.values).index(names[0])
-        T, S = ds.transfer_cross_variant.values[vi], ds.transfer_cross_sigma.values
-    T, S = np.atleast_2d(T), np.atleast_2d(S)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w = np.where(np.isfinite(T) & np.isfinite(S) & (S > 0), 1.0 / S**2, 0.0)
-        Tm = np.sum(np.where(w > 0, T, 0.0) * w, axis=0) / np.sum(w, axis=0)
-        Sm = 1.0 / np.sqrt(np.sum(w, axis=0))
-    params = scene.turbulence.params()
-    if params is None:
-        from ..turbulence import MannParameters
-
-        params = MannParameters(ds.attrs["alpha_eps"], ds.attrs["length_scale"], ds.attrs["gamma"])
-    spec = scene.lidar
-    kw.setdefault("cnr_db", spec.cnr_db)
-    kw.setdefault("weighting", spec.weighting)
-    kw.setdefault("span", spec.span)
-    kw.setdefault("dx", scene.field.dx)
-    kw.setdefault("transverse_speed", spec.transverse_speed)
-    return fit_probe_length(ds.k.values, Tm, Sm, instrument=spec.build_instrument(), params=params,
-                            U=float(np.mean(ds.mean_speed.values)), estimator=est, **kw)

@@ -2,7 +2,7 @@
 
 Pipeline of one period
 ----------------------
-1. Field: the cheapest one the sensors need (:func:`cwlidar_sim.campaign.runner.choose_field`):
+1. Field: the cheapest one the sensors need (:func:`cwlidar_sim.campaign.planning.choose_field`):
    a line along x when the beam is aligned with the wind and the sonic sits on
    it, a horizontal plane when the beam is horizontal, a box otherwise.  Its
    length covers ``U * duration`` plus the sensors' extent along x, so no
@@ -28,10 +28,12 @@ import time
 
 import numpy as np
 
-from .runner import RESULTS_VERSION, plan_field, generate_field
+from .planning import generate_field, plan_field
 from .scene import Scene
+from .spec import RESULTS_VERSION
 
-__all__ = ["run_period", "period_dataset", "LIDAR_BLOCK", "SONIC_DELAY"]
+__all__ = ["run_period", "period_dataset", "estimator_theory", "fit_probe_length_results", "LIDAR_BLOCK",
+           "SONIC_DELAY"]
 
 #: The lidar's 50 Hz estimates are block-averaged by this to 10 Hz (A2012).
 LIDAR_BLOCK = 5
@@ -441,3 +443,51 @@ def _cells(scene):
                         cell_length=spec.cell_length or scene.field.dx).cells()
 
 
+def fit_probe_length_results(ds, *, estimator=None, **kw):
+    """:func:`cwlidar_sim.analysis.fit_probe_length` on a staring scene's results file.
+
+    The periods' method 2 is inverse-variance averaged.
+
+    ``estimator``: the lidar's own (default) or one of its estimator
+    variants.  The instrument, turbulence and cells come from the stored
+    scene; U is the mean of the periods' mean speeds.  The theory is for the
+    beam along the wind: misaligned periods lower method 2 further (A2012
+    Eqs. 12-14), which this fit would read as a longer probe.
+
+    Returns
+    -------
+    cwlidar_sim.analysis.ProbeLengthFit
+    """
+    from ..analysis.estimator_theory import ProbeLengthError, fit_probe_length
+
+    scene = Scene.from_dict(json.loads(ds.attrs["scene"]))
+    main = scene.lidar.build_instrument().estimator
+    est = main if estimator is None else estimator
+    if est == main:
+        T, S = ds.transfer_cross.values, ds.transfer_cross_sigma.values
+    else:
+        variants = json.loads(ds.attrs.get("variants", "[]"))
+        names = [v["name"] for v in variants if v.get("estimator") == est and len(v) == 2]
+        if not names:
+            have = [main] + [v["estimator"] for v in variants if "estimator" in v]
+            raise ProbeLengthError(f"estimator {est!r} is not in these results; available: {have}")
+        vi = list(ds.variant.values).index(names[0])
+        T, S = ds.transfer_cross_variant.values[vi], ds.transfer_cross_sigma.values
+    T, S = np.atleast_2d(T), np.atleast_2d(S)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where(np.isfinite(T) & np.isfinite(S) & (S > 0), 1.0 / S**2, 0.0)
+        Tm = np.sum(np.where(w > 0, T, 0.0) * w, axis=0) / np.sum(w, axis=0)
+        Sm = 1.0 / np.sqrt(np.sum(w, axis=0))
+    params = scene.turbulence.params()
+    if params is None:
+        from ..turbulence import MannParameters
+
+        params = MannParameters(ds.attrs["alpha_eps"], ds.attrs["length_scale"], ds.attrs["gamma"])
+    spec = scene.lidar
+    kw.setdefault("cnr_db", spec.cnr_db)
+    kw.setdefault("weighting", spec.weighting)
+    kw.setdefault("span", spec.span)
+    kw.setdefault("dx", scene.field.dx)
+    kw.setdefault("transverse_speed", spec.transverse_speed)
+    return fit_probe_length(ds.k.values, Tm, Sm, instrument=spec.build_instrument(), params=params,
+                            U=float(np.mean(ds.mean_speed.values)), estimator=est, **kw)

@@ -21,8 +21,9 @@
     doubled) and :func:`surface_layer_parameters`.
 ``cup``
     :class:`Cup`: horizontal speed through a first-order response (distance constant).
-``conical_period``
-    :func:`simulate_conical_period`: one CS period (box, lidar, cup, sonic) as a dict of numbers.
+
+A whole period (field, sensors and their analysis) is the campaign layer's:
+:mod:`cwlidar_sim.campaign.staring` and :mod:`cwlidar_sim.campaign.conical_period`.
 
 Importing this package does not import numba; kernels compile on first use.
 """
@@ -40,7 +41,6 @@ from .lidar import (
     measure_staring,
 )
 from .conical import ConicalLidar, ConicalRecord, conical_field, measure_conical, surface_layer_parameters
-from .conical_period import simulate_conical_period
 from .cup import Cup, cup_response, cup_transfer, sample_cup
 from .sonic import (
     A2012_OUTPUTS,
@@ -60,5 +60,5 @@ __all__ = [
     "StaringLidar", "LidarRecord", "measure_staring", "expected_spectrum_exact", "instrument_from_spec",
     "TIERS", "VARIANT_KEYS", "SIGNAL_MAX_ESTIMATES", "DRAW_BLOCK",
     "ConicalLidar", "ConicalRecord", "measure_conical", "conical_field", "surface_layer_parameters",
-    "simulate_conical_period", "Cup", "sample_cup", "cup_response", "cup_transfer",
+    "Cup", "sample_cup", "cup_response", "cup_transfer",
 ]

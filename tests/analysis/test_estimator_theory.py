@@ -59,3 +59,23 @@ def test_probe_length_recovers_zR_and_a0_of_an_unseen_realisation():
     assert fit.a0_sigma < 0.25 * abs(a0 - 0.020)
     # and a median's zR_eff is shorter than its zR (its filter is not exp(-2 k zR))
     assert fit.zR_eff < 0.8 * fit.zR
+
+
+@pytest.mark.parametrize("weighting, span, cell, focus", [("exact", 20.0, 0.5, 67.5), ("lorentzian", 8.0, 1.3, 40.0),
+                                                          ("exact", 200.0, 2.0, 10.0)])
+def test_the_theory_cells_are_the_staring_lidars(weighting, span, cell, focus):
+    """The theory builds its cells itself (the analysis does not import the sensors): the lidar's own cells.
+
+    The last case is clipped at the telescope (span 200 z_R reaches behind a 10 m focus).
+    """
+    from cwlidar_sim.analysis.estimator_theory import _line_cells
+    from cwlidar_sim.sensors import StaringLidar
+
+    inst = PROTOTYPE_2003.replace(focus=focus)
+    ours = _line_cells(inst, weighting, span, cell)
+    theirs = StaringLidar(instrument=inst, weighting=weighting, span=span, cell_length=cell).cells()
+    np.testing.assert_array_equal(ours.s_s, theirs.s_s)
+    np.testing.assert_array_equal(ours.weight_s, theirs.weight_s)
+    assert ours.truncated_fraction == theirs.truncated_fraction
+    with pytest.raises(ValueError, match="weighting"):
+        _line_cells(inst, "gaussian", span, cell)

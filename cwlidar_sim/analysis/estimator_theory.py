@@ -16,11 +16,12 @@ For the staring beam along the mean wind (A2012's geometry, misalignment 0):
    parameters and spacing ``dx``), seeded from ``seed`` alone: nothing is
    shared with a campaign's realisation.
 2. One estimate per grid point ``x_i`` (the focus there): the range cells of
-   the staring beam (:func:`_line_cells`, the rule of
-   :class:`cwlidar_sim.sensors.StaringLidar`: its weighting, span and
-   cell length) at ``x_i - s_s`` (the beam looks upwind), their speeds
-   ``U + u`` linearly interpolated on the periodic line, exactly as the
-   sensor samples a line field.
+   the staring beam (:func:`cwlidar_sim.beam.cells.probe_cells`, the cells
+   every lidar uses: its weighting, span, cell length, growth and tail rule)
+   at ``x_i - s`` (the beam looks upwind), their speeds ``U + u`` linearly
+   interpolated on the periodic line at the cells' sub-points, exactly as the
+   sensor samples a line field (the mean-wind tail stays out of the
+   spectrum, as in :mod:`cwlidar_sim.signal.chain`).
 3. The tier-2 continuum-speckle spectra of those cells
    (:func:`cwlidar_sim.signal.spectral.continuum_moments` and
    :func:`~cwlidar_sim.signal.spectral.sample_moments`: the instrument's
@@ -157,47 +158,33 @@ def fit_zr_eff(k_k, T2_k, sigma_T2_k=None, band=DEFAULT_BAND):
     return z, sig, n
 
 
-def _line_cells(instrument, weighting: str = "exact", span: float = 20.0, cell_length: float = 0.5):
-    """Range cells of the staring beam: equal cells of about ``cell_length`` over the span, renormalised.
+def _line_cells(instrument, weighting: str = "exact", span: float = 20.0, cell_length: float = 0.5, *,
+                growth: float = 0.0, tail: str = "mean_wind"):
+    """Range cells of the staring beam: the probe cells every lidar uses (:func:`cwlidar_sim.beam.cells.probe_cells`).
 
-    Kept here rather than built from a ``StaringLidar`` so that the analysis does not import the sensors;
-    ``tests/analysis/test_estimator_theory.py`` holds it to the lidar's own cells.
-
-    The rule of :class:`cwlidar_sim.sensors.StaringLidar`: the span
-    ``[-span z_R, span z_R]`` around the focus, clipped at the telescope, cut
-    into ``ceil(length / cell_length)`` equal cells with the weighting's exact
-    integrals renormalised to 1 (:func:`cwlidar_sim.beam.weight_truncated`).
-
-    Parameters
-    ----------
-    instrument : Instrument
-        Focus, wavelength and telescope radius (the Rayleigh length).
-    weighting : {'exact', 'lorentzian'}
-    span : float
-        Half-width of the span in Rayleigh lengths [-]; in (0, 1000].
-    cell_length : float
-        Target cell length [m]; in (0, 1000].
+    The span ``[-span z_R, span z_R]`` around the focus, clipped at the
+    telescope, cut into cells of about ``cell_length`` (growing in the tails
+    with ``growth``), each sampled at its sub-points; the spectrum's cells
+    are these (the mean-wind tail cell is a sub-threshold pedestal, left out
+    of the spectrum as :mod:`cwlidar_sim.signal.chain` does).
 
     Returns
     -------
-    cwlidar_sim.beam.RangeCells
+    cwlidar_sim.beam.cells.ProbeCells
     """
-    from ..beam.optics import weight_truncated
+    from ..beam.cells import probe_cells
 
     check_choice("weighting", weighting, ("exact", "lorentzian"))
     span = check_real("span", span, lo=0.0, hi=1000.0, lo_open=True)
     cell_length = check_real("cell_length", cell_length, lo=0.0, hi=1000.0, lo_open=True)
-    half = span * instrument.rayleigh_length
-    lo = max(-half, -instrument.focus)
-    n = max(1, int(math.ceil((half - lo) / cell_length - 1e-9)))
-    check_int("number of range cells", n, lo=1, hi=100_000)
-    return weight_truncated(instrument.optics(), weighting, span=span, n_cells=n, renormalise=True)
+    return probe_cells(instrument.optics(), weighting, span, cell_length, growth=growth, tail=tail)
 
 
 def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k_edges=None,
-                       cnr_db=-10.0, weighting="exact", span=20.0, dx=0.5, cell_length=None,
-                       subcell_spread=None, transverse_speed=None, n_lines=8, n_points=4096, seed=THEORY_SEED,
-                       band=DEFAULT_BAND, modulation=None, gain=1.0, chunk=1024) -> EstimatorTransfer:
+                       cnr_db=-10.0, weighting="exact", span=20.0, dx=0.5, cell_length=None, cell_growth=0.0,
+                       tail="mean_wind", subcell_spread=None, transverse_speed=None, n_lines=8, n_points=4096,
+                       seed=THEORY_SEED, band=DEFAULT_BAND, modulation=None, gain=1.0,
+                       chunk=1024) -> EstimatorTransfer:
     """Expected method-2 transfer function of each estimator for the beam along the wind (module notes).
 
     Parameters
@@ -217,11 +204,13 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
         Bin edges [rad/m]; default 10 per decade over 1e-3 .. pi/dx.
     cnr_db : float
         Wideband CNR [dB]; in [-40, 60].
-    weighting, span : as :func:`_line_cells`.
+    weighting, span : as :class:`cwlidar_sim.sensors.StaringLidar`.
     dx : float
         Line spacing [m]; in [0.05, 10] (the campaign's ``field.dx``).
     cell_length : float, optional
         Range-cell length [m]; default ``dx``.
+    cell_growth, tail
+        The probe cells' growth and tail rule (:func:`cwlidar_sim.beam.cells.probe_cells`), as the lidar's.
     subcell_spread : float, optional
         Sub-cell speed spread [m/s]; default ``sqrt(subcell_variance(params, dx))``.
     transverse_speed : float, optional
@@ -292,11 +281,13 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
     vt = check_real("transverse_speed", transverse_speed, lo=0.0, hi=1000.0)
     tau = instrument.speckle_time(vt)
 
-    cells = _line_cells(instrument, weighting, span, cell_length)
+    cells = _line_cells(instrument, weighting, span, cell_length, growth=cell_growth, tail=tail)
     w_s = np.ascontiguousarray(cells.weight_s, dtype=np.float64)
-    pos = -cells.s_s / dx                     # cell offsets in grid steps (the beam looks upwind, -x)
+    pos = -cells.sub_p / dx                   # sub-point offsets in grid steps (the beam looks upwind, -x)
     m_s = np.floor(pos).astype(np.int64)
     f_s = pos - m_s
+    frac_p, ptr_s = cells.fraction_p, cells.ptr_s
+    grown = cells.sub_p.size > cells.n_cells
     insts = [instrument.replace(estimator=e) for e in est]
 
     nf = n_points // 2 + 1
@@ -328,11 +319,15 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
             i0 = (i_e + m_s[None, :]) % n_points
             i1 = (i0 + 1) % n_points
             vlos_es = U + (1.0 - f_s) * u_x[i0] + f_s * u_x[i1]
+            if grown:  # a grown cell's speed is its sub-points' weighted mean, as the sensor samples it
+                vlos_es = U + np.add.reduceat((vlos_es - U) * frac_p, ptr_s[:-1], axis=1)
             if mod_x is None:
                 mean, var, _ = continuum_moments(instrument, vlos_es, w_s, cnr_db, spread, correlation_time=tau)
             else:
-                mean, var = _modulated_moments(instrument, vlos_es, w_s, (1.0 - f_s) * mod_x[i0] + f_s * mod_x[i1],
-                                               cnr_db, spread, tau)
+                mod_es = (1.0 - f_s) * mod_x[i0] + f_s * mod_x[i1]
+                if grown:
+                    mod_es = np.add.reduceat(mod_es * frac_p, ptr_s[:-1], axis=1)
+                mean, var = _modulated_moments(instrument, vlos_es, w_s, mod_es, cnr_db, spread, tau)
             spec = sample_moments(mean, var, key, e0=c0)
             if gain != 1.0:
                 spec *= gain

@@ -91,6 +91,9 @@ SCAN_VARS = {
     "radial_variance_ratio_model": ("1", "CS filter model of the radial-variance ratio (Kaimal)"),
     "radial_variance_ratio_model_mann": ("1", "CS filter model of the radial-variance ratio (Mann spectra)"),
 }
+#: Per-scan-length results of every processing variant (``lidar.variants``), on ``variant``.
+VARIANT_VARS = {k: SCAN_VARS[k] for k in ("lidar_mean", "lidar_std", "std_ratio", "mean_speed_bias", "tp",
+                                          "scan_availability", "points_used_fraction", "selected")}
 _FROM_SIM = {"scan_availability": "availability", "std_ratio_model": "std_ratio_model_kaimal",
              "radial_variance_ratio_model": "radial_variance_ratio_model_kaimal"}
 
@@ -105,11 +108,13 @@ def _box_points(scene: ConicalScene, index: int) -> tuple:
     p, z = scene.units()[index]
     hs = tuple(z) if scene.scan.cycle else (z,)
     d = scene.scan.spacing or default_spacing(min(hs))
-    phi = math.radians(float(scene.scan.lidar.get("half_angle_deg", 30.0)))
+    phi = math.radians(scene.scan.half_angle_deg)
     tensor = scene.turbulence.params(_tensor_height(scene, index), p.mean_speed)[0]
 
-    def reach(h):  # the simulated span along the beam at height h, 5 z_R of the CS optics [m] (approximately)
-        return 5.0 * 0.0013 * (h / math.cos(phi)) ** 2
+    zr_per_r2 = scene.lidar.build_instrument().replace(focus=1.0).rayleigh_length
+
+    def reach(h):  # the simulated span along the beam at height h [m]
+        return scene.lidar.span * zr_per_r2 * (h / math.cos(phi)) ** 2
 
     radius = max(h * math.tan(phi) + reach(h) * math.sin(phi) for h in hs)
     ext = 2.0 * tensor.length_scale
@@ -134,7 +139,7 @@ def estimate_unit(scene: ConicalScene, index: int) -> dict:
     points, _ = _box_points(scene, index)
     p, _ = scene.units()[index]
     hours = scene.period_duration(p) / 3600.0
-    seconds = 3 * points * 30e-9 + hours * COST_S_PER_SIM_HOUR[scene.scan.tier]
+    seconds = 3 * points * 30e-9 + hours * COST_S_PER_SIM_HOUR[scene.lidar.tier]
     return {"seconds": seconds, "memory_bytes": 3 * 4 * points * 2.0 + 50e6}
 
 
@@ -158,12 +163,15 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None):
     t0 = time.perf_counter()
     tensor, su, ustar = scene.turbulence.params(_tensor_height(scene, index), p.mean_speed)
     s = scene.scan
-    lidar = dict(s.lidar)
-    kw = dict(speed=p.mean_speed, duration=scene.period_duration(p), scan_revs=s.scan_revs, tier=s.tier,
-              spacing=s.spacing or None, lateral_doubling=s.lateral_doubling, params=tensor, reference=s.reference,
-              wind_direction_deg=p.wind_direction_deg)
+    hs = tuple(z) if s.cycle else (z,)
+    spacing = s.spacing or conical_period.default_spacing(min(hs))
+    lidar = scene.lidar_fields(spacing)
+    tier, sub_dwells = lidar.pop("tier"), lidar.pop("sub_dwells")
+    kw = dict(speed=p.mean_speed, duration=scene.period_duration(p), scan_revs=s.scan_revs, tier=tier,
+              sub_dwells=sub_dwells, spacing=spacing, lateral_doubling=s.lateral_doubling, params=tensor,
+              reference=s.reference, wind_direction_deg=p.wind_direction_deg, variants=scene.lidar.variant_list)
     if s.cycle:
-        revs, refocus = lidar.pop("revs_per_height", 1), lidar.pop("refocus_time", 0.0)
+        revs, refocus = lidar.pop("revs_per_height"), lidar.pop("refocus_time")
         rows = conical_period.simulate_conical_cycle(z, scene.unit_seed(index), revs_per_height=revs,
                                                      refocus_time=refocus, lidar_overrides=lidar, **kw)
     else:
@@ -196,6 +204,12 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
         src = _FROM_SIM.get(key, key)
         vals = [[float(r["scans"][n].get(src, np.nan)) for n in revs] for r in rows]
         dv[key] = (("period", "scan_s"), np.array(vals), {"units": units, "long_name": long})
+    names = [v["name"] for v in scene.lidar.variants]
+    for key, (units, long) in (VARIANT_VARS.items() if names else ()):
+        src = _FROM_SIM.get(key, key)
+        vals = [[[float(r["variants"][v][n].get(src, np.nan)) for n in revs] for v in names] for r in rows]
+        dv[f"{key}_variant"] = (("period", "variant", "scan_s"), np.array(vals),
+                                {"units": units, "long_name": f"{long}, processing variant"})
     dv["mean_speed"] = (("period",), np.array([float(p.mean_speed)] * len(rows)), {"units": "m s-1"})
     dv["u_star"] = (("period",), np.array([np.nan if r.get("u_star") is None else float(r["u_star"]) for r in rows]),
                     {"units": "m s-1", "long_name": "friction velocity of the surface layer"})
@@ -211,6 +225,8 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
         "scan_s": ("scan_s", np.array(scan_s), {"units": "s", "long_name": "VAD scan length"}),
         "scan_revs": ("scan_s", np.array(revs), {"units": "1", "long_name": "revolutions per VAD scan"}),
     }
+    if names:
+        coords["variant"] = ("variant", np.array(names, dtype=object))
     r = rows[0]
     reason = (f"box {'x'.join(map(str, r['box_shape']))} at {r['spacing']:g} m"
               f"{', laterally doubled' if r['lateral_doubling'] else ''}")
@@ -218,7 +234,7 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
         "title": f"cwlidar_sim conical campaign {scene.name}",
         "results_version": RESULTS_VERSION,
         "sensor": "conical",
-        "lidar_tier": scene.scan.tier,
+        "lidar_tier": scene.lidar.tier,
         "scene": json.dumps(scene.as_dict()),
         "cwlidar_sim_version": __version__,
         "period_index": int(index),
@@ -228,7 +244,7 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
     if scene.scan.cycle:
         heights = ", ".join(f"{float(x['height']):g}" for x in rows)
         attrs["field_reason"] = (f"{reason}: one box for the heights {heights} m, the lidar cycling "
-                                 f"({scene.scan.lidar.get('revs_per_height', 1)} revolutions per height)")
+                                 f"({scene.scan.revs_per_height} revolutions per height)")
         attrs["unit_name"] = scene.unit_names()[index]
     return xr.Dataset(dv, coords=coords, attrs=attrs)
 
@@ -280,6 +296,16 @@ def summarise(ds):
             out[f"{var}_sigma"] = (HS, err, {"units": attrs.get("units", "1"), "long_name": f"standard error of {var}"})
         if var == "std_ratio":
             out["n_selected"] = (HS, n.astype(np.int64), {"units": "1", "long_name": "periods passing CS's selection"})
+    for var in ("std_ratio_variant", "mean_speed_bias_variant", "tp_variant", "scan_availability_variant"):
+        if var not in ds:
+            continue
+        selected = var != "scan_availability_variant"
+        mean, err, _ = by_height(var, selected)
+        attrs = dict(ds[var].attrs)
+        out[var] = (("height", "variant", "scan_s"), mean, attrs)
+        if selected:
+            out[f"{var}_sigma"] = (("height", "variant", "scan_s"), err,
+                                   {"units": attrs.get("units", "1"), "long_name": f"standard error of {var}"})
     for var in ("availability", "zero_crossing_loss", "second_peak_fraction", "cloud_fraction"):
         mean, _, n = by_height(var, False)
         out[var] = (("height",), mean, {**ds[var].attrs, "long_name": ds[var].attrs["long_name"] + " (mean over periods)"})

@@ -74,6 +74,7 @@ the model's 0.16 and 0.07.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -116,7 +117,8 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
                             scan_revs=(1, 3), tier: str = "los", spacing: float | None = None,
                             lateral_doubling: bool = True, params=None, reference: str = "previous",
                             sub_dwells: int = 8, model: bool = True, lidar_overrides: dict | None = None,
-                            excluded_flags: int | None = None, wind_direction_deg: float = 0.0) -> dict:
+                            excluded_flags: int | None = None, wind_direction_deg: float = 0.0, variants=None,
+                            field_span: float | None = None) -> dict:
     """Simulate one period: a Mann box, the conical lidar, a cup and a sonic at one height.
 
     Parameters
@@ -155,6 +157,13 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
     wind_direction_deg : float
         Direction the mean wind blows toward in the lidar's frame [deg], from
         its azimuth 0 toward +y; any finite value (module notes).
+    variants : list of dict, optional
+        Processing variants of the lidar's spectra (:data:`cwlidar_sim.signal.chain.VARIANT_KEYS`):
+        each gets its own VAD fits, in ``variants``.
+    field_span : float, optional
+        Size the box for this span [z_R] instead of the lidar's own (at
+        least the lidar's): with it, lidars of different spans measure the
+        same turbulence (a paired study of the span).
 
     Returns
     -------
@@ -180,13 +189,14 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         ``selected`` (CS's 65 % rule), ``ambiguity_rate``,
         ``unresolved_rate``, ``l_az`` [m] and, with ``model``,
         ``std_ratio_model_kaimal``, ``std_ratio_model_mann``,
-        ``radial_variance_ratio_model_kaimal``, ``radial_variance_ratio_model_mann``.
+        ``radial_variance_ratio_model_kaimal``, ``radial_variance_ratio_model_mann``;
+        ``variants``: variant name -> the same per-scan dicts (without the model).
     """
     z = check_real("height", height, lo=1.0, hi=1000.0)
     return _simulate((z,), seed, speed=speed, duration=duration, scan_revs=scan_revs, tier=tier, spacing=spacing,
                      lateral_doubling=lateral_doubling, params=params, reference=reference, sub_dwells=sub_dwells,
                      model=model, lidar_overrides=lidar_overrides, excluded_flags=excluded_flags,
-                     wind_direction_deg=wind_direction_deg)[0]
+                     wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span)[0]
 
 
 def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_time: float = 0.0,
@@ -194,7 +204,7 @@ def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_
                            spacing: float | None = None, lateral_doubling: bool = True, params=None,
                            reference: str = "previous", sub_dwells: int = 8, model: bool = True,
                            lidar_overrides: dict | None = None, excluded_flags: int | None = None,
-                           wind_direction_deg: float = 0.0) -> list:
+                           wind_direction_deg: float = 0.0, variants=None, field_span: float | None = None) -> list:
     """Simulate one period of a lidar cycling through several heights in one box (module notes).
 
     The lidar measures ``revs_per_height`` revolutions at each height in
@@ -237,7 +247,7 @@ def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_
     return _simulate(hs, seed, speed=speed, duration=duration, scan_revs=scan_revs, tier=tier, spacing=spacing,
                      lateral_doubling=lateral_doubling, params=params, reference=reference, sub_dwells=sub_dwells,
                      model=model, lidar_overrides=overrides, excluded_flags=excluded_flags,
-                     wind_direction_deg=wind_direction_deg)
+                     wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span)
 
 
 def _conical_lidar(heights, tier, cell_length, sub_dwells, lidar_overrides, wind_direction_deg):
@@ -253,7 +263,8 @@ def _conical_lidar(heights, tier, cell_length, sub_dwells, lidar_overrides, wind
 
 
 def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, lateral_doubling, params, reference,
-              sub_dwells, model, lidar_overrides, excluded_flags, wind_direction_deg) -> list:
+              sub_dwells, model, lidar_overrides, excluded_flags, wind_direction_deg, variants=None,
+              field_span=None) -> list:
     """The box, the lidar at ``heights`` (one: dwell, several: cycle), cups and sonics, fits: one dict per height."""
     from ..analysis.vad import sonic_radial_variance
     from ..sensors import Cup, Sonic, sample_cup, sample_sonic
@@ -288,11 +299,17 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
     box_seq, lid_seq = np.random.SeedSequence(seed).spawn(2)
     cost = {}
     t0 = time.perf_counter()
-    field = conical_field(lidar, U, duration, params, int(box_seq.generate_state(1, np.uint64)[0] >> np.uint64(1)),
-                          spacing=d, lateral_doubling=lateral_doubling)
+    box_lidar = lidar
+    if field_span is not None:
+        box_lidar = lidar.replace(span=max(lidar.span, check_real("field_span", field_span, lo=0.0, hi=1e4,
+                                                                   lo_open=True)), cloud_base=None,
+                                  cloud_strength=0.0)
+    field = conical_field(box_lidar, U, duration, params,
+                          int(box_seq.generate_state(1, np.uint64)[0] >> np.uint64(1)), spacing=d,
+                          lateral_doubling=lateral_doubling)
     cost["box"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    rec = measure_conical(field, lidar, duration, U, np.random.default_rng(lid_seq))
+    rec = measure_conical(field, lidar, duration, U, np.random.default_rng(lid_seq), variants=variants)
     cost["lidar"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     missing = [z for z in heights if not np.any(rec.height_e == z)]
@@ -330,6 +347,12 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         t0 = time.perf_counter()
         _scans(r, rec, lidar, z, U, vel_ec, sel["revolution_e"], params, scan_revs, reference, model, excluded_flags,
                wind_direction_deg)
+        r["variants"] = {}
+        for name, (sp, fl) in rec.variants.items():
+            tmp = {k: r[k] for k in ("cup_std", "cup_mean", "sonic_radial_variance")} | {"scans": {}}
+            _scans(tmp, dataclasses.replace(rec, speed_e=sp, flags_e=fl), lidar, z, U, vel_ec, sel["revolution_e"],
+                   params, scan_revs, reference, False, excluded_flags, wind_direction_deg)
+            r["variants"][name] = tmp["scans"]
         r["cost_s"] = dict(cost, fit_and_model=time.perf_counter() - t0)
         out.append(r)
     return out

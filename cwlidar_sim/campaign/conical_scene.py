@@ -40,8 +40,11 @@ Example
     [scan]
     heights = [40.0, 60.0, 80.0, 100.0]
     scan_revs = [1, 3]
+    sub_dwells = 8                 # the cone and the sweep: half_angle_deg, revolution_time, ...
+
+    [lidar]                        # the keys of every scene's [lidar]; defaults: the CS series instrument
     tier = "spectral"
-    lidar = { cnr_db = -10.0 }     # further ConicalLidar fields
+    cnr_db = -10.0
 
     [turbulence]                   # or alpha_eps, length_scale, gamma for one tensor at every height
     source = "mann1994"            # neutral surface layer at each height (Mann 1994's Kaimal fit)
@@ -59,17 +62,23 @@ import dataclasses
 import numpy as np
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
+from .conical_period import default_spacing
+from .lidar_spec import ConicalLidarSpec
 from .spec import Spec, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS"]
 
-#: scan.lidar keys that only a cycling lidar uses.
+#: scan keys that only a cycling lidar uses.
 CYCLE_KEYS = ("revs_per_height", "refocus_time")
 
 
 @dataclasses.dataclass(frozen=True)
 class ScanSpec(Spec):
-    """The scan and the lidar.
+    """The scan: heights, the cone and its schedule, the box, the VAD.
+
+    The lidar's instrument and signal chain are the scene's ``[lidar]`` table
+    (:class:`cwlidar_sim.campaign.lidar_spec.ConicalLidarSpec`: the same keys
+    as every scene's); this table is the geometry.
 
     Parameters
     ----------
@@ -77,8 +86,6 @@ class ScanSpec(Spec):
         Measurement heights [m]; 1 to 20 distinct values.
     scan_revs : tuple of int
         Revolutions per VAD scan (1: 1 s scans, 3: 3 s scans); each in [1, 60].
-    tier : {'los', 'spectral', 'signal'}
-        Fidelity tier of the scanning lidar.
     spacing : float
         Box spacing [m]; 0: the default, height / 20 (at least 1 m) of each
         unit's height, in cycle mode of the lowest height.
@@ -90,23 +97,28 @@ class ScanSpec(Spec):
         False: the lidar dwells at each height, one unit per period and
         height.  True: it cycles through the heights within each period, one
         unit (and one box) per period; needs at least two heights (module notes).
-    lidar : dict
-        Further :class:`cwlidar_sim.sensors.ConicalLidar` fields (e.g. ``cnr_db``,
-        ``sub_dwells``; ``revs_per_height`` and ``refocus_time`` only with ``cycle``).
+    half_angle_deg, revolution_time, estimates_per_rev, sub_dwells, azimuth0_deg
+        The cone and the sweep (:class:`cwlidar_sim.sensors.ConicalLidar`).
+    revs_per_height, refocus_time
+        The height cycle (``cycle = true`` only): revolutions at each height
+        and the time lost refocusing [s].
     """
 
     heights: tuple = (40.0, 60.0, 80.0, 100.0)
     scan_revs: tuple = (1, 3)
-    tier: str = "spectral"
     spacing: float = 0.0
     lateral_doubling: bool = True
     reference: str = "previous"
-    lidar: dict = dataclasses.field(default_factory=dict)
     cycle: bool = False
+    half_angle_deg: float = 30.0
+    revolution_time: float = 1.0
+    estimates_per_rev: int = 50
+    sub_dwells: int = 8
+    azimuth0_deg: float = 0.0
+    revs_per_height: int = 1
+    refocus_time: float = 0.0
 
     def __post_init__(self):
-        from ..sensors.conical import TIERS, ConicalLidar
-
         h = tuple(self.heights)
         if not 1 <= len(h) <= 20:
             raise ValueError(f"scan.heights needs 1 to 20 heights, got {len(h)}")
@@ -118,47 +130,57 @@ class ScanSpec(Spec):
         if not r:
             raise ValueError("scan.scan_revs needs at least one scan length, e.g. [1, 3]")
         set_field(self, "scan_revs", tuple(check_int(f"scan.scan_revs[{i}]", n, lo=1, hi=60) for i, n in enumerate(r)))
-        check_choice("scan.tier", self.tier, TIERS)
         set_field(self, "spacing", check_real("scan.spacing", self.spacing, lo=0.0, hi=100.0))
         set_field(self, "lateral_doubling", check_bool("scan.lateral_doubling", self.lateral_doubling))
         check_choice("scan.reference", self.reference, ("previous", "vane"))
         set_field(self, "cycle", check_bool("scan.cycle", self.cycle))
-        if not isinstance(self.lidar, dict):
-            raise TypeError(f"scan.lidar must be a table of ConicalLidar fields, got {type(self.lidar).__name__}")
-        reserved = sorted(set(self.lidar) & {"heights", "tier", "cell_length"})
-        if reserved:
-            raise ValueError(f"scan.lidar: {reserved} are set by scan.heights, scan.tier and scan.spacing")
+        set_field(self, "half_angle_deg", check_real("scan.half_angle_deg", self.half_angle_deg, lo=10.0, hi=60.0))
+        set_field(self, "revolution_time", check_real("scan.revolution_time", self.revolution_time, lo=0.1, hi=100.0))
+        set_field(self, "estimates_per_rev", check_int("scan.estimates_per_rev", self.estimates_per_rev, lo=4,
+                                                       hi=10000))
+        set_field(self, "sub_dwells", check_int("scan.sub_dwells", self.sub_dwells, lo=1, hi=256))
+        set_field(self, "azimuth0_deg", check_real("scan.azimuth0_deg", self.azimuth0_deg))
+        set_field(self, "revs_per_height", check_int("scan.revs_per_height", self.revs_per_height, lo=1, hi=10000))
+        set_field(self, "refocus_time", check_real("scan.refocus_time", self.refocus_time, lo=0.0, hi=100.0))
         if self.cycle:
             if len(h) < 2:
                 raise ValueError(f"scan.cycle = true cycles through the heights and needs at least 2, got {list(h)}; "
                                  f"allowed: cycle = false for one height")
-            lidar = ConicalLidar.from_dict({**self.lidar, "heights": h, "tier": self.tier})
-            bad = [n for n in self.scan_revs if lidar.revs_per_height % n]
+            bad = [n for n in self.scan_revs if self.revs_per_height % n]
             if bad:
-                raise ValueError(f"scan.scan_revs {bad} must divide scan.lidar.revs_per_height = "
-                                 f"{lidar.revs_per_height} in cycle mode (a VAD scan cannot span a refocus); "
+                raise ValueError(f"scan.scan_revs {bad} must divide scan.revs_per_height = "
+                                 f"{self.revs_per_height} in cycle mode (a VAD scan cannot span a refocus); "
                                  f"allowed: divisors of revs_per_height")
-        else:
-            extra = sorted(set(self.lidar) & set(CYCLE_KEYS))
-            if extra:
-                raise ValueError(f"scan.lidar: {extra} set the height cycle; they need scan.cycle = true")
-            for z in h:  # the lidar's own checks (focus range, half-angle, dwell), named by field
-                ConicalLidar.from_dict({**self.lidar, "heights": (z,), "tier": self.tier})
-
-    @property
-    def revolution_time(self) -> float:
-        """Time of one revolution [s] (``scan.lidar.revolution_time``, default 1 s)."""
-        return float(self.lidar.get("revolution_time", 1.0))
+        elif self.revs_per_height != 1 or self.refocus_time != 0.0:
+            raise ValueError("scan.revs_per_height and scan.refocus_time set the height cycle; they need "
+                             "scan.cycle = true")
 
     def block_time(self) -> float:
         """Cycle mode: the time of one height's block, revolutions plus refocus [s]."""
-        return (int(self.lidar.get("revs_per_height", 1)) * self.revolution_time
-                + float(self.lidar.get("refocus_time", 0.0)))
+        return self.revs_per_height * self.revolution_time + self.refocus_time
+
+    def geometry(self) -> dict:
+        """The :class:`cwlidar_sim.sensors.ConicalLidar` geometry fields of the scan (not the heights)."""
+        g = {k: getattr(self, k) for k in ("half_angle_deg", "revolution_time", "estimates_per_rev",
+                                           "azimuth0_deg")}
+        if self.cycle:
+            g.update(revs_per_height=self.revs_per_height, refocus_time=self.refocus_time)
+        return g
 
     def as_dict(self) -> dict:
         d = super().as_dict()
         d["heights"], d["scan_revs"] = list(self.heights), list(self.scan_revs)
         return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ScanSpec":
+        if isinstance(d, dict) and ("lidar" in d or "tier" in d):
+            raise ValueError("scan.lidar and scan.tier moved: the lidar's instrument and signal chain are the "
+                             "[lidar] table (the keys of every scene's [lidar]: tier, cnr_db, speckle, span, "
+                             "variants, clouds, ...); the cone and its schedule (half_angle_deg, revolution_time, "
+                             "estimates_per_rev, sub_dwells, revs_per_height, refocus_time, azimuth0_deg) are "
+                             "[scan] keys")
+        return super().from_dict(d)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -268,6 +290,8 @@ class ConicalScene(Spec):
     periods : tuple of ConicalPeriodSpec
         Each is run at every height.
     scan : ScanSpec
+    lidar : ConicalLidarSpec
+        The instrument and the signal chain (the keys of every scene's ``[lidar]``).
     turbulence : SurfaceTurbulenceSpec
     duration : float
         Default period length [s]; in [10, 3600] (CS: 600).
@@ -278,6 +302,7 @@ class ConicalScene(Spec):
     name: str
     periods: tuple
     scan: ScanSpec = dataclasses.field(default_factory=ScanSpec)
+    lidar: ConicalLidarSpec = dataclasses.field(default_factory=ConicalLidarSpec)
     turbulence: SurfaceTurbulenceSpec = dataclasses.field(default_factory=SurfaceTurbulenceSpec)
     duration: float = 600.0
     seed: int = 0
@@ -290,6 +315,8 @@ class ConicalScene(Spec):
         check_scene_name(self.name)
         if not isinstance(self.scan, ScanSpec) or not isinstance(self.turbulence, SurfaceTurbulenceSpec):
             raise TypeError("scan and turbulence must be ScanSpec and SurfaceTurbulenceSpec")
+        if not isinstance(self.lidar, ConicalLidarSpec):
+            raise TypeError(f"lidar must be a ConicalLidarSpec, got {type(self.lidar).__name__}")
         periods = check_periods(self.periods, ConicalPeriodSpec, "conical scene")
         set_field(self, "periods", periods)
         set_field(self, "duration", check_real("duration", self.duration, lo=10.0, hi=3600.0))
@@ -300,10 +327,25 @@ class ConicalScene(Spec):
             dur = check_real(f"period {p.name!r} duration", self.period_duration(p), lo=10.0, hi=3600.0)
             if self.scan.cycle:
                 block = self.scan.block_time()
-                if (dur + float(self.scan.lidar.get("refocus_time", 0.0))) < nh * block * (1 - 1e-12):
+                if (dur + self.scan.refocus_time) < nh * block * (1 - 1e-12):
                     raise ValueError(f"period {p.name!r} lasts {dur:g} s, shorter than one cycle through the "
                                      f"{nh} heights ({nh} x {block:g} s blocks); allowed: longer periods or fewer "
                                      f"revs_per_height")
+
+        # the lidar's own checks (focus range, dwell, cells, clouds), named by field, at every height
+        from ..sensors.conical import ConicalLidar
+
+        for hs in ((self.scan.heights,) if self.scan.cycle else [(z,) for z in self.scan.heights]):
+            try:
+                ConicalLidar(heights=hs, **self.lidar_fields(self.scan.spacing or default_spacing(min(hs))))
+            except (ValueError, TypeError) as e:
+                raise type(e)(f"conical lidar at heights {list(hs)} m: {e}") from None
+
+    def lidar_fields(self, spacing: float) -> dict:
+        """The :class:`cwlidar_sim.sensors.ConicalLidar` fields of the scene but its heights, for a box spacing [m]."""
+        kw = self.lidar.sensor_kwargs(spacing)
+        kw.update(self.scan.geometry(), sub_dwells=self.scan.sub_dwells, instrument=self.lidar.build_instrument())
+        return kw
 
     # -- units of work ----------------------------------------------------
     def period_duration(self, period) -> float:
@@ -354,11 +396,13 @@ class ConicalScene(Spec):
 
     @classmethod
     def from_dict(cls, d: dict, *, base_dir: str = ".") -> "ConicalScene":
-        check_scene_keys(d, {"name", "kind", "description", "seed", "duration", "period", "scan", "turbulence"},
-                         ("name", "period"), "conical scene")
+        check_scene_keys(d, {"name", "kind", "description", "seed", "duration", "period", "scan", "lidar",
+                             "turbulence"}, ("name", "period"), "conical scene")
         kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
         if "scan" in d:
             kw["scan"] = ScanSpec.from_dict(d["scan"])
+        if "lidar" in d:
+            kw["lidar"] = ConicalLidarSpec.from_dict(d["lidar"])
         if "turbulence" in d:
             kw["turbulence"] = SurfaceTurbulenceSpec.from_dict(d["turbulence"])
         kw["periods"] = periods_from_dict(d["period"], ConicalPeriodSpec)

@@ -50,8 +50,9 @@ from __future__ import annotations
 import dataclasses
 import os
 
-from .._validation import check_bool, check_choice, check_int, check_keys, check_real, check_seed, check_str, check_vec3
+from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
 from .conical_scene import ConicalScene
+from .lidar_spec import CHAIN_TIERS, LidarSpecBase
 from .spec import (SCENE_KINDS, Spec, check_periods, check_scene_keys, check_scene_name, parse_toml,
                    periods_from_dict, read_text_file, set_field)
 
@@ -72,7 +73,7 @@ __all__ = [
 ]
 
 FIELD_KINDS = ("auto", "line", "plane", "box")
-TIERS = ("los", "spectral", "signal")
+TIERS = CHAIN_TIERS
 _set = set_field
 
 
@@ -126,121 +127,30 @@ class TurbulenceSpec(Spec):
 
 
 @dataclasses.dataclass(frozen=True)
-class LidarSpec(Spec):
-    """The staring lidar.
+class LidarSpec(LidarSpecBase):
+    """The staring lidar: the ``[lidar]`` keys of every scene kind and the beam's elevation.
+
+    Every key of :class:`cwlidar_sim.campaign.lidar_spec.LidarSpecBase` (the
+    instrument, the signal chain, the probe volume and its tail, a cloud,
+    processing variants), with ``tier`` also ``'auto'`` (the cheapest tier
+    sufficient for what the scene asks, :mod:`cwlidar_sim.campaign.auto`) and
+    ``cell_length`` also ``'auto'``; ``cell_length`` None is the field's x
+    spacing; ``transverse_speed`` None is ``sqrt(sigma_v^2 + sigma_w^2 + (U sin theta)^2)``
+    from the turbulence and the period's misalignment.
 
     Parameters
     ----------
-    preset : {'prototype', 'cs'}
-        Instrument preset (:func:`cwlidar_sim.signal.instrument.preset`).
-    instrument : dict
-        Field-by-field overrides of the preset (e.g. ``focus``,
-        ``estimator``, ``threshold_raise_percent``); validated by
-        :class:`~cwlidar_sim.signal.Instrument`.
-    tier : {'los', 'spectral', 'signal', 'auto'}
-        Fidelity tier (tier 'signal' only for short records); 'auto': the
-        cheapest one sufficient for what the scene asks
-        (:mod:`cwlidar_sim.campaign.auto`).
-    cnr_db : float
-        Carrier-to-noise ratio [dB]; in [-40, 60]: total signal power over
-        the noise power in 0 .. f_s/2 (see :mod:`cwlidar_sim.signal.spectral`).
-        A shot-noise-limited 1 W lidar at 1.55 um gives about -13 to -3 dB.
-    weighting : {'exact', 'lorentzian'}
-        Beam weighting along the line of sight.
-    span : float
-        Half-width of the modelled probe volume in Rayleigh lengths [-]; in (0, 200].
-    cell_length : float or 'auto', optional
-        Range-cell length [m]; default the field's x spacing; 'auto': see
-        :mod:`cwlidar_sim.campaign.auto`.
-    transverse_speed : float, optional
-        Aerosol speed across the beam [m/s] that sets the speckle
-        correlation time; default ``sqrt(sigma_v^2 + sigma_w^2 + (U sin theta)^2)``
-        from the turbulence and the period's misalignment.
     elevation_deg : float
         Beam elevation [deg]; in [-89, 89].  Non-zero needs a box field.
-    speckle : {'continuum', 'independent', 'coherent'}
-        Speckle model (:class:`cwlidar_sim.sensors.StaringLidar`): cells as
-        continua of scatterers with the sub-cell speed spread of the field's
-        tensor (default; converges with the cell count, tiers 2 and 3
-        agree), or tier 2's gain of point cells per bin or per estimate.
-    exact_background : bool
-        Use the exact noise floor instead of a measured background.
-    background_pause : bool
-        Pause 10 min every 3 h to measure the background (A2012: duty cycle
-        94.5 %); the paused estimates are NaN and flagged.
-    line_broadening : float
-        Instrument broadening of the Doppler line (laser line width and phase
-        noise) as the standard deviation of a Gaussian in frequency [Hz]; in
-        [0, 5e6] (0: none).  It acts exactly like a sub-cell speed spread of
-        ``lambda / 2`` times it, added in quadrature to the tensor's
-        (continuum speckle, tiers 2 and 3).
-    variants : list of dict
-        Extra processings of the same spectra, each with a ``name`` and
-        instrument overrides (e.g. ``{name = "raise10",
-        threshold_raise_percent = 10}``, ``{name = "peak", estimator = "peak"}``).
     """
 
-    preset: str = "prototype"
-    instrument: dict = dataclasses.field(default_factory=dict)
-    tier: str = "spectral"
-    cnr_db: float = -10.0
-    weighting: str = "exact"
-    span: float = 20.0
-    cell_length: float | None = None
-    transverse_speed: float | None = None
     elevation_deg: float = 0.0
-    speckle: str = "continuum"
-    exact_background: bool = False
-    background_pause: bool = False
-    variants: tuple = ()
-    line_broadening: float = 0.0
+
+    _tiers = CHAIN_TIERS + ("auto",)
 
     def __post_init__(self):
-        from ..signal.chain import variant_instruments
-        from ..signal.instrument import PRESETS
-
-        check_choice("lidar.preset", self.preset, tuple(PRESETS))
-        if not isinstance(self.instrument, dict):
-            raise TypeError(f"lidar.instrument must be a table of overrides, got {type(self.instrument).__name__}")
-        self.build_instrument()
-        check_choice("lidar.tier", self.tier, TIERS + ("auto",))
-        _set(self, "cnr_db", check_real("lidar.cnr_db", self.cnr_db, lo=-40.0, hi=60.0))
-        check_choice("lidar.weighting", self.weighting, ("exact", "lorentzian"))
-        _set(self, "span", check_real("lidar.span", self.span, lo=0.0, hi=200.0, lo_open=True))
-        if self.cell_length is not None and self.cell_length != "auto":
-            _set(self, "cell_length", check_real("lidar.cell_length", self.cell_length, lo=0.01, hi=100.0))
-        if self.transverse_speed is not None:
-            _set(self, "transverse_speed", check_real("lidar.transverse_speed", self.transverse_speed, lo=0.0, hi=100.0))
+        super().__post_init__()
         _set(self, "elevation_deg", check_real("lidar.elevation_deg", self.elevation_deg, lo=-89.0, hi=89.0))
-        check_choice("lidar.speckle", self.speckle, ("continuum", "independent", "coherent"))
-        _set(self, "exact_background", check_bool("lidar.exact_background", self.exact_background))
-        _set(self, "background_pause", check_bool("lidar.background_pause", self.background_pause))
-        _set(self, "line_broadening", check_real("lidar.line_broadening", self.line_broadening, lo=0.0, hi=5e6))
-        variants = tuple(self.variants)
-        for i, v in enumerate(variants):
-            if isinstance(v, dict) and v.get("name") == "main":
-                raise ValueError(f"lidar.variants[{i}].name 'main' is reserved for the lidar's own processing")
-        # the sensor's own check: names, and only the processing fields (the spectra stay the same)
-        variant_instruments(self.build_instrument(), [dict(v) if isinstance(v, dict) else v for v in variants])
-        _set(self, "variants", tuple(dict(v) for v in variants))
-
-    def build_instrument(self, extra=None):
-        """The Instrument: the preset with ``instrument`` and then ``extra`` overrides applied."""
-        from ..signal.instrument import Instrument, preset
-
-        d = dict(self.instrument)
-        d.update(extra or {})
-        return Instrument.from_dict(d, base=preset(self.preset))
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "LidarSpec":
-        check_keys(cls, d)
-        d = dict(d)
-        if "variants" in d:
-            if not isinstance(d["variants"], (list, tuple)):
-                raise TypeError("lidar.variants must be a list of tables")
-            d["variants"] = tuple(d["variants"])
-        return cls(**d)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from .._validation import check_choice, check_keys, check_real, check_seed
+from .._validation import check_bool, check_choice, check_keys, check_real, check_seed
 from ..beam.cells import TAIL_RULES, WEIGHTINGS, ProbeCells, interval_weight, probe_cells
 from ..beam.sampling import _check_extent, _prepare_field
 from ..signal.chain import ChainSettings
@@ -49,12 +49,6 @@ CLOUD_BASE_MAX = 20000.0
 CLOUD_STRENGTH_MAX = 1e9
 
 _PRESET_ALIASES = {"prototype": "prototype", "prototype_2003": "prototype", "cs": "cs", "cs_series": "cs"}
-
-
-def _check_bool(name, value):
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a bool, got {type(value).__name__} {value!r}")
-    return bool(value)
 
 
 def instrument_from_spec(spec) -> Instrument:
@@ -146,6 +140,8 @@ class LidarBase:
         CNR variation over a record [dB] and its time scale [s].
     background_pause : bool
         Pause for the background measurement (NaN flagged PAUSED).
+    line_broadening : float
+        Instrument broadening of the Doppler line [Hz] (:class:`cwlidar_sim.signal.chain.ChainSettings`).
     cloud_base : float or None
         Height of a cloud layer's base above the telescope [m], in
         (0, :data:`CLOUD_BASE_MAX`]; None: no cloud.
@@ -176,6 +172,7 @@ class LidarBase:
     cnr_variation_db: float = 0.0
     cnr_time_scale: float = 600.0
     background_pause: bool = False
+    line_broadening: float = 0.0
     cloud_base: float | None = None
     cloud_strength: float = 0.0
     cloud_depth: float = 30.0
@@ -194,6 +191,7 @@ class LidarBase:
         put("cnr_db", float(self.cnr_db))
         put("cnr_variation_db", float(self.cnr_variation_db))
         put("cnr_time_scale", float(self.cnr_time_scale))
+        put("line_broadening", float(self.line_broadening))
         check_choice("weighting", self.weighting, WEIGHTINGS)
         put("span", check_real("span", self.span, lo=0.0, hi=1e4, lo_open=True))
         put("cell_length", check_real("cell_length", self.cell_length, lo=0.0, hi=1000.0, lo_open=True))
@@ -249,9 +247,10 @@ class LidarBase:
     def chain_settings(self) -> ChainSettings:
         """The signal chain's settings (:class:`cwlidar_sim.signal.chain.ChainSettings`)."""
         return ChainSettings(tier=self.tier, cnr_db=self.cnr_db, speckle=self.speckle,
-                             exact_background=_check_bool("exact_background", self.exact_background),
+                             exact_background=check_bool("exact_background", self.exact_background),
                              cnr_variation_db=self.cnr_variation_db, cnr_time_scale=self.cnr_time_scale,
-                             background_pause=_check_bool("background_pause", self.background_pause))
+                             background_pause=check_bool("background_pause", self.background_pause),
+                             line_broadening=self.line_broadening)
 
     def probe_cells(self, instrument: Instrument) -> ProbeCells:
         """Range cells of the probe volume of ``instrument`` (focused) with this lidar's span, cells and tail rule."""

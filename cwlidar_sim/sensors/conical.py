@@ -77,8 +77,7 @@ import math
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_real, check_tuple
-from ..beam.sampling import _check_flag
+from .._validation import check_bool, check_choice, check_int, check_real, check_tuple
 from ..signal.chain import DRAW_BLOCK, SIGNAL_MAX_ESTIMATES, TIERS, FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.spectral import speckle_looks
@@ -430,7 +429,7 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
     if not isinstance(lidar, ConicalLidar):
         raise TypeError(f"lidar must be a ConicalLidar, got {type(lidar).__name__}")
     U = check_real("U", U, lo=-1000.0, hi=1000.0)
-    wrap = _check_flag("wrap", wrap)
+    wrap = check_bool("wrap", wrap)
     calibration_time = check_real("calibration_time", calibration_time)
     sch = lidar.schedule(duration, start)
     origin = np.asarray(lidar.position, dtype=np.float64)
@@ -611,7 +610,7 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
     U = check_real("U", U, lo=0.0, hi=1000.0)
     duration = check_real("duration", duration, lo=0.0, lo_open=True)
     d = check_real("spacing", spacing, lo=0.0, hi=100.0, lo_open=True)
-    lateral_doubling = _check_flag("lateral_doubling", lateral_doubling)
+    lateral_doubling = check_bool("lateral_doubling", lateral_doubling)
     ext = 2.0 * params.length_scale if min_extent is None else check_real("min_extent", min_extent, lo=0.0)
     radius = max(lidar.beam_extent(z)["radius"] for z in lidar.heights)
     z_lo = min(lidar.beam_extent(z)["z_lo"] for z in lidar.heights)

@@ -48,8 +48,8 @@ import dataclasses
 
 import numpy as np
 
-from .._validation import check_int, check_real, check_tuple
-from ..beam.sampling import _check_flag, _prepare_beam, direction_from_angles
+from .._validation import check_bool, check_int, check_real, check_tuple
+from ..beam.sampling import _prepare_beam, direction_from_angles
 from ..signal.chain import (
     DRAW_BLOCK,
     SIGNAL_MAX_ESTIMATES,
@@ -216,7 +216,7 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
     inst = lidar.instrument
     U = check_real("U", U)
     check_int("chunk", chunk, lo=1, hi=10**6)
-    wrap = _check_flag("wrap", wrap)
+    wrap = check_bool("wrap", wrap)
     calibration_time = check_real("calibration_time", calibration_time)
     settings = lidar.chain_settings()
     cells = lidar.cells()

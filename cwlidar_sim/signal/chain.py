@@ -99,7 +99,7 @@ from typing import Callable
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_memory, check_real
+from .._validation import check_bool, check_choice, check_int, check_memory, check_real
 from .instrument import Instrument
 from .processing import FAIL_FLAGS, Flag, background_gain, background_spectrum, estimate
 from .spectral import _draw_rows, _speckle_draws, continuum_moments, line_shape_table, sample_moments, speckle_looks
@@ -138,12 +138,6 @@ DRAW_BLOCK = 4096
 CNR_DB_RANGE = (-100.0, 100.0)
 
 
-def _check_bool(name, value):
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a bool, got {type(value).__name__} {value!r}")
-    return bool(value)
-
-
 @dataclasses.dataclass(frozen=True)
 class ChainSettings:
     """What a lidar's signal chain does, the same for every sensor.
@@ -170,6 +164,12 @@ class ChainSettings:
         Stop for the background measurement on the instrument's calibration
         schedule (``background_interval``, ``background_duration``; A2012:
         10 min every 3 h): estimates inside a pause are NaN flagged ``PAUSED``.
+    line_broadening : float
+        Instrument broadening of the Doppler line (laser line width, phase
+        noise) as the standard deviation of a Gaussian in frequency [Hz]; in
+        [0, 5e6].  It acts exactly like a sub-cell speed spread of
+        ``lambda / 2`` times it, added in quadrature to the cells' (continuum
+        speckle, tiers 2 and 3).
     """
 
     tier: str = "spectral"
@@ -179,16 +179,18 @@ class ChainSettings:
     cnr_variation_db: float = 0.0
     cnr_time_scale: float = 600.0
     background_pause: bool = False
+    line_broadening: float = 0.0
 
     def __post_init__(self):
         put = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         check_choice("tier", self.tier, TIERS)
         put("cnr_db", check_real("cnr_db", self.cnr_db, lo=CNR_DB_RANGE[0], hi=CNR_DB_RANGE[1]))
         check_choice("speckle", self.speckle, SPECKLE_MODELS)
-        put("exact_background", _check_bool("exact_background", self.exact_background))
+        put("exact_background", check_bool("exact_background", self.exact_background))
         put("cnr_variation_db", check_real("cnr_variation_db", self.cnr_variation_db, lo=0.0, hi=20.0))
         put("cnr_time_scale", check_real("cnr_time_scale", self.cnr_time_scale, lo=0.0, hi=1e6, lo_open=True))
-        put("background_pause", _check_bool("background_pause", self.background_pause))
+        put("background_pause", check_bool("background_pause", self.background_pause))
+        put("line_broadening", check_real("line_broadening", self.line_broadening, lo=0.0, hi=5e6))
         if self.cnr_variation_db > 0.0 and self.tier == "signal":
             raise ValueError("cnr_variation_db > 0 is available in tiers 'los' and 'spectral'; allowed with "
                              "tier 'signal': 0")
@@ -391,14 +393,14 @@ def _flat(vlos_elc, w_c):
 class _Group:
     """One group's run through tiers 2 and 3."""
 
-    def __init__(self, settings: ChainSettings, g: FocusGroup, procs, out, speckle_used):
+    def __init__(self, settings: ChainSettings, g: FocusGroup, procs, out, speckle_used, spread):
         self.s, self.g, self.procs, self.out = settings, g, procs, out
         inst = g.instrument
         self.inst = inst
         self.tau = inst.speckle_time(g.transverse_speed)
         self.m_eff = speckle_looks(inst.blocks_per_estimate, inst.block_duration, self.tau)
         self.speckle = speckle_used
-        self.spread = g.subcell_spread if speckle_used == "continuum" else 0.0
+        self.spread = spread if speckle_used == "continuum" else 0.0
         s_bg, self.s_sim = g.seed.spawn(2)
         self.cnr_gain_e = None
         if settings.cnr_variation_db > 0.0:
@@ -470,6 +472,14 @@ class _Group:
                                              self.cnr_db, rng, correlation_time=self.tau, speed_spread=self.spread)
             spec = spec_l.reshape(ne, nl, -1).mean(axis=1)
         self.process(0, ne, spec)
+
+
+def _spread(settings, g):
+    """The continuum's speed spread [m/s]: the cells' sub-cell spread and the instrument's line broadening."""
+    if settings.line_broadening == 0.0:
+        return g.subcell_spread
+    dv = 0.5 * g.instrument.wavelength * settings.line_broadening
+    return math.sqrt(g.subcell_spread * g.subcell_spread + dv * dv)
 
 
 def _speckle_used(settings, spread):
@@ -549,12 +559,13 @@ def run_chain(settings: ChainSettings, groups, n_estimates: int, *, variants=Non
             continue
         if g.seed is None:
             raise ValueError(f"seed is required for tier {tier!r}; allowed: an int or a numpy Generator")
-        speckle = _speckle_used(settings, g.subcell_spread)
+        spread = _spread(settings, g)
+        speckle = _speckle_used(settings, spread)
         if nl > 1 and (speckle == "continuum" or tier == "signal") and inst.blocks_per_estimate % nl:
             raise ValueError(f"{n_g and nl} looks per estimate with speckle {speckle!r} / tier {tier!r} need "
                              f"n_looks to divide instrument.blocks_per_estimate={inst.blocks_per_estimate}; "
                              "allowed: its divisors")
-        run = _Group(settings, g, procs, out, speckle)
+        run = _Group(settings, g, procs, out, speckle, spread)
         rows = n_g if tier == "signal" else min(n_g, chunk)
         check_memory("signal chain buffers", rows * (8 * nl * (w_c.size + 1) + 48 * inst.n_fft) + 64 * n_g)
         if tier == "signal":

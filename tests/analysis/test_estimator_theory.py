@@ -61,9 +61,11 @@ def test_probe_length_recovers_zR_and_a0_of_an_unseen_realisation():
     assert fit.zR_eff < 0.8 * fit.zR
 
 
-@pytest.mark.parametrize("weighting, span, cell, focus", [("exact", 20.0, 0.5, 67.5), ("lorentzian", 8.0, 1.3, 40.0),
-                                                          ("exact", 200.0, 2.0, 10.0)])
-def test_the_theory_cells_are_the_staring_lidars(weighting, span, cell, focus):
+@pytest.mark.parametrize("weighting, span, cell, focus, growth", [("exact", 20.0, 0.5, 67.5, 0.0),
+                                                                  ("lorentzian", 8.0, 1.3, 40.0, 0.0),
+                                                                  ("exact", 200.0, 2.0, 10.0, 0.0),
+                                                                  ("exact", 200.0, 0.5, 67.5, 0.1)])
+def test_the_theory_cells_are_the_staring_lidars(weighting, span, cell, focus, growth):
     """The theory builds its cells itself (the analysis does not import the sensors): the lidar's own cells.
 
     The last case is clipped at the telescope (span 200 z_R reaches behind a 10 m focus).
@@ -72,10 +74,11 @@ def test_the_theory_cells_are_the_staring_lidars(weighting, span, cell, focus):
     from cwlidar_sim.sensors import StaringLidar
 
     inst = PROTOTYPE_2003.replace(focus=focus)
-    ours = _line_cells(inst, weighting, span, cell)
-    theirs = StaringLidar(instrument=inst, weighting=weighting, span=span, cell_length=cell).cells()
-    np.testing.assert_array_equal(ours.s_s, theirs.s_s)
-    np.testing.assert_array_equal(ours.weight_s, theirs.weight_s)
-    assert ours.truncated_fraction == theirs.truncated_fraction
+    ours = _line_cells(inst, weighting, span, cell, growth=growth)
+    theirs = StaringLidar(instrument=inst, weighting=weighting, span=span, cell_length=cell,
+                          cell_growth=growth).cells()
+    for a in ("s_s", "weight_s", "sub_p", "fraction_p", "ptr_s"):
+        np.testing.assert_array_equal(getattr(ours, a), getattr(theirs, a))
+    assert ours.truncated_fraction == theirs.truncated_fraction and ours.tail_weight == theirs.tail_weight
     with pytest.raises(ValueError, match="weighting"):
         _line_cells(inst, "gaussian", span, cell)

@@ -204,6 +204,7 @@ duration = 10.0
 [scan]
 heights = [20.0, 30.0]
 scan_revs = [1]
+[lidar]
 tier = "los"
 [turbulence]
 source = "fixed"

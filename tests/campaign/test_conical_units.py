@@ -23,8 +23,9 @@ duration = {duration}
 [scan]
 heights = {heights}
 scan_revs = {revs}
-tier = "los"
 {scan}
+[lidar]
+tier = "los"
 [turbulence]                # a fixed tensor: the surface layer's sigma_u would cost a one-point spectrum
 source = "fixed"
 alpha_eps = 0.05
@@ -133,7 +134,7 @@ def test_a_uniform_wind_from_every_side_gives_one_speed_and_its_direction(sheare
 # ---------------------------------------------------------------------------
 # the cycle through heights
 # ---------------------------------------------------------------------------
-CYCLE = 'cycle = true\nlidar = { revs_per_height = 2, refocus_time = 1.0 }'
+CYCLE = 'cycle = true\nrevs_per_height = 2\nrefocus_time = 1.0'
 
 
 def test_cycle_scene_validation():
@@ -144,8 +145,8 @@ def test_cycle_scene_validation():
     for kw, match in [
         (dict(scan=CYCLE), "needs at least 2"),
         (dict(scan=CYCLE, heights="[20.0, 30.0]", revs="[3]"), r"scan.scan_revs \[3\] must divide"),
-        (dict(scan="lidar = { revs_per_height = 2 }", heights="[20.0, 30.0]"), r"\['revs_per_height'\].*cycle = true"),
-        (dict(scan=CYCLE.replace("2,", "6,"), heights="[20.0, 30.0]", duration=10.0), "shorter than one cycle"),
+        (dict(scan="revs_per_height = 2", heights="[20.0, 30.0]"), r"revs_per_height.*cycle = true"),
+        (dict(scan=CYCLE.replace("= 2", "= 6"), heights="[20.0, 30.0]", duration=10.0), "shorter than one cycle"),
     ]:
         with pytest.raises(ValueError, match=match):
             scene(period("a"), **kw)

@@ -74,7 +74,7 @@ def test_identity_not_position(tmp_path):
 
 @pytest.mark.parametrize("sweep, match", [
     ('[[sweep]]\n"lidar.cnr" = [1.0]', "unknown key.*'cnr'"),
-    ('[[sweep]]\n"lidar.cnr_db" = [1.0, 100.0]', "lidar.cnr_db"),
+    ('[[sweep]]\n"lidar.cnr_db" = [1.0, 150.0]', "lidar.cnr_db"),
     ('[[sweep]]\n"lidar.cnr_db" = [1.0, 2.0]\n"lidar.span" = [1.0]', "equal lengths"),
     ('[[sweep]]\n"lidar.cnr_db" = { start = 0.0, stop = 1.0 }', "exactly one of num or step"),
     ('[[sweep]]\n"period.3.mean_speed" = [1.0]', "not an index"),

@@ -163,3 +163,22 @@ def test_chunk_and_thread_count_do_not_change_a_bit():
     c = measure_conical(box, con, 4.0, 8.0, 4, chunk=4096)
     d = measure_conical(box, con, 4.0, 8.0, 4, chunk=33)
     np.testing.assert_array_equal(c.speed_e, d.speed_e)
+
+
+def test_line_broadening_is_a_speed_spread_of_lambda_over_two_in_quadrature():
+    # the chain's continuum spread is sqrt(subcell^2 + (lambda lb / 2)^2): a lidar with line broadening lb and
+    # sub-cell spread s is, bit for bit, the lidar with spread sqrt(s^2 + dv^2) and no broadening
+    field = uniform_line(0.3)
+    base = StaringLidar(position=(float(field.x[-1]) - 200.0, 0.0, 0.0), azimuth_deg=180.0, cell_length=2.0,
+                        transverse_speed=1.0, subcell_spread=0.05)
+    t = (np.arange(200) + 0.5) / 50.0
+    lb = 2.0e5
+    dv = 0.5 * base.instrument.wavelength * lb
+    a = measure_staring(field, base.replace(line_broadening=lb), t, 7.0, 3)
+    b = measure_staring(field, base.replace(subcell_spread=math.sqrt(0.05 * 0.05 + dv * dv)), t, 7.0, 3)
+    np.testing.assert_array_equal(a.speed_e, b.speed_e)
+    assert a.info["subcell_spread"] == pytest.approx(math.hypot(0.05, dv), rel=1e-15)
+    c = measure_staring(field, base, t, 7.0, 3)
+    assert not np.array_equal(a.speed_e, c.speed_e)
+    with pytest.raises(ValueError, match="line_broadening"):
+        base.replace(line_broadening=-1.0)

@@ -68,7 +68,9 @@ _NB_OUT = tempfile.mkdtemp(prefix="cwlidar_sim_docs_")
 os.environ["CWLIDAR_SIM_QUICK"] = "1"
 os.environ["CWLIDAR_SIM_OUT"] = _NB_OUT
 os.environ["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in [os.environ.get("PYTHONPATH")] if p])
-os.environ.setdefault("MPLBACKEND", "Agg")
+# the kernel's figures must be images: an inherited non-interactive backend (MPLBACKEND=Agg) would
+# leave "<Figure ...>" text instead; without the variable ipykernel uses its inline backend
+os.environ.pop("MPLBACKEND", None)
 
 nb_execution_mode = "force"        # every notebook that Sphinx reads is run; a failing cell fails the build
 nb_execution_timeout = 900

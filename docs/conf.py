@@ -8,6 +8,9 @@ The markdown notes in docs/*.md, the README's sections and CHANGELOG.md are the 
 site's pages include them (MyST), they are not copied.  The API reference is generated from the
 subpackages' ``__all__`` (docs/_ext/apigen.py) into docs/api/ on every build, and the notebooks in
 notebooks/ are executed in quick mode (CWLIDAR_SIM_QUICK=1, as tests/test_notebooks.py runs them).
+A rebuild reads only what changed (an unchanged notebook is not run again); for a quick look at
+the pages without running the notebooks at all, add ``-D nb_execution_mode=off`` (the notebook
+pages then have no outputs, and .ci/check_site.py fails on them, as it should).
 """
 
 from __future__ import annotations

@@ -112,6 +112,7 @@ def screenshot_ok(path: Path) -> tuple[bool, str]:
 
 def check(site: Path, artifacts: Path) -> list[str]:
     browser = chromium()
+    artifacts = artifacts.resolve()  # the probe pages are opened by file:// URI
     artifacts.mkdir(parents=True, exist_ok=True)
     failures = []
     for rel, (title_words, min_images, selectors) in PAGES.items():

@@ -60,7 +60,8 @@ def ratios_signal(rep):
     return {"tier2_realtime_factor": _get(rep, "tier2", "realtime_factor"),
             "tier3_realtime_factor": _get(rep, "tier3", "realtime_factor"),
             "tier3_over_fft_floor": _get(rep, "tier3", "ratio_to_floor"),
-            "tier3_over_fft_floor_median": _get(rep, "tier3", "ratio_to_floor_median")}
+            "tier3_over_fft_floor_median": _get(rep, "tier3", "ratio_to_floor_median"),
+            "tier3_over_fft_floor_cpu": _get(rep, "tier3", "cpu_ratio_to_floor")}
 
 
 def ratios_campaign(rep):

@@ -682,6 +682,22 @@ def signal_tone_tables(dtheta_es, ln, group):
     return rot.real, rot.imag, step
 
 
+def signal_gaussian_deposit(x_s, amp_s, n_fft, m, tau_g, half):
+    """Reference for ``gaussian_deposit_rows`` (one row): every weight from its own exponential.
+
+    ``out[(m0 + j) mod M] += amp_s exp(-((m0 + j) h - theta_s)^2 / (4 tau_g))``, |j| <= half,
+    ``theta_s = 2 pi (x_s mod N) / N``, ``m0`` the grid point nearest theta_s, ``h = 2 pi / M``."""
+    out = [0.0] * m
+    h = 2.0 * math.pi / m
+    for x, a in zip(x_s, amp_s):
+        th = 2.0 * math.pi * (x % n_fft) / n_fft
+        m0 = int(math.floor(th / h + 0.5))
+        for j in range(-half, half + 1):
+            d = (m0 + j) * h - th
+            out[(m0 + j) % m] += a * math.exp(-d * d / (4.0 * tau_g))
+    return np.array(out)
+
+
 def signal_colour_start(key, estimate, cf):
     """Reference for ``colour_start``: L (z0, z1) from the first normal pair of the estimate's start stream."""
     skey = signal_mix64(int(key) ^ signal_mix64(int(estimate) + _SIG_GOLDEN))

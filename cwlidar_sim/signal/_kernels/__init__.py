@@ -66,4 +66,6 @@ from .continuum import (  # noqa: F401
     continuum_moment_rows,
     fold_block_lags,
     gamma_moment_rows,
+    gaussian_deposit_rows,
+    gridded_lag_rows,
 )

@@ -480,6 +480,51 @@ def _gridded_lags(x, amp, g, r_d, n, t_used, lags):
         _run_tasks(-(-(b1 - b0) // rows), fold)
 
 
+def _signal_lag_rows(instrument, vlos_es, amp_s, a_d, method: str = "exact"):
+    """Folded lag sequences of the exact expected signal spectrum (the sensors' tier 2 without a line table).
+
+    ``out[e, 0] = a_0 C(0)``, ``out[e, d] = a_d C(d) + a_{N-d} C(N-d)`` with ``C(d) = 2 sum_s amp_s
+    cos(2 pi x_s d / N)``, ``x_s`` the cells' speeds in bins: the real DFT of a row is ``S_k =
+    sum_{|d|<N} a_|d| C(d) exp(-i 2 pi k d / N)``.  'exact' gives the bits of
+    ``sensors._kernels.lag_sequence_kernel`` (the same recurrence, sums and fold); 'gridded'
+    the cosine sums of :func:`continuum_moments`'s gridded method (within ~1e-13 of ``C(0)``).
+
+    Parameters
+    ----------
+    instrument : Instrument
+    vlos_es : ndarray, shape (n_estimates, n_cells)
+        Cell speeds [m/s].
+    amp_s : ndarray, shape (n_cells,)
+        ``CNR w_s / 2`` [-].
+    a_d : ndarray, shape (N,)
+        Lag coefficients (:func:`lag_coefficients`).
+    method : {'exact', 'gridded'}
+
+    Returns
+    -------
+    ndarray, shape (n_estimates, N)
+    """
+    from . import _kernels as K
+
+    check_choice("method", method, ("exact", "gridded"))
+    n = instrument.n_fft
+    x = np.ascontiguousarray(np.asarray(vlos_es, dtype=np.float64) / instrument.bin_speed)
+    amp = np.ascontiguousarray(amp_s, dtype=np.float64)
+    a_d = np.ascontiguousarray(a_d, dtype=np.float64)
+    ne = x.shape[0]
+    lags = np.empty((ne, 1, n))
+    ones = np.ones(2 * n)
+    if method == "exact":
+        def fold(t):
+            K.continuum_lag_rows(x, amp, ones, a_d, n, n, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK),
+                                 np.empty(2 * n), lags)
+
+        _run_tasks(-(-ne // _ROWS_PER_TASK), fold)
+    else:
+        _gridded_lags(x, amp, ones, a_d, n, n, lags)
+    return lags.reshape(ne, n)
+
+
 def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread: float, *,
                       correlation_time: float = math.inf, cnr_gain_e=None, method: str = "exact"):
     """Mean and variance of every bin of every estimate's M-block average, and the signal's looks (tier 2).

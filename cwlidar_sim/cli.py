@@ -391,8 +391,8 @@ def _cmd_probe_length(args) -> int:
     import glob
     import os
 
-    from .analysis.estimator_theory import DEFAULT_BAND, fit_probe_length_results
-    from .campaign import read_results
+    from .analysis.estimator_theory import DEFAULT_BAND
+    from .campaign import fit_probe_length_results, read_results
 
     path = args.results
     if os.path.isdir(path):

@@ -481,12 +481,12 @@ def _gridded_lags(x, amp, g, r_d, n, t_used, lags):
 
 
 def _signal_lag_rows(instrument, vlos_es, amp_s, a_d, method: str = "exact"):
-    """Folded lag sequences of the exact expected signal spectrum (the sensors' tier 2 without a line table).
+    """Folded lag sequences of the exact expected signal spectrum (:func:`cwlidar_sim.signal.exact.signal_rows`).
 
     ``out[e, 0] = a_0 C(0)``, ``out[e, d] = a_d C(d) + a_{N-d} C(N-d)`` with ``C(d) = 2 sum_s amp_s
     cos(2 pi x_s d / N)``, ``x_s`` the cells' speeds in bins: the real DFT of a row is ``S_k =
     sum_{|d|<N} a_|d| C(d) exp(-i 2 pi k d / N)``.  'exact' gives the bits of
-    ``sensors._kernels.lag_sequence_kernel`` (the same recurrence, sums and fold); 'gridded'
+    ``_kernels.lag_sequence_kernel`` (the same recurrence, sums and fold); 'gridded'
     the cosine sums of :func:`continuum_moments`'s gridded method (within ~1e-13 of ``C(0)``).
 
     Parameters

@@ -103,8 +103,7 @@ def test_method_is_checked():
     assert math.isfinite(S.GRID_HALF_WIDTH)
 
 
-def test_signal_lag_rows_exact_is_the_sensors_kernel_and_gridded_agrees():
-    from cwlidar_sim.sensors import _kernels as SK
+def test_signal_lag_rows_exact_is_lag_sequence_kernel_and_gridded_agrees():
     from cwlidar_sim.signal.spectral import _signal_lag_rows, lag_coefficients
 
     rng = np.random.default_rng(5)
@@ -114,7 +113,7 @@ def test_signal_lag_rows_exact_is_the_sensors_kernel_and_gridded_agrees():
     for rho in (1.0, 0.999):
         a_d = lag_coefficients(inst.n_fft, inst.window, rho)
         ref = np.empty((37, inst.n_fft))
-        SK.lag_sequence_kernel(np.ascontiguousarray(v / inst.bin_speed), amp, a_d, ref)
+        K.lag_sequence_kernel(np.ascontiguousarray(v / inst.bin_speed), amp, a_d, ref)
         assert np.array_equal(_signal_lag_rows(inst, v, amp, a_d), ref)
         g = _signal_lag_rows(inst, v, amp, a_d, method="gridded")
         assert np.max(np.abs(g - ref)) < 3e-13 * 2 * amp.sum()

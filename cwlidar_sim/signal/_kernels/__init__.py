@@ -30,6 +30,7 @@ from .rng import (  # noqa: F401
 )
 from .spectral import (  # noqa: F401
     expected_signal_kernel,
+    lag_sequence_kernel,
     line_value,
     ncx2_wh,
     spectral_sample_kernel,

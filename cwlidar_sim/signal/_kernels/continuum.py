@@ -22,7 +22,7 @@ def cell_cosines_row(x_s, amp_s, n_fft, t_max, out_t):
     (``x_s`` reduced to [0, N) first, so an aliased speed is exactly
     periodic; rounding grows like ``t^2 eps``), the cells updated together
     (a loop the compiler vectorises) and summed in 8 fixed partial sums and
-    a fixed tree (``sensors._kernels.lag_sequence_kernel`` folds it per estimate).
+    a fixed tree (:func:`lag_sequence_kernel` folds it per estimate).
     """
     ns = x_s.shape[0]
     nt = out_t.shape[0]

@@ -682,10 +682,88 @@ def signal_tone_tables(dtheta_es, ln, group):
     return rot.real, rot.imag, step
 
 
+def signal_gaussian_deposit(x_s, amp_s, n_fft, m, tau_g, half):
+    """Reference for ``gaussian_deposit_rows`` (one row): every weight from its own exponential.
+
+    ``out[(m0 + j) mod M] += amp_s exp(-((m0 + j) h - theta_s)^2 / (4 tau_g))``, |j| <= half,
+    ``theta_s = 2 pi (x_s mod N) / N``, ``m0`` the grid point nearest theta_s, ``h = 2 pi / M``."""
+    out = [0.0] * m
+    h = 2.0 * math.pi / m
+    for x, a in zip(x_s, amp_s):
+        th = 2.0 * math.pi * (x % n_fft) / n_fft
+        m0 = int(math.floor(th / h + 0.5))
+        for j in range(-half, half + 1):
+            d = (m0 + j) * h - th
+            out[(m0 + j) % m] += a * math.exp(-d * d / (4.0 * tau_g))
+    return np.array(out)
+
+
+def signal_colour_start(key, estimate, cf):
+    """Reference for ``colour_start``: L (z0, z1) from the first normal pair of the estimate's start stream."""
+    skey = signal_mix64(int(key) ^ signal_mix64(int(estimate) + _SIG_GOLDEN))
+    _, z0, z1 = signal_normal_pair(signal_stream_start(skey, 1 << 62))
+    return [cf[5] * z0, cf[6] * z0 + cf[7] * z1]
+
+
+def signal_colour_noise(z_n, cf, state, segments=4):
+    """Reference for ``colour_noise_block``: the blocked scan in the kernel's order of operations.
+
+    ``y = a0 z + u_1 + u_2``, ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``, from ``state`` (u_c[-1]);
+    the block is cut into ``segments`` segments (the last takes the remainder), each scanned
+    from zero (``(a0 z + l_1) + l_2``), then ``rho_c^(k+1) C_c`` added with the carried state
+    ``C_c``.  Returns (y, new state).  Plain Python floats: the same IEEE operations as the kernel.
+    """
+    a0, b1, b2, r1, r2 = (float(c) for c in cf[:5])
+    n = len(z_n)
+    g = n // segments
+    bounds = [(s * g, n if s == segments - 1 else (s + 1) * g) for s in range(segments)]
+    y = [0.0] * n
+    ends = []
+    for lo, hi in bounds:
+        p = q = 0.0
+        for k in range(lo, hi):
+            z = float(z_n[k])
+            p = r1 * p + b1 * z
+            q = r2 * q + b2 * z
+            y[k] = (a0 * z + p) + q
+        ends.append((p, q))
+    # the powers rho^(k+1) by repeated multiplication, as _filter_powers makes them
+    pw1, pw2 = [r1], [r2]
+    for _ in range(n - 1):
+        pw1.append(pw1[-1] * r1)
+        pw2.append(pw2[-1] * r2)
+    c1, c2 = float(state[0]), float(state[1])
+    for (lo, hi), (e1, e2) in zip(bounds, ends):
+        if hi == lo:
+            continue
+        for k in range(hi - lo):
+            y[lo + k] += pw1[k] * c1 + pw2[k] * c2
+        c1 = pw1[hi - lo - 1] * c1 + e1
+        c2 = pw2[hi - lo - 1] * c2 + e2
+    return np.array(y), [c1, c2]
+
+
+def signal_noise_filter_correlation(cf, lags):
+    """Correlation of ``a0 z + u_1 + u_2`` at the given lags from its impulse response ``h_0 = a0 + b_1 + b_2``,
+    ``h_k = b_1 rho_1^k + b_2 rho_2^k``: ``r(tau) = sum_k h_k h_{k+tau}`` (truncated where rho^k < 1e-18)."""
+    a0, b1, b2, r1, r2 = (float(c) for c in cf[:5])
+    lags = [int(t) for t in lags]
+    rmax = max(r1, r2)
+    n_terms = (int(math.ceil(math.log(1e-18) / math.log(rmax))) if rmax > 0 else 1) + max(lags) + 1
+    k = np.arange(n_terms, dtype=np.float64)
+    h = b1 * r1**k + b2 * r2**k
+    h[0] += a0
+    return np.array([np.dot(h[: n_terms - t], h[t:]) for t in lags])
+
+
 def signal_synth_blocks(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp_im_st, phase_es, dtheta_es,
-                        noise_std, window_n):
+                        noise_std, window_n, colour=None):
     """Reference for ``synth_blocks_kernel``: every tone sample from cos/sin of its own phase
-    ``phase_es[e, s] + dtheta_es[e, s] (N i + n)`` (block i of estimate e), no recurrence."""
+    ``phase_es[e, s] + dtheta_es[e, s] (N i + n)`` (block i of estimate e), no recurrence.
+
+    ``colour = (ckey, ce0, cf, state)``: the normals coloured by :func:`signal_colour_noise`,
+    the state drawn by :func:`signal_colour_start` at each estimate's first block (``state``,
+    a list, is updated in place)."""
     n = len(window_n)
     ln = n // n_sub
     ns = len(amp_re_st)
@@ -693,6 +771,11 @@ def signal_synth_blocks(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     for b in range(b_lo, b_hi):
         e, i = divmod(b, m_blocks)
         x = signal_block_normals(key, block0 + b, n, noise_std)
+        if colour is not None:
+            ckey, ce0, cf, state = colour
+            if i == 0:
+                state[:] = signal_colour_start(ckey, ce0 + e, cf)
+            x, state[:] = signal_colour_noise(x, cf, state)
         for s in range(ns):
             for k in range(n):
                 ph = phase_es[e][s] + dtheta_es[e][s] * (n * i + k)

@@ -426,7 +426,7 @@ def misaligned_reference(k1, alpha_eps, L, gamma, theta_deg, zR, h=0.03):
 
 
 # =============================================================================
-# turbulence plane generator (cwlidar_sim/turbulence/_kernels.py: chol3,
+# turbulence plane generator (cwlidar_sim/turbulence/_kernels/plane.py: chol3,
 # fill_plane_kernel)
 # =============================================================================
 def turbulence_fill_plane(phi_xy33, noise, n1_lo, scale):
@@ -503,7 +503,7 @@ def sensors_expected_spectrum(x_es, amp_s, window_n, rho, nf):
 
 
 # =============================================================================
-# turbulence box generator (cwlidar_sim/turbulence/_kernels.py: normal_at,
+# turbulence box generator (cwlidar_sim/turbulence/_kernels/: normal_at,
 # normals_kernel, fill_box_kernel): counter-based ziggurat noise and the
 # half spectrum of a small uncorrected box, one mode at a time.
 # =============================================================================

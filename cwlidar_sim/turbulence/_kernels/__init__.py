@@ -34,6 +34,11 @@ from .integrals import (  # noqa: F401
     _STACK,
 )
 from .rng import (  # noqa: F401
+    BOX_MAX_SHAPE,
+    PLANE_MAX_SHAPE,
+    box_row_counter,
+    plane_noise_kernel,
+    plane_row_counter,
     mix64,
     normal_at,
     normals_kernel,

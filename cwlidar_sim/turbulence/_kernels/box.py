@@ -10,7 +10,7 @@ import numpy as np
 
 from ..._config import NJIT
 from .fast_tensor import _box_params_row, _nyquist_row, _row_constants, box_params
-from .rng import _row_normals
+from .rng import _row_normals, box_row_counter
 from .tensor import _accumulate_phi, matrix_from_params
 
 
@@ -114,8 +114,8 @@ def fill_box_kernel(spec_u, spec_v, spec_w, n1_lo, n1_hi, N3, d1, d2, d3, L, gam
     """Fill rows n1_lo .. n1_hi - 1 of the three half spectra, noise included.
 
     Each mode gets ``scale * gain[n1, i] * sum_j M_ij (a_j + i b_j) / sqrt(2)``
-    with a_j, b_j its six standard normals (see the section notes: they
-    depend on (key, key_b) and the mode's index only), so that
+    with a_j, b_j its six standard normals (see ``rng``: they depend on
+    (key, key_b) and the mode's signed wavenumber indices only), so that
     E|c_i|^2 = scale^2 gain^2 (M M^T)_ii.  M comes from ``corr_33`` in the
     corrected region, else from ``stencil`` (row n1 - n1_lo, when
     use_stencil) or from ``box_params``; either way the amplitude parameters
@@ -126,7 +126,10 @@ def fill_box_kernel(spec_u, spec_v, spec_w, n1_lo, n1_hi, N3, d1, d2, d3, L, gam
     would make them: of each pair (k, -k) the mode with the smaller index
     n1 N2 + n2 is drawn and its conjugate written to the other (which may
     lie in another task's rows: no other task writes it), and a
-    self-conjugate mode becomes sqrt(2) times its real part.
+    self-conjugate mode becomes sqrt(2) times its real part.  Away from the
+    Nyquist indices that is the mode with s1 > 0, or s1 = 0 and s2 > 0: a
+    rule of the signed wavenumber indices, the same on every grid of one
+    physical size.
     """
     N1 = spec_u.shape[0]
     N2 = spec_u.shape[1]
@@ -148,11 +151,11 @@ def fill_box_kernel(spec_u, spec_v, spec_w, n1_lo, n1_hi, N3, d1, d2, d3, L, gam
             k2 = _wavenumber(n2, N2, d2)
             s2 = _signed_index(n2, N2)
             m2 = (N2 - n2) % N2
-            # The normals of the n3 rows (n1, n2) and (n1, m2): counters
-            # 6 m .. 6 m + 6 NH - 1 from their first modes' index m.
-            _row_normals(key, key_b, np.uint64(6 * ((n1 * N2 + n2) * NH)), za, rej)
+            # The normals of the n3 rows (s1, s2) and (s1, -s2), keyed by the
+            # signed indices (the wavenumber at a fixed box size), not by n1, n2.
+            _row_normals(key, key_b, box_row_counter(s1, s2), za, rej)
             if m2 != n2:
-                _row_normals(key, key_b, np.uint64(6 * ((n1 * N2 + m2) * NH)), zb, rej)
+                _row_normals(key, key_b, box_row_counter(s1, _signed_index(m2, N2)), zb, rej)
             s12, kh, r21, inv_s12, inv_s12kh = _row_constants(k1, k2)
             # In the planes n3 = 0 and Nyquist, of each pair (k, -k) the mode
             # with the larger flat index is written as its partner's

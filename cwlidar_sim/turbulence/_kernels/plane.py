@@ -19,17 +19,21 @@ from .box import _signed_index
 
 
 @numba.njit(**NJIT)
-def _spline6(coef, x0, h, col, x, out):
+def _spline6(coef, j0, h, col, x, out):
     # Cubic pieces (scipy's PPoly layout: coef[0] multiplies t^3) of
-    # (log Phi11, log Phi22, log Phi33, rho13, rho12, rho23) on the uniform
-    # knots x0 + i h; converted back to the six spectral components.
+    # (log Phi11, log Phi22, log Phi33, rho13, rho12, rho23) on the lattice
+    # x_j = j h, piece i spanning [x_(j0 + i), x_(j0 + i + 1)]; converted back
+    # to the six spectral components.  The piece and t = x - j h depend on x
+    # and the lattice only, not on where the table starts (j0), so two grids'
+    # tables give the same bits at a shared wavenumber.
     nseg = coef.shape[1]
-    i = int(math.floor((x - x0) / h))
+    j = int(math.floor(x / h))
+    i = j - j0
     if i < 0:
         i = 0
     elif i > nseg - 1:
         i = nseg - 1
-    t = x - (x0 + i * h)
+    t = x - (j0 + i) * h
     for c in range(6):
         out[c] = ((coef[0, i, col, c] * t + coef[1, i, col, c]) * t + coef[2, i, col, c]) * t + coef[3, i, col, c]
     d0 = math.exp(out[0])
@@ -44,13 +48,13 @@ def _spline6(coef, x0, h, col, x, out):
 
 
 @numba.njit(**NJIT)
-def plane_mode(s1, s2, dk1, near, r1, r2, x0, h, coef, rx0, rh, rcoef, out):
+def plane_mode(s1, s2, dk1, near, r1, r2, j0, h, coef, rj0, rh, rcoef, out):
     """The six k3-integrated components of plane mode (s1 dk1, s2 dk2), s2 >= 0.
 
     ``near[|s1|, s2]`` holds directly computed values for |s1| < len(near);
     beyond, the cell averages of the region |s1| <= r1, s2 <= r2 come from
-    the spline ``rcoef`` (strip s2) and all other modes from ``coef``
-    (column s2), both in log|k1|.
+    the pieces ``rcoef`` (strip s2) and all other modes from ``coef``
+    (column s2), both local cubics in log|k1| on the lattice j h.
     """
     a1 = abs(s1)
     if a1 < near.shape[0]:
@@ -59,22 +63,22 @@ def plane_mode(s1, s2, dk1, near, r1, r2, x0, h, coef, rx0, rh, rcoef, out):
     else:
         x = math.log(a1 * dk1)
         if s2 <= r2 and a1 <= r1:
-            _spline6(rcoef, rx0, rh, s2, x, out)
+            _spline6(rcoef, rj0, rh, s2, x, out)
         else:
-            _spline6(coef, x0, h, s2, x, out)
+            _spline6(coef, j0, h, s2, x, out)
     if s1 < 0:
         out[4] = -out[4]
         out[5] = -out[5]
 
 
 @numba.njit(**NJIT)
-def plane_phi_kernel(n1_lo, N1, dk1, near, r1, r2, x0, h, coef, rx0, rh, rcoef, scale, out_xy33):
+def plane_phi_kernel(n1_lo, N1, dk1, near, r1, r2, j0, h, coef, rj0, rh, rcoef, scale, out_xy33):
     """Spectral matrices of rows n1_lo .. n1_lo + len(out) (times ``scale``)."""
     p = np.empty(6)
     for r in range(out_xy33.shape[0]):
         s1 = _signed_index(n1_lo + r, N1)
         for s2 in range(out_xy33.shape[1]):
-            plane_mode(s1, s2, dk1, near, r1, r2, x0, h, coef, rx0, rh, rcoef, p)
+            plane_mode(s1, s2, dk1, near, r1, r2, j0, h, coef, rj0, rh, rcoef, p)
             o = out_xy33[r, s2]
             o[0, 0] = scale * p[0]
             o[1, 1] = scale * p[1]
@@ -113,8 +117,8 @@ def chol3(p, m):
 
 
 @numba.njit(**NJIT)
-def fill_plane_kernel(spec_u, spec_v, spec_w, n1_lo, noise, dk1, near, r1, r2, x0, h, coef,
-                      rx0, rh, rcoef, scale):
+def fill_plane_kernel(spec_u, spec_v, spec_w, n1_lo, noise, dk1, near, r1, r2, j0, h, coef,
+                      rj0, rh, rcoef, scale):
     """Fill rows n1_lo .. n1_lo + len(noise) of the plane's three half spectra.
 
     noise has shape (rows, Ny//2 + 1, 3, 2) (standard normals, real and
@@ -131,7 +135,7 @@ def fill_plane_kernel(spec_u, spec_v, spec_w, n1_lo, noise, dk1, near, r1, r2, x
         n1 = n1_lo + r
         s1 = _signed_index(n1, N1)
         for s2 in range(noise.shape[1]):
-            plane_mode(s1, s2, dk1, near, r1, r2, x0, h, coef, rx0, rh, rcoef, p)
+            plane_mode(s1, s2, dk1, near, r1, r2, j0, h, coef, rj0, rh, rcoef, p)
             chol3(p, m)
             a0 = noise[r, s2, 0, 0]
             b0 = noise[r, s2, 0, 1]

@@ -1,15 +1,25 @@
 """Counter-based standard normals of the field generators.
 
-Normal number c of a box is a function of (seed, c) only.  The
+Normal number c of a field is a function of (seed, c) only.  The
 64-bit word mix64(key + (c + 1) G) -- output c of SplitMix64 (Steele, Lea &
 Flood 2014) started at ``key`` -- feeds a 256-layer ziggurat (Marsaglia &
 Tsang 2000): 8 bits pick the layer, 1 the sign and 53 the position in the
 layer.  The few draws the ziggurat's first test does not accept (1.5 %)
 go on with a private SplitMix64 stream started at mix64(key_b + (c + 1)
-G), again a function of (key_b, c) only.  Mode m = (n1 N2 + n2)
-(N3//2 + 1) + n3 of the half spectrum takes normals 6 m .. 6 m + 5
-(component i: real part 6 m + 2 i, imaginary part 6 m + 2 i + 1), so any
-split of the modes over threads draws the same numbers.
+G), again a function of (key_b, c) only.
+
+Counters are keyed by the wavenumber, not by the loop position: a mode with
+signed indices (s1, s2, s3) -- the physical wavenumber k_i = 2 pi s_i / L_i at
+a box size L_i = N_i d_i, signed as numpy's fftfreq signs them (index N/2 of
+an even axis is -N/2), s3 >= 0 in the half spectrum -- takes normals
+6 m .. 6 m + 5 (component i: real part 6 m + 2 i, imaginary part 6 m + 2 i + 1)
+with m the offset-binary packing of its indices (``box_row_counter``,
+``plane_row_counter``; a line's mode s >= 0 has m = s).  Two grids of one
+physical size therefore draw the same numbers for every wavenumber they
+share, and any split of the modes over threads draws the same numbers.
+The packing holds shapes up to 2**25 x 2**18 x 2**18 for boxes
+(``BOX_MAX_SHAPE``) and 2**32 x 2**29 for planes (``PLANE_MAX_SHAPE``); boxes, planes and lines of one seed use keys of
+their own (see ``turbulence.box._noise_keys``).
 """
 
 from __future__ import annotations
@@ -184,3 +194,51 @@ def normals_kernel(key, key_b, c0, out):
     _row_normals(key, key_b, c0, out, np.empty(out.shape[0], np.int64))
 
 
+
+
+#: Bits of s1, s2, s3 in a box mode's counter index m (offset binary for the
+#: signed s1, s2): 25 + 18 + 18 = 61, so 6 m + 5 < 2**64.
+_BOX_B1 = 25
+_BOX_B2 = 18
+_BOX_B3 = 18
+#: Largest box shape whose signed indices fit the packing.
+BOX_MAX_SHAPE = (1 << _BOX_B1, 1 << _BOX_B2, 1 << _BOX_B3)
+_BOX_OFF1 = 1 << (_BOX_B1 - 1)
+_BOX_OFF2 = 1 << (_BOX_B2 - 1)
+_BOX_SH1 = np.uint64(_BOX_B2 + _BOX_B3)
+_BOX_SH2 = np.uint64(_BOX_B3)
+#: Bits of s1 and s2 (>= 0) in a plane mode's counter index: 32 + 29 = 61.
+_PLANE_B1 = 32
+_PLANE_B2 = 29
+PLANE_MAX_SHAPE = (1 << _PLANE_B1, 1 << _PLANE_B2)
+_PLANE_OFF1 = 1 << (_PLANE_B1 - 1)
+_PLANE_SH1 = np.uint64(_PLANE_B2)
+_U6 = np.uint64(6)
+
+
+@numba.njit(inline="always", **NJIT)
+def box_row_counter(s1, s2):
+    """First counter of the n3 row of box modes (s1, s2, 0 ..): 6 m with m packed from (s1, s2, 0).
+
+    Mode (s1, s2, s3) of the row takes counters ``box_row_counter(s1, s2) + 6 s3 + j``, j = 0..5.
+    """
+    return _U6 * ((np.uint64(s1 + _BOX_OFF1) << _BOX_SH1) | (np.uint64(s2 + _BOX_OFF2) << _BOX_SH2))
+
+
+@numba.njit(inline="always", **NJIT)
+def plane_row_counter(s1):
+    """First counter of the k2 row of plane modes (s1, 0 ..); mode (s1, s2) takes + 6 s2 + j."""
+    return _U6 * (np.uint64(s1 + _PLANE_OFF1) << _PLANE_SH1)
+
+
+@numba.njit(**NJIT)
+def plane_noise_kernel(key, key_b, n1_lo, N1, out_xy32):
+    """Normals of plane rows n1_lo .. n1_lo + len(out): out[r, s2, i, 0/1] is the real/imaginary
+    normal of component i of mode (s1, s2), s1 the signed index of row n1_lo + r (see the notes)."""
+    rows = out_xy32.shape[0]
+    n = out_xy32.shape[1] * 6
+    rej = np.empty(n, np.int64)
+    for r in range(rows):
+        n1 = n1_lo + r
+        s1 = n1 if 2 * n1 < N1 else n1 - N1
+        _row_normals(key, key_b, plane_row_counter(s1), out_xy32[r].reshape(n), rej)

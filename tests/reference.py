@@ -426,7 +426,7 @@ def misaligned_reference(k1, alpha_eps, L, gamma, theta_deg, zR, h=0.03):
 
 
 # =============================================================================
-# turbulence plane generator (cwlidar_sim/turbulence/_kernels.py: chol3,
+# turbulence plane generator (cwlidar_sim/turbulence/_kernels/plane.py: chol3,
 # fill_plane_kernel)
 # =============================================================================
 def turbulence_fill_plane(phi_xy33, noise, n1_lo, scale):
@@ -503,7 +503,7 @@ def sensors_expected_spectrum(x_es, amp_s, window_n, rho, nf):
 
 
 # =============================================================================
-# turbulence box generator (cwlidar_sim/turbulence/_kernels.py: normal_at,
+# turbulence box generator (cwlidar_sim/turbulence/_kernels/: normal_at,
 # normals_kernel, fill_box_kernel): counter-based ziggurat noise and the
 # half spectrum of a small uncorrected box, one mode at a time.
 # =============================================================================
@@ -609,7 +609,9 @@ def _box_chol_lower(a):
 def box_half_spectrum(shape, spacing, seed, alpha_eps, L, gamma):
     """Half spectrum of a zero-mean box with correction="none", by its definition.
 
-    Mode n = (n1, n2, n3), n3 = 0 .. N3//2, has flat index m = (n1 N2 + n2)(N3//2 + 1) + n3
+    Mode n = (n1, n2, n3), n3 = 0 .. N3//2, with signed indices s_i (numpy's fftfreq signs: index
+    N/2 of an even axis is -N/2; s3 = n3) has the counter index
+    m = (s1 + 2^24) 2^36 + (s2 + 2^17) 2^18 + n3 (keyed by the wavenumber, not by the position)
     and normals a_j = z(6 m + 2 j), b_j = z(6 m + 2 j + 1) (``box_normal``); its coefficients are
     c_i = sqrt(dk1 dk2 dk3) sum_j M_ij(k_n) (a_j + i b_j) / sqrt(2) with M from ``mann_amplitude``
     and (k1, k2) in numpy's fftfreq order, k3 = n3 dk3.  In the z-Nyquist plane (even N3) M is
@@ -628,7 +630,9 @@ def box_half_spectrum(shape, spacing, seed, alpha_eps, L, gamma):
         for n2 in range(N2):
             k2 = dk[1] * (n2 if 2 * n2 < N2 else n2 - N2)
             for n3 in range(nh):
-                m = (n1 * N2 + n2) * nh + n3
+                s1 = n1 if 2 * n1 < N1 else n1 - N1
+                s2 = n2 if 2 * n2 < N2 else n2 - N2
+                m = ((s1 + 2**24) << 36) + ((s2 + 2**17) << 18) + n3
                 z = [box_normal(key, key_b, 6 * m + j) for j in range(6)]
                 if N3 % 2 == 0 and n3 == nh - 1:
                     amp = _box_chol_lower(np.mean([np.dot(a, np.transpose(a)) for a in (

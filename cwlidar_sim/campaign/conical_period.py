@@ -13,7 +13,7 @@ Set-up (choices, each stated)
 -----------------------------
 * Turbulence: one box per height (:func:`cwlidar_sim.sensors.conical.conical_field`),
   Mann parameters of a neutral surface layer over flat terrain at that height
-  (:func:`cwlidar_sim.sensors.conical.surface_layer_parameters`: u* from the
+  (:func:`cwlidar_sim.turbulence.surface_layer.surface_layer_parameters`: u* from the
   log law with z0 = 0.01 m, then by default Mann's (1994) fit of his tensor
   to Kaimal's neutral spectra, L = 0.59 z, alpha eps^(2/3) = 3.2 u*^2 z^(-2/3),
   Gamma = 3.9; IEC 61400-1 with sigma_u = 2.4 u* as an option), laterally
@@ -268,7 +268,8 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
     """The box, the lidar at ``heights`` (one: dwell, several: cycle), cups and sonics, fits: one dict per height."""
     from ..analysis.vad import sonic_radial_variance
     from ..sensors import Cup, Sonic, sample_cup, sample_sonic
-    from ..sensors.conical import conical_field, measure_conical, surface_layer_parameters
+    from ..sensors.conical import conical_field, measure_conical
+    from ..turbulence.surface_layer import surface_layer_parameters
     from ..signal.processing import Flag
     from ..turbulence.parameters import MannParameters
 

@@ -224,7 +224,7 @@ class SurfaceTurbulenceSpec(Spec):
 
         if self.source == "fixed":
             return MannParameters(self.alpha_eps, self.length_scale, self.gamma), None, None
-        from ..sensors.conical import surface_layer_parameters
+        from ..turbulence.surface_layer import surface_layer_parameters
 
         return surface_layer_parameters(height, speed, z0=self.z0, source=self.source)
 

@@ -77,10 +77,11 @@ import math
 
 import numpy as np
 
-from .._validation import check_bool, check_choice, check_int, check_real, check_tuple
+from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import DRAW_BLOCK, SIGNAL_MAX_ESTIMATES, TIERS, FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.spectral import speckle_looks
+from ..turbulence.surface_layer import surface_layer_parameters
 from .base import CLOUD_BASE_MAX, CLOUD_STRENGTH_MAX, BeamSampler, LidarBase, field_subcell_spread, seed_sequence
 
 __all__ = [
@@ -499,60 +500,6 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
 # ---------------------------------------------------------------------------
 # turbulence for the cone
 # ---------------------------------------------------------------------------
-def surface_layer_parameters(height: float, speed: float, *, z0: float = 0.01, source: str = "mann1994",
-                             sigma_u_over_ustar: float = 2.4, gamma: float = 3.9):
-    """Mann parameters at height z in a neutral surface layer over flat terrain.
-
-    ``u* = kappa U(z) / ln(z / z0)`` (log law, kappa = 0.4; default
-    ``z0 = 0.01`` m, grass, Hoevsoere's flat farmland), then
-
-    * ``source='mann1994'`` (default): Mann's (1994, J. Fluid Mech. 273) fit
-      of his tensor to Kaimal's neutral spectra, ``alpha eps^(2/3) = 3.2 u*^2
-      z^(-2/3)``, ``L = 0.59 z``, ``Gamma = 3.9``: the same surface layer as
-      CS's Kaimal model, at every height;
-    * ``source='iec'``: IEC 61400-1 Annex C (:meth:`MannParameters.iec`,
-      ``L = 0.56 z`` up to 60 m and 33.6 m above) for ``sigma_u =
-      sigma_u_over_ustar u*`` (neutral surface layer: 2.4, Panofsky & Dutton 1984).
-
-    Parameters
-    ----------
-    height : float
-        Height z [m]; > z0.
-    speed : float
-        Mean wind speed at z [m/s]; > 0.
-    z0 : float
-        Roughness length [m]; in (0, 2].
-    source : {'mann1994', 'iec'}
-    sigma_u_over_ustar : float
-        sigma_u / u* for 'iec' [-]; in (0, 10].
-    gamma : float
-        Mann's anisotropy for 'iec' [-].
-
-    Returns
-    -------
-    params : MannParameters
-    sigma_u : float
-        sigma_u of the tensor ('mann1994', from its one-point spectrum) or the IEC target [m/s].
-    u_star : float
-        Friction velocity [m/s].
-    """
-    from ..turbulence.parameters import MannParameters
-
-    z0 = check_real("z0", z0, lo=0.0, hi=2.0, lo_open=True)
-    z = check_real("height", height, lo=z0, lo_open=True)
-    U = check_real("speed", speed, lo=0.0, lo_open=True)
-    check_choice("source", source, ("mann1994", "iec"))
-    ratio = check_real("sigma_u_over_ustar", sigma_u_over_ustar, lo=0.0, hi=10.0, lo_open=True)
-    ustar = 0.4 * U / math.log(z / z0)
-    if source == "iec":
-        su = ratio * ustar
-        return MannParameters.iec(z, su, gamma=gamma), su, ustar
-    from ..turbulence.spectra import covariances
-
-    p = MannParameters(alpha_eps=3.2 * ustar**2 * z ** (-2.0 / 3.0), length_scale=0.59 * z, gamma=3.9)
-    return p, math.sqrt(covariances(p).uu), ustar
-
-
 def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: int, *, spacing: float,
                   lateral_doubling: bool = True, min_extent: float | None = None, dtype=np.float32):
     """A Mann box holding a conical lidar's cells for a record, placed in the lidar's frame.

@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from .. import _config
-from .._validation import check_choice, check_int, check_memory, check_real, check_seed, check_tuple
+from .._validation import check_bool, check_choice, check_int, check_memory, check_real, check_seed, check_tuple
 from .parameters import MannParameters
 from .tensor import _check_params, _prefactor, lifetime_table
 
@@ -217,12 +217,6 @@ def box_nbytes(shape, dtype=np.float32) -> int:
     return 3 * N1 * N2 * 2 * (N3 // 2 + 1) * np.dtype(dtype).itemsize
 
 
-def _check_flag(name, flag):
-    if not isinstance(flag, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a bool, got {flag!r}")
-    return bool(flag)
-
-
 class BoxGenerator:
     """Generator of Mann boxes that share parameters, shape and spacing.
 
@@ -250,8 +244,8 @@ class BoxGenerator:
         self.params = params
         self.shape, self.spacing = _check_grid(shape, spacing)
         self.correction = check_choice("correction", correction, CORRECTIONS)
-        self.hf_compensation = _check_flag("hf_compensation", hf_compensation)
-        self.cache_stencil = _check_flag("cache_stencil", cache_stencil)
+        self.hf_compensation = check_bool("hf_compensation", hf_compensation)
+        self.cache_stencil = check_bool("cache_stencil", cache_stencil)
         from ._kernels import BOX_MAX_SHAPE
 
         _check_noise_shape("a box", self.shape, BOX_MAX_SHAPE)
@@ -287,7 +281,7 @@ class BoxGenerator:
                  dtype=np.float32, progress: bool = False):
         """Generate one box; see :func:`generate_box` for the arguments and result."""
         seed = check_seed("seed", seed)
-        keep_mean = _check_flag("keep_mean", keep_mean)
+        keep_mean = check_bool("keep_mean", keep_mean)
         if sigma_u is not None:
             sigma_u = check_real("sigma_u", sigma_u, lo=0.0, lo_open=True)
         dt = np.dtype(dtype)

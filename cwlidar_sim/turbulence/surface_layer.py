@@ -3,8 +3,8 @@
 Neutral (``obukhov_length=None``, the default): ``u* = kappa U(z) / ln(z / z0)``
 (log law, kappa = 0.4), then Mann's (1994, J. Fluid Mech. 273) fit of his
 tensor to Kaimal's neutral spectra, ``alpha eps^(2/3) = 3.2 u*^2 z^(-2/3)``,
-``L = 0.59 z``, ``Gamma = 3.9``, or IEC 61400-1 Annex C.  These are the numbers
-of ``cwlidar_sim.sensors.conical.surface_layer_parameters``, bit for bit.
+``L = 0.59 z``, ``Gamma = 3.9``, or IEC 61400-1 Annex C (the numbers the
+conical scenes used before stability was added, bit for bit).
 
 Stability (``obukhov_length`` = the Obukhov length L_MO [m]; zeta = z / L_MO,
 negative unstable, positive stable), by Monin-Obukhov similarity:

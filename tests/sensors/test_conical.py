@@ -14,7 +14,7 @@ from cwlidar_sim.sensors.conical import (
     measure_conical,
     surface_layer_parameters,
 )
-from cwlidar_sim.signal import CS_SERIES, Flag, speckle_looks
+from cwlidar_sim.signal import CS_SERIES, Flag
 from cwlidar_sim.turbulence import MannParameters
 
 PHI = math.radians(30.0)

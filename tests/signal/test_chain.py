@@ -115,7 +115,6 @@ def test_a_rising_staring_beam_reaches_a_cloud_and_a_horizontal_one_never():
     # power-weighted mean of aerosol and cloud radial speeds
     el = 30.0
     n_z = math.sin(math.radians(el))
-    field = uniform_line()
     kw = dict(cloud_base=1200.0, cloud_strength=3e4, cloud_speed=12.0, cloud_direction_deg=180.0,
               position=(0.0, 0.0, 0.0), azimuth_deg=180.0, cell_length=2.0, transverse_speed=1.0)
     up = StaringLidar(elevation_deg=el, tier="los", **kw)
@@ -125,7 +124,7 @@ def test_a_rising_staring_beam_reaches_a_cloud_and_a_horizontal_one_never():
 
     opt = up.instrument.optics()
     wc = 3e4 * interval_weight(opt, "exact", 1200.0 / n_z - 67.5, 1230.0 / n_z - 67.5)
-    assert up.cloud_weight() == pytest.approx(wc, rel=1e-12) 
+    assert up.cloud_weight() == pytest.approx(wc, rel=1e-12)
     # a box is needed for a rising beam: a calm one, 0 m/s wind, the aerosol at rest
     x = np.arange(-110.0, 10.0, 2.0)
     zz = np.arange(-2.0, 100.0, 2.0)

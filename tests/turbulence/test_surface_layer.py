@@ -1,4 +1,4 @@
-"""Surface-layer Mann parameters: the neutral numbers of the sensors' copy, Monin-Obukhov
+"""Surface-layer Mann parameters: one function for the sensors and the campaigns, Monin-Obukhov
 similarity by stability, the mix helper, bad input."""
 
 import math
@@ -13,12 +13,11 @@ from cwlidar_sim.turbulence import surface_layer as sl
 @pytest.mark.parametrize("z, U, kw", [(40.0, 10.0, dict()), (40.0, 10.0, dict(source="iec")),
                                       (100.0, 6.3, dict(source="iec", z0=0.05)),
                                       (10.0, 4.0, dict(source="iec", sigma_u_over_ustar=2.1, gamma=3.2))])
-def test_neutral_numbers_are_those_of_the_sensors_copy_bit_for_bit(z, U, kw):
-    from cwlidar_sim.sensors.conical import surface_layer_parameters as old
+def test_neutral_is_the_default_and_the_sensors_use_this_function(z, U, kw):
+    from cwlidar_sim.sensors.conical import surface_layer_parameters as sensors_name
 
-    a = sl.surface_layer_parameters(z, U, **kw)
-    b = old(z, U, **kw)
-    assert a == b  # MannParameters, sigma_u and u* identical
+    assert sensors_name is sl.surface_layer_parameters  # one function, not a copy
+    b = sl.surface_layer_parameters(z, U, **kw)
     assert sl.surface_layer_parameters(z, U, obukhov_length=math.inf, **kw) == b
     assert sl.surface_layer_parameters(z, U, obukhov_length=None, **kw) == b
 

@@ -148,8 +148,10 @@ def test_spectral_tracks_tier1_in_turbulence(field):
     probe volume's speed distribution differs from its weighted mean by at most that distribution's sd
     in each estimate, with either sign, so the difference averages out over the record; speckle scatters
     each estimate by ~0.15 m/s (measured), a standard error of ~0.005 m/s on 1000 estimates.  0.1 m/s is
-    5x that budget.  Correlation: sd(vlos) ~ 1 m/s against 0.15 m/s of noise gives
-    1 / sqrt(1 + 0.15^2) = 0.989 > 0.95.
+    5x that budget.  Correlation: sd(vlos) against 0.15 m/s of noise gives
+    1 / sqrt(1 + (0.15 / sd)^2), 0.95 at sd = 0.47 m/s; the record's sd (a random draw of 800 m
+    of field, 0.56 m/s with this seed) must be at least 3x the noise (0.45 m/s) for the
+    correlation to test tracking rather than noise, and the noise itself is checked directly.
     """
     lid = StaringLidar()
     t = times(1000, dt=0.1)
@@ -158,7 +160,8 @@ def test_spectral_tracks_tier1_in_turbulence(field):
     d = rec.speed_e - rec.vlos_e
     assert abs(d.mean()) < 0.1
     assert np.corrcoef(rec.speed_e, rec.vlos_e)[0, 1] > 0.95
-    assert rec.vlos_e.std() > 0.7  # the record does carry turbulence
+    assert rec.vlos_e.std() > 3 * 0.15  # the record carries turbulence well above the speckle noise
+    assert d.std() < 2 * 0.15  # and the estimates scatter about it by the speckle budget, not more
     # the derived transverse speed is the rms of (v, w) at the focus for a beam along x
     vel, _ = sample_los(field, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [P.focus], t, U, add_mean=True)
     assert rec.info["transverse_speed"] == pytest.approx(math.sqrt(np.mean(vel[:, 0, 1] ** 2 + vel[:, 0, 2] ** 2)),
@@ -186,9 +189,8 @@ def test_spectral_tier_with_a_misaligned_beam_in_a_plane():
     d = rec.speed_e - np.abs(rec.vlos_e)
     assert abs(d.mean()) < 0.1
     assert np.corrcoef(rec.speed_e, np.abs(rec.vlos_e))[0, 1] > 0.95
-    assert rec.vlos_e.std() > 0.7
-    # the mean wind projected on the beam: -U cos(theta) (beam pointing upwind)
-    assert np.mean(rec.vlos_e) == pytest.approx(-U * math.cos(math.radians(theta)), abs=0.3)
+    assert rec.vlos_e.std() > 3 * 0.15  # as in the aligned case: turbulence well above the noise
+    assert d.std() < 2 * 0.15
     n3 = lid.direction
     np.testing.assert_allclose(n3, [-math.cos(math.radians(theta)), -math.sin(math.radians(theta)), 0.0], atol=1e-15)
     u, v, w = (plane[c].values.astype(np.float64)[:, :, None] for c in "uvw")
@@ -197,6 +199,10 @@ def test_spectral_tier_with_a_misaligned_beam_in_a_plane():
     vel, _ = reference.beam_sample_points(u, v, w, grid, True, [600.0, 30.0, 0.0], np.tile(n3, (t.size, 1)),
                                           [P.focus], t, U, add_mean=True)
     vel = vel[:, 0, :]
+    # the record's mean is the total wind at the focus projected on the beam (U cos(theta) + the record's own
+    # mean turbulence, which over 480 m of field is a random draw of ~0.7 m/s sd): the probe volume's
+    # smoothing (+-20 z_R along a 60-s record) moves the mean by ~ sigma_u * 40 m / 480 m at most
+    assert np.mean(rec.vlos_e) == pytest.approx(np.mean(vel @ n3), abs=0.15)
     perp = vel - (vel @ n3)[:, None] * n3[None, :]
     vt = math.sqrt(np.mean(np.sum(perp**2, axis=1)))
     assert vt > U * math.sin(math.radians(theta))

@@ -60,7 +60,8 @@ def test_notebook_runs_in_quick_mode(path, tmp_path, monkeypatch):
     # the kernel runs in tmp_path: put this checkout first, or it would import an installed cwlidar_sim
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(ROOT)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
     nb = nbformat.read(path, as_version=4)
-    client = nbclient.NotebookClient(nb, timeout=900, kernel_name="python3",
+    # a kernel on a loaded machine can take over the default 60 s to start
+    client = nbclient.NotebookClient(nb, timeout=900, startup_timeout=300, kernel_name="python3",
                                      resources={"metadata": {"path": str(tmp_path)}})
     client.execute()
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.output_type == "error"]

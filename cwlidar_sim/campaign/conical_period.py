@@ -118,7 +118,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
                             lateral_doubling: bool = True, params=None, reference: str = "previous",
                             sub_dwells: int = 8, model: bool = True, lidar_overrides: dict | None = None,
                             excluded_flags: int | None = None, wind_direction_deg: float = 0.0, variants=None,
-                            field_span: float | None = None) -> dict:
+                            field_span: float | None = None, box_options: dict | None = None) -> dict:
     """Simulate one period: a Mann box, the conical lidar, a cup and a sonic at one height.
 
     Parameters
@@ -164,6 +164,14 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         Size the box for this span [z_R] instead of the lidar's own (at
         least the lidar's): with it, lidars of different spans measure the
         same turbulence (a paired study of the span).
+    box_options : dict, optional
+        Numerical settings of the box (a convergence study's knobs), passed
+        to :func:`cwlidar_sim.sensors.conical.conical_field`: ``spacing``
+        (one value or (dx, dy, dz) [m]; default ``spacing``, which also sets
+        the cells' length), ``extent`` ((Lx, Ly, Lz) [m]: a fixed physical
+        size, so that boxes of other spacings and one seed share their
+        Fourier coefficients), ``hf_compensation`` (bool), ``min_extent``
+        (lateral and vertical minimum [m], default 2 L).
 
     Returns
     -------
@@ -196,7 +204,8 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
     return _simulate((z,), seed, speed=speed, duration=duration, scan_revs=scan_revs, tier=tier, spacing=spacing,
                      lateral_doubling=lateral_doubling, params=params, reference=reference, sub_dwells=sub_dwells,
                      model=model, lidar_overrides=lidar_overrides, excluded_flags=excluded_flags,
-                     wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span)[0]
+                     wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span,
+                     box_options=box_options)[0]
 
 
 def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_time: float = 0.0,
@@ -264,7 +273,7 @@ def _conical_lidar(heights, tier, cell_length, sub_dwells, lidar_overrides, wind
 
 def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, lateral_doubling, params, reference,
               sub_dwells, model, lidar_overrides, excluded_flags, wind_direction_deg, variants=None,
-              field_span=None) -> list:
+              field_span=None, box_options=None) -> list:
     """The box, the lidar at ``heights`` (one: dwell, several: cycle), cups and sonics, fits: one dict per height."""
     from ..analysis.vad import sonic_radial_variance
     from ..sensors import Cup, Sonic, sample_cup, sample_sonic
@@ -305,9 +314,10 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         box_lidar = lidar.replace(span=max(lidar.span, check_real("field_span", field_span, lo=0.0, hi=1e4,
                                                                    lo_open=True)), cloud_base=None,
                                   cloud_strength=0.0)
+    box_kw = _box_options(box_options, d)
     field = conical_field(box_lidar, U, duration, params,
-                          int(box_seq.generate_state(1, np.uint64)[0] >> np.uint64(1)), spacing=d,
-                          lateral_doubling=lateral_doubling)
+                          int(box_seq.generate_state(1, np.uint64)[0] >> np.uint64(1)),
+                          lateral_doubling=lateral_doubling, **box_kw)
     cost["box"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     rec = measure_conical(field, lidar, duration, U, np.random.default_rng(lid_seq), variants=variants)
@@ -318,6 +328,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         raise ValueError(f"duration={duration:g} s leaves heights {missing} without a complete block of "
                          f"{lidar.revs_per_height} revolutions; allowed: longer periods or fewer revs_per_height")
     box_shape = tuple(int(field.sizes[c]) for c in ("x", "y", "z"))
+    box_spacing = tuple(float(field[c].values[1] - field[c].values[0]) for c in ("x", "y", "z"))
     in_situ = {}
     for z in heights:
         sel = rec.select(z)
@@ -334,7 +345,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         flags_e = sel["flags_e"]
         r = {
             "height": z, "speed": U, "seed": seed, "duration": duration, "tier": lidar.tier, "spacing": d,
-            "box_shape": box_shape, "lateral_doubling": bool(lateral_doubling),
+            "box_shape": box_shape, "box_spacing": box_spacing, "lateral_doubling": bool(lateral_doubling),
             "params": params.as_dict(), "u_star": ustar, "sigma_u_target": su_target,
             "cup_mean": float(cup_t.mean()), "cup_std": float(cup_t.std(ddof=1)),
             "sonic_std": float(sonic_h.std(ddof=1)),
@@ -357,6 +368,17 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         r["cost_s"] = dict(cost, fit_and_model=time.perf_counter() - t0)
         out.append(r)
     return out
+
+
+def _box_options(options, spacing) -> dict:
+    """conical_field's keywords from ``box_options`` (names checked), the spacing defaulting to ``spacing``."""
+    allowed = ("spacing", "extent", "hf_compensation", "min_extent")
+    opts = dict(options or {})
+    bad = sorted(set(opts) - set(allowed))
+    if bad:
+        raise ValueError(f"box_options: unknown keys {bad}; allowed: {list(allowed)}")
+    opts.setdefault("spacing", spacing)
+    return opts
 
 
 def _scans(out, rec, lidar, z, U, vel_ec, rev_e, params, scan_revs, reference, model, excluded_flags,

@@ -83,6 +83,10 @@ CONICAL = [
     ("grid", "sub-dwells 16", {"sub_dwells": 16}, True),
     ("grid", "tier spectral (independent speckle)", {"tier": "spectral"}, True),
     ("grid", "tier spectral, continuum speckle", {"tier": "spectral", "speckle": "continuum"}, True),
+    ("across", "across d (default)", {}, True),
+    ("across", "across d/2", {"spacing": (1.0, 0.5, 0.5)}, True),
+    ("across", "across d/3", {"spacing": (1.0, 1 / 3, 1 / 3)}, True),
+    ("across", "across d/4", {"spacing": (1.0, 0.25, 0.25), "heights": (100.0,)}, True),
     ("size", "default box (own sizing)", {"own_box": True}, False),
     ("size", "no lateral doubling", {"own_box": True, "doubling": False}, False),
     ("size", "lateral size x2", {"own_box": True, "min_extent_factor": 2.0}, False),
@@ -105,8 +109,11 @@ STARING = [
     ("size", "plane length x1.5", {"nx_factor": 1.5}, False),
 ]
 BAND = (0.002, 0.6)
+#: spacings (factors of d) a group's one extent must hold a whole number of
+GROUP_SPACINGS = {"grid": (1.0, 0.5), "across": (1.0, 0.5, 1 / 3, 0.25)}
 #: the row each group's effects are taken against (the default; for 'size', other realisations)
 CONICAL_BASE = {"tail": "span 5 (default)", "tail_long": "span 30 (long box)", "grid": "default grid d = z/20",
+                "across": "across d (default)",
                 "size": "default box (own sizing)"}
 
 
@@ -156,7 +163,8 @@ def conical_row(z, seed, duration, group, settings):
     # the group's one field: sized (and placed) for the group's longest span
     group_span = max(s.get("span", 5.0) for g, _, s, _ in CONICAL if g == group)
     if not settings.get("own_box"):
-        box["extent"] = conical_extent(z, duration, group_span, (d, d / 2) if group == "grid" else (d,),
+        spacings = tuple(f * d for f in GROUP_SPACINGS.get(group, (1.0,)))
+        box["extent"] = conical_extent(z, duration, group_span, spacings,
                                        settings.get("size", (1.0, 1.0, 1.0)))
     t0 = time.perf_counter()
     r = simulate_conical_period(z, seed, speed=SPEED, duration=duration, tier=settings.get("tier", "los"),

@@ -116,7 +116,10 @@ class ConicalLidar(LidarBase):
     chain, cloud) are those of :class:`cwlidar_sim.sensors.base.LidarBase`,
     with the defaults of the scanning instrument (``instrument = CS_SERIES``,
     ``tier = 'los'``, ``span = 5``, ``cell_length = 2`` m, ``speckle =
-    'independent'``).  The instrument's ``focus`` is replaced by each
+    'independent'``).  The sensor's span 5 keeps unit-level boxes small; it
+    is not converged for the 10-min std ratio (0.07 low at 40 m): scenes
+    default to span 30 (:class:`cwlidar_sim.campaign.lidar_spec.ConicalLidarSpec`,
+    docs/convergence.md).  The instrument's ``focus`` is replaced by each
     height's ``z / cos Phi``.
 
     Parameters

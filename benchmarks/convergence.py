@@ -69,9 +69,16 @@ CONICAL = [
     ("tail", "span 30", {"span": 30.0}, True),
     ("tail", "span 10, renormalised tail", {"span": 10.0, "tail": "renormalise"}, True),
     ("tail", "span 30, renormalised tail", {"span": 30.0, "tail": "renormalise"}, True),
+    ("tail", "tier spectral, span 5", {"tier": "spectral"}, True),
+    ("tail", "tier spectral, span 10", {"span": 10.0, "tier": "spectral"}, True),
+    ("tail", "tier spectral, span 20", {"span": 20.0, "tier": "spectral"}, True),
+    ("tail", "tier spectral, span 30", {"span": 30.0, "tier": "spectral"}, True),
     ("tail_long", "span 30 (long box)", {"span": 30.0, "heights": (40.0,)}, True),
     ("tail_long", "span 60", {"span": 60.0, "heights": (40.0,)}, True),
     ("tail_long", "span 60, renormalised tail", {"span": 60.0, "tail": "renormalise", "heights": (40.0,)}, True),
+    ("tail_long", "tier spectral, span 30 (long box)", {"span": 30.0, "tier": "spectral", "heights": (40.0,)},
+     True),
+    ("tail_long", "tier spectral, span 60", {"span": 60.0, "tier": "spectral", "heights": (40.0,)}, True),
     ("grid", "default grid d = z/20", {}, True),
     ("grid", "dx = d/2 (along)", {"spacing": (0.5, 1.0, 1.0)}, True),
     ("grid", "dy = dz = d/2 (across)", {"spacing": (1.0, 0.5, 0.5)}, True),
@@ -204,11 +211,22 @@ def staring_extent(duration, span, spacings_x, spacings_y, nx_factor=1.0, ny_fac
     return common_extent(lx, spacings_x), common_extent(ly, spacings_y)
 
 
+def a2012_sonic(field, focus_pt, n, duration, U):
+    """A noise-free sonic at ``focus_pt`` read at 32 Hz and resampled to 10 Hz (A2012 Eqs. 5-7), projected on
+    the beam ``n`` (speed toward the lidar [m/s]), and the lidar's 50-Hz estimate times [s] over ``duration``."""
+    from cwlidar_sim.sensors import Sonic, resample_a2012, sample_sonic
+
+    n10 = int(math.floor(duration / 0.5 + 1e-9)) * 5
+    t32 = 1 / 64 + np.arange(n10 // 5 * 16) / 32.0
+    vel = sample_sonic(field, Sonic(position=tuple(focus_pt), noise_std=0.0), t32, U)
+    return resample_a2012(-(vel @ n)), (np.arange(n10 * 5) + 0.5) / 50.0
+
+
 def staring_row(seed, duration, group, settings):
     """One staring setting: T2 at the analysis bins, the estimator noise about the same cells' tier 'los'."""
     from cwlidar_sim.analysis import log_bins, transfer_functions
     from cwlidar_sim.beam import direction_from_angles
-    from cwlidar_sim.sensors import Sonic, StaringLidar, block_average, measure_staring, resample_a2012, sample_sonic
+    from cwlidar_sim.sensors import StaringLidar, block_average, measure_staring
     from cwlidar_sim.turbulence import generate_plane
     from cwlidar_sim.turbulence.grids import grid_for_extent
 
@@ -230,12 +248,7 @@ def staring_row(seed, duration, group, settings):
     reach = gspan * inst.rayleigh_length
     pos = np.array([x_last - (inst.focus + reach) * abs(n[0]) - 4.0,
                     float(field.y.values[0]) + 0.5 * ext[1] - inst.focus * n[1], 0.0])
-    focus_pt = pos + inst.focus * n
-    n10 = int(math.floor(duration / 0.5 + 1e-9)) * 5
-    t32 = 1 / 64 + np.arange(n10 // 5 * 16) / 32.0
-    vel = sample_sonic(field, Sonic(position=tuple(focus_pt), noise_std=0.0), t32, U)
-    vs10 = resample_a2012(-(vel @ n))
-    t50 = (np.arange(n10 * 5) + 0.5) / 50.0
+    vs10, t50 = a2012_sonic(field, pos + inst.focus * n, n, duration, U)
     speeds = {}
     for tier in ("los", "spectral"):
         lid = StaringLidar(instrument=inst, position=tuple(pos), azimuth_deg=180.0 + theta, tier=tier, span=span,
@@ -282,11 +295,14 @@ def summarise_conical(rows, seeds, heights):
                 row[f"{q}_effect"] = float(dlt.mean())
                 row[f"{q}_effect_se"] = float(dlt.std(ddof=1) / math.sqrt(dlt.size)) if dlt.size > 1 else None
             out.append(row)
-        # seed scatter of the default (std of one period's ratio across seeds)
-        b = [rows.get(_key("conical", z, s, "default grid d = z/20")) for s in seeds]
-        b = [x for x in b if x is not None]
+        # seed scatter: the default box over every seed run (also seeds run for this row alone); the other
+        # groups' default rows are not independent of it: one seed keys the same normals at the same
+        # wavenumber indices, so a box of another size is the same draws stretched, and its variances
+        # (sums over the modes) nearly the same
+        b = [v for k, v in rows.items() if k.startswith(_key("conical", z, "")) and
+             k.endswith("|default box (own sizing)")]
         if len(b) > 1:
-            out.append({"height": z, "group": "scatter", "label": "seed scatter (std over seeds, default)",
+            out.append({"height": z, "group": "scatter", "label": "seed scatter (std of one period)",
                         "n_seeds": len(b), **{q: float(np.std([x[q] for x in b], ddof=1)) for q in qs}})
     return out
 
@@ -311,14 +327,14 @@ def summarise_staring(rows, seeds):
                     "t2_mean_log10_vs_default": float(np.nanmean(d)),
                     "estimator_noise": float(en.mean()),
                     "estimator_noise_rel_effect": float(np.mean(en / enb - 1.0))})
-    b = [rows.get(_key("staring", s, "default plane dx = dy = 0.5 m")) for s in seeds]
-    b = [x for x in b if x is not None]
+    # seed scatter: the default plane over every seed run (see summarise_conical)
+    b = [v for k, v in rows.items() if k.startswith("staring|") and k.endswith("|default plane dx = dy = 0.5 m")]
     if len(b) > 1:
         k = np.asarray(b[0]["k"])
         band = (k >= BAND[0]) & (k <= BAND[1])
         pairs = [np.log10(np.asarray(x["t2"])[band] / np.asarray(y["t2"])[band])
                  for i, x in enumerate(b) for y in b[i + 1:]]
-        out.append({"group": "scatter", "label": "seed scatter (RMS log10 T2 between seeds, default)",
+        out.append({"group": "scatter", "label": "seed scatter (RMS log10 T2 between seeds)",
                     "n_seeds": len(b), "t2_rms_log10_vs_default": float(np.sqrt(np.nanmean(np.square(pairs)))),
                     "estimator_noise": float(np.mean([x["estimator_noise"] for x in b])),
                     "estimator_noise_scatter": float(np.std([x["estimator_noise"] for x in b], ddof=1))})
@@ -350,7 +366,7 @@ def markdown(res) -> str:
               "noise effect | cost [s] | cost x |", "|---|---|---|---|---|---|---|---|---|"]
     for r in res.get("staring", []):
         if r["group"] == "scatter":
-            lines.append(f"| *seed scatter (between seeds, default)* | | {r['n_seeds']} | "
+            lines.append(f"| *seed scatter (between seeds)* | | {r['n_seeds']} | "
                          f"{r['t2_rms_log10_vs_default']:.4f} | | {r['estimator_noise']:.4f} ± "
                          f"{r['estimator_noise_scatter']:.4f} | | | |")
             continue
@@ -372,6 +388,8 @@ def main(argv=None):
     ap.add_argument("--conical-duration", type=float, default=None)
     ap.add_argument("--staring-duration", type=float, default=None)
     ap.add_argument("--markdown", action="store_true", help="print the docs' tables of the JSON and stop")
+    ap.add_argument("--merge", nargs="+", default=None,
+                    help="runs' JSONs (of one set of durations) to join into --json, with the tables printed")
     args = ap.parse_args(argv)
     from cwlidar_sim import _config
 
@@ -380,13 +398,26 @@ def main(argv=None):
     dc = args.conical_duration or (300.0 if args.quick else 600.0)
     ds = args.staring_duration or (1200.0 if args.quick else 3600.0)
     path = os.path.abspath(args.json)
-    if args.markdown:
+    if args.merge:
+        res = {"rows": {}, "runs": []}
+        for m in args.merge:
+            with open(m) as f:
+                part = json.load(f)
+            if res.get("settings", part["settings"]) != part["settings"]:
+                raise SystemExit(f"{m} holds another run's durations")
+            res["settings"] = part["settings"]
+            res["rows"].update(part["rows"])
+            res["runs"].append({"file": os.path.basename(m), "machine": part.get("machine")})
+        _atomic_write(path, res)
+    if args.markdown or args.merge:
         with open(path) as f:
             res = json.load(f)
         seeds = sorted({int(k.split("|")[-2]) for k in res["rows"]})
         heights = sorted({float(k.split("|")[1]) for k in res["rows"] if k.startswith("conical")})
         res["conical"] = summarise_conical(res["rows"], seeds, heights)
         res["staring"] = summarise_staring(res["rows"], seeds)
+        if args.merge:
+            _atomic_write(path, res)
         print(markdown(res))
         return 0
     res = {}

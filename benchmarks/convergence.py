@@ -341,6 +341,34 @@ def summarise_staring(rows, seeds):
     return out
 
 
+def cs_estimate(rows, height):
+    """The std ratios at the converged settings from the study's rows (docs/convergence.md), per quantity:
+    (estimate, standard error of the seed mean, seeds, offset, grid).
+
+    The default box's tier-'los', span-5 ratio averaged over every seed run, plus the paired offset to tier
+    'spectral' at span 30 (the 'tail' group, over the seeds that ran it), plus the grid's effect extrapolated
+    to d -> 0: that of d/2 across (the 'grid' group, over its seeds), the 'across' group's d/3 and d/4 having
+    shown it converged by d/2.
+    """
+    def of(label):
+        return {int(k.split("|")[2]): v for k, v in rows.items()
+                if k.startswith(_key("conical", height, "")) and k.endswith("|" + label)}
+
+    own, lo, hi = of("default box (own sizing)"), of("span 5 (default)"), of("tier spectral, span 30")
+    across, base = of("dy = dz = d/2 (across)"), of("default grid d = z/20")
+    out = {}
+    for q in ("std_ratio_1s", "std_ratio_3s", "std_ratio_point_1s", "std_ratio_point_3s"):
+        v = np.array([r[q] for r in own.values()])
+        off = [hi[s][q] - lo[s][q] for s in hi if s in lo]
+        grid = [across[s][q] - base[s][q] for s in across if s in base]
+        if v.size < 2 or not off or not grid:
+            continue
+        est = v.mean() + np.mean(off) + np.mean(grid)
+        out[q] = (float(est), float(v.std(ddof=1) / math.sqrt(v.size)), int(v.size), float(np.mean(off)),
+                  float(np.mean(grid)))
+    return out
+
+
 def markdown(res) -> str:
     """The docs' tables (docs/convergence.md) from a finished run's summaries."""
     lines = ["| z [m] | knob | paired | seeds | std ratio 1 s | effect 1 s | std ratio 3 s | effect 3 s | "
@@ -374,6 +402,13 @@ def markdown(res) -> str:
                      f"{r['t2_rms_log10_vs_default']:.4f} | {r['t2_mean_log10_vs_default']:+.4f} | "
                      f"{r['estimator_noise']:.4f} | {100 * r['estimator_noise_rel_effect']:+.1f} % | "
                      f"{r['cost_s']:.0f} | {r['cost_ratio']:.2f} |")
+    lines += ["", "| z [m] | ratio | default box, tier los, span 5 (seeds) | + tier spectral, span 30 | + grid "
+              "d -> 0 | converged estimate |", "|---|---|---|---|---|---|"]
+    for z in sorted({float(k.split("|")[1]) for k in res["rows"] if k.startswith("conical")}):
+        for q, (est, se, n, off, grid) in cs_estimate(res["rows"], z).items():
+            name = q.replace("std_ratio_point_", "lidar / point ").replace("std_ratio_", "lidar / cup ")
+            lines.append(f"| {z:g} | {name} | {est - off - grid:.3f} ({n}) | {off:+.3f} | {grid:+.3f} | "
+                         f"{est:.3f} ± {se:.3f} |")
     return "\n".join(lines) + "\n"
 
 
@@ -403,9 +438,11 @@ def main(argv=None):
         for m in args.merge:
             with open(m) as f:
                 part = json.load(f)
-            if res.get("settings", part["settings"]) != part["settings"]:
-                raise SystemExit(f"{m} holds another run's durations")
-            res["settings"] = part["settings"]
+            st = res.setdefault("settings", {"speed": SPEED, "band": BAND})
+            for kind in {k.split("|")[0] for k in part["rows"]}:  # the durations of the parts it holds
+                name = f"{kind}_duration"
+                if st.setdefault(name, part["settings"][name]) != part["settings"][name]:
+                    raise SystemExit(f"{m} holds {kind} rows of another duration")
             res["rows"].update(part["rows"])
             res["runs"].append({"file": os.path.basename(m), "machine": part.get("machine")})
         _atomic_write(path, res)

@@ -50,7 +50,7 @@ Tiers
     :data:`SIGNAL_MAX_ESTIMATES` estimates (200 s at 50 Hz).
 
 The tail cell in the spectrum
-----------------------------
+-----------------------------
 The weight beyond the span lies far from the focus, in air decorrelated
 from the probe volume's core: it sees the mean wind *on average* (tier 1
 adds ``tail_weight * n . U``), and its Doppler spectrum is the turbulence's

@@ -44,7 +44,8 @@ BAND = (0.002, 0.6)
 def staring(duration, seeds, tiers):
     from cwlidar_sim.analysis import log_bins, transfer_functions
     from cwlidar_sim.beam import direction_from_angles
-    from cwlidar_sim.sensors import Sonic, StaringLidar, block_average, measure_staring, resample_a2012, sample_sonic
+    from convergence import a2012_sonic
+    from cwlidar_sim.sensors import StaringLidar, block_average, measure_staring
     from cwlidar_sim.signal import PROTOTYPE_2003
     from cwlidar_sim.turbulence import MannParameters, generate_plane
 
@@ -67,12 +68,7 @@ def staring(duration, seeds, tiers):
         field.attrs["z"] = 0.0
         x0 = float(field.x.values[-1]) - (inst.focus + reach) * abs(n[0]) - 4.0
         pos = np.array([x0, float(field.y.values[ny // 2]) - inst.focus * n[1], 0.0])
-        focus_pt = pos + inst.focus * n
-        n10 = int(math.floor(duration / 0.5 + 1e-9)) * 5
-        t32 = 1 / 64 + np.arange(n10 // 5 * 16) / 32.0
-        vel = sample_sonic(field, Sonic(position=tuple(focus_pt), noise_std=0.0), t32, U)
-        vs10 = resample_a2012(-(vel @ n))
-        t50 = (np.arange(n10 * 5) + 0.5) / 50.0
+        vs10, t50 = a2012_sonic(field, pos + inst.focus * n, n, duration, U)
         for tier in tiers:
             for label, tail, span, growth in STARING:
                 lid = StaringLidar(instrument=inst, position=tuple(pos), azimuth_deg=180.0 + theta, tier=tier,

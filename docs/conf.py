@@ -48,7 +48,7 @@ extensions = [
 # -- the notes that stay where they are: docs/*.md are pages of their own --------------------------
 # The notes that belong to the user guide; every other docs/*.md is a physics note, listed on
 # physics/index automatically (so a new note needs no edit here, and none is left out of a toctree).
-GUIDE_NOTES = ("speed_vs_accuracy", "stability")
+GUIDE_NOTES = ("speed_vs_accuracy", "convergence", "stability")
 SITE_PAGES = ("index", "getting_started", "changelog")
 PHYSICS_NOTES = sorted(p.stem for p in DOCS.glob("*.md") if p.stem not in GUIDE_NOTES + SITE_PAGES)
 

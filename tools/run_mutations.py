@@ -315,6 +315,16 @@ MUTATIONS = [
     M("auto-ignores-processing", "automatic choice", "cwlidar_sim/campaign/auto.py",
       "keys = [k for k in lid.instrument if k in PROCESSING_KEYS]", "keys = []",
       ("tests/campaign/test_auto.py",), "an estimator or threshold setting no longer asks for spectra"),
+    M("conical-span-unconverged", "convergence", "cwlidar_sim/campaign/lidar_spec.py",
+      "    preset: str = \"cs\"\n    span: float = 30.0\n",
+      "    preset: str = \"cs\"\n    span: float = 5.0\n",
+      ("tests/campaign/test_convergence_defaults.py",),
+      "the conical scenes' span back to 5 z_R (the std ratio 0.05-0.07 low at 40 m)"),
+    M("conical-extent-origin-by-spacing", "convergence", "cwlidar_sim/sensors/conical.py",
+      "        y0 = lidar.position[1] - 0.5 * ext3[1]\n",
+      "        y0 = lidar.position[1] - 0.5 * (ny - 1) * dy\n",
+      ("tests/sensors/test_conical.py::test_conical_field_of_one_extent_is_one_realisation_on_two_grids",),
+      "boxes of one extent placed by their spacing: two grids no longer see the same air"),
 ]
 
 

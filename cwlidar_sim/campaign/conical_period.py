@@ -34,8 +34,11 @@ Set-up (choices, each stated)
   that the circle diameter ``D = 1.155 z`` spans about 23 cells at every
   height and the scan filter (the dominant one, scale ``l_az >= D``) is well
   resolved; the probe filter (``2 z_R = 5.5 m`` at 40 m, 35 m at 100 m) is
-  resolved by 1.4-3.5 cells.  The cup and the sonic sample the same grid,
-  so the grid's missing small-scale variance lowers both alike.
+  resolved by 1.4-3.5 cells.  The cup and the sonic sample the same grid;
+  the grid's missing small scales lower the cup's variance, which the lidar
+  filters anyway: a paired study (docs/convergence.md) finds the ratio
+  0.005 (40 m) and 0.011 (100 m) lower with half the lateral spacing, and
+  no further change at a third and a quarter.
 * Sensors at ``(0, 0, z)`` on the scan axis (CS's mast stood 50 m from the
   lidars; with Taylor's hypothesis an along-wind offset is only a delay, a
   cross-wind one lowers the coherence of the largest scales a little).
@@ -60,9 +63,10 @@ z [m]   std ratio 1 s   std ratio 3 s   model 1 s / 3 s        radial var. ratio
 
 Standard errors about 0.01.  Mean horizontal speed within 0.4 % of the cup's;
 12.9 % of the estimates lost or flagged at the zero crossings, 87 % of the
-points used, no scan lost, no ambiguity left.  Sensitivities: a finer grid
-(z/40, 4 periods) lowers the ratio by 0.03 +- 0.014 at 40 m and 0.05 +- 0.04 at
-100 m (the cup sees the added small scales, the lidar hardly); single-width boxes by about 0.02.  Diagnostic: in a field varying
+points used, no scan lost, no ambiguity left.  (Measured with span 5, the
+sensor's default: the scenes' span 30 raises the tier-1 ratio by 0.07 at 40 m
+and 0.03 at 100 m; see docs/convergence.md for every knob, paired.)
+Single-width boxes lower it by about 0.02.  Diagnostic: in a field varying
 along x only (CS's 1-D assumption, 6 periods) the simulated ratio is 0.93-0.94
 (1 s) and 0.89-0.93 (3 s), above the model's 0.82-0.86 -- the rectified-sine filter over ``l_az`` over-filters
 the VAD's U -- while in 3-D turbulence the decorrelation across the circle's
@@ -118,7 +122,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
                             lateral_doubling: bool = True, params=None, reference: str = "previous",
                             sub_dwells: int = 8, model: bool = True, lidar_overrides: dict | None = None,
                             excluded_flags: int | None = None, wind_direction_deg: float = 0.0, variants=None,
-                            field_span: float | None = None) -> dict:
+                            field_span: float | None = None, box_options: dict | None = None) -> dict:
     """Simulate one period: a Mann box, the conical lidar, a cup and a sonic at one height.
 
     Parameters
@@ -164,6 +168,14 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         Size the box for this span [z_R] instead of the lidar's own (at
         least the lidar's): with it, lidars of different spans measure the
         same turbulence (a paired study of the span).
+    box_options : dict, optional
+        Numerical settings of the box (a convergence study's knobs), passed
+        to :func:`cwlidar_sim.sensors.conical.conical_field`: ``spacing``
+        (one value or (dx, dy, dz) [m]; default ``spacing``, which also sets
+        the cells' length), ``extent`` ((Lx, Ly, Lz) [m]: a fixed physical
+        size, so that boxes of other spacings and one seed share their
+        Fourier coefficients), ``hf_compensation`` (bool), ``min_extent``
+        (lateral and vertical minimum [m], default 2 L).
 
     Returns
     -------
@@ -196,7 +208,8 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
     return _simulate((z,), seed, speed=speed, duration=duration, scan_revs=scan_revs, tier=tier, spacing=spacing,
                      lateral_doubling=lateral_doubling, params=params, reference=reference, sub_dwells=sub_dwells,
                      model=model, lidar_overrides=lidar_overrides, excluded_flags=excluded_flags,
-                     wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span)[0]
+                     wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span,
+                     box_options=box_options)[0]
 
 
 def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_time: float = 0.0,
@@ -264,7 +277,7 @@ def _conical_lidar(heights, tier, cell_length, sub_dwells, lidar_overrides, wind
 
 def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, lateral_doubling, params, reference,
               sub_dwells, model, lidar_overrides, excluded_flags, wind_direction_deg, variants=None,
-              field_span=None) -> list:
+              field_span=None, box_options=None) -> list:
     """The box, the lidar at ``heights`` (one: dwell, several: cycle), cups and sonics, fits: one dict per height."""
     from ..analysis.vad import sonic_radial_variance
     from ..sensors import Cup, Sonic, sample_cup, sample_sonic
@@ -305,9 +318,10 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         box_lidar = lidar.replace(span=max(lidar.span, check_real("field_span", field_span, lo=0.0, hi=1e4,
                                                                    lo_open=True)), cloud_base=None,
                                   cloud_strength=0.0)
+    box_kw = _box_options(box_options, d)
     field = conical_field(box_lidar, U, duration, params,
-                          int(box_seq.generate_state(1, np.uint64)[0] >> np.uint64(1)), spacing=d,
-                          lateral_doubling=lateral_doubling)
+                          int(box_seq.generate_state(1, np.uint64)[0] >> np.uint64(1)),
+                          lateral_doubling=lateral_doubling, **box_kw)
     cost["box"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     rec = measure_conical(field, lidar, duration, U, np.random.default_rng(lid_seq), variants=variants)
@@ -318,6 +332,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         raise ValueError(f"duration={duration:g} s leaves heights {missing} without a complete block of "
                          f"{lidar.revs_per_height} revolutions; allowed: longer periods or fewer revs_per_height")
     box_shape = tuple(int(field.sizes[c]) for c in ("x", "y", "z"))
+    box_spacing = tuple(float(field[c].values[1] - field[c].values[0]) for c in ("x", "y", "z"))
     in_situ = {}
     for z in heights:
         sel = rec.select(z)
@@ -334,7 +349,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         flags_e = sel["flags_e"]
         r = {
             "height": z, "speed": U, "seed": seed, "duration": duration, "tier": lidar.tier, "spacing": d,
-            "box_shape": box_shape, "lateral_doubling": bool(lateral_doubling),
+            "box_shape": box_shape, "box_spacing": box_spacing, "lateral_doubling": bool(lateral_doubling),
             "params": params.as_dict(), "u_star": ustar, "sigma_u_target": su_target,
             "cup_mean": float(cup_t.mean()), "cup_std": float(cup_t.std(ddof=1)),
             "sonic_std": float(sonic_h.std(ddof=1)),
@@ -357,6 +372,17 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         r["cost_s"] = dict(cost, fit_and_model=time.perf_counter() - t0)
         out.append(r)
     return out
+
+
+def _box_options(options, spacing) -> dict:
+    """conical_field's keywords from ``box_options`` (names checked), the spacing defaulting to ``spacing``."""
+    allowed = ("spacing", "extent", "hf_compensation", "min_extent")
+    opts = dict(options or {})
+    bad = sorted(set(opts) - set(allowed))
+    if bad:
+        raise ValueError(f"box_options: unknown keys {bad}; allowed: {list(allowed)}")
+    opts.setdefault("spacing", spacing)
+    return opts
 
 
 def _scans(out, rec, lidar, z, U, vel_ec, rev_e, params, scan_revs, reference, model, excluded_flags,

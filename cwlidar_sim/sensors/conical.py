@@ -116,7 +116,10 @@ class ConicalLidar(LidarBase):
     chain, cloud) are those of :class:`cwlidar_sim.sensors.base.LidarBase`,
     with the defaults of the scanning instrument (``instrument = CS_SERIES``,
     ``tier = 'los'``, ``span = 5``, ``cell_length = 2`` m, ``speckle =
-    'independent'``).  The instrument's ``focus`` is replaced by each
+    'independent'``).  The sensor's span 5 keeps unit-level boxes small; it
+    is not converged for the 10-min std ratio (0.07 low at 40 m): scenes
+    default to span 30 (:class:`cwlidar_sim.campaign.lidar_spec.ConicalLidarSpec`,
+    docs/convergence.md).  The instrument's ``focus`` is replaced by each
     height's ``z / cos Phi``.
 
     Parameters
@@ -500,8 +503,9 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
 # ---------------------------------------------------------------------------
 # turbulence for the cone
 # ---------------------------------------------------------------------------
-def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: int, *, spacing: float,
-                  lateral_doubling: bool = True, min_extent: float | None = None, dtype=np.float32):
+def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: int, *, spacing,
+                  lateral_doubling: bool = True, min_extent: float | None = None, extent=None,
+                  hf_compensation: bool = False, dtype=np.float32):
     """A Mann box holding a conical lidar's cells for a record, placed in the lidar's frame.
 
     Parameters
@@ -515,8 +519,8 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
         Record length [s]; > 0.
     params : MannParameters
     seed : int
-    spacing : float
-        Grid spacing in x, y and z [m]; in (0, 100].
+    spacing : float or (float, float, float)
+        Grid spacing in x, y and z [m] (one value: all three); each in (0, 100].
     lateral_doubling : bool
         Generate the box twice as wide in y and keep one half (hipersim's
         default), so that the far side of the circle is not correlated with
@@ -525,6 +529,17 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
         Minimum lateral and vertical size of the kept box [m]; default
         ``2 L`` (L the tensor's length scale), so that the lowest resolved
         modes are not much shorter than the energy-containing eddies.
+    extent : (float, float, float), optional
+        Physical size (Lx, Ly, Lz) [m] of the kept box, at least what the
+        record and the cone need (checked).  With it the box's shape is
+        :func:`cwlidar_sim.turbulence.grids.grid_for_extent` of it and the
+        spacing (the spacing then ``L_i / N_i``), so boxes of one extent and
+        one seed on other grids hold the same Fourier coefficients at the
+        wavenumbers they share: a paired comparison of spacings.  Default:
+        sized from the spacing (cells rounded up, x FFT-friendly).
+    hf_compensation : bool
+        The box's high-frequency compensation
+        (:func:`cwlidar_sim.turbulence.generate_box`).
     dtype : float32 or float64
 
     Returns
@@ -556,30 +571,52 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
         raise TypeError(f"params must be MannParameters, got {type(params).__name__}")
     U = check_real("U", U, lo=0.0, hi=1000.0)
     duration = check_real("duration", duration, lo=0.0, lo_open=True)
-    d = check_real("spacing", spacing, lo=0.0, hi=100.0, lo_open=True)
+    if isinstance(spacing, (int, float, np.integer, np.floating)) and not isinstance(spacing, bool):
+        spacing = (spacing,) * 3
+    dx, dy, dz = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, hi=100.0, lo_open=True))
     lateral_doubling = check_bool("lateral_doubling", lateral_doubling)
+    hf_compensation = check_bool("hf_compensation", hf_compensation)
     ext = 2.0 * params.length_scale if min_extent is None else check_real("min_extent", min_extent, lo=0.0)
     radius = max(lidar.beam_extent(z)["radius"] for z in lidar.heights)
     z_lo = min(lidar.beam_extent(z)["z_lo"] for z in lidar.heights)
     z_hi = max(lidar.beam_extent(z)["z_hi"] for z in lidar.heights)
     for z in lidar.heights:  # in-situ sensors at the measurement heights
         z_lo, z_hi = min(z_lo, lidar.position[2] + z), max(z_hi, lidar.position[2] + z)
-    width = max(2.0 * radius + 2.0 * d, ext)
-    height = max(z_hi - z_lo + 2.0 * d, ext)
-    ny = int(math.ceil(width / d)) + 1
-    nz = int(math.ceil(height / d)) + 1
-    nx = _fast_size(int(math.ceil((U * duration + 2.0 * radius + 4.0 * d) / d)))
+    width = max(2.0 * radius + 2.0 * dy, ext)
+    height = max(z_hi - z_lo + 2.0 * dz, ext)
+    length = U * duration + 2.0 * radius + 4.0 * dx
+    if extent is None:
+        ny = int(math.ceil(width / dy)) + 1
+        nz = int(math.ceil(height / dz)) + 1
+        nx = _fast_size(int(math.ceil(length / dx)))
+    else:
+        from ..turbulence.grids import grid_for_extent
+
+        ext3 = check_tuple("extent", extent, 3, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
+        (nx, ny, nz), (dx, dy, dz) = grid_for_extent(ext3, (dx, dy, dz))
+        # the kept box spans (N - 1) d between its first and last points; the x period N dx
+        for name, have, need in (("extent[0]", nx * dx, length), ("extent[1]", (ny - 1) * dy, width),
+                                 ("extent[2]", (nz - 1) * dz, height)):
+            if have < need * (1 - 1e-9):
+                raise ValueError(f"{name} gives {have:.4g} m, less than the {need:.4g} m the record and the cone "
+                                 f"need; allowed: a larger extent")
     ny_gen = 2 * ny if lateral_doubling else ny
-    box = generate_box(params, (nx, ny_gen, nz), (d, d, d), seed, dtype=dtype)
-    y0 = lidar.position[1] - 0.5 * (ny - 1) * d
+    box = generate_box(params, (nx, ny_gen, nz), (dx, dy, dz), seed, hf_compensation=hf_compensation, dtype=dtype)
     zc = 0.5 * (z_lo + z_hi)
-    zb = zc - 0.5 * (nz - 1) * d
+    if extent is None:
+        x0 = lidar.position[0] - radius - dx
+        y0 = lidar.position[1] - 0.5 * (ny - 1) * dy
+        zb = zc - 0.5 * (nz - 1) * dz
+    else:  # origins of the physical size, not of the spacing: grids of one extent place their points alike
+        x0 = lidar.position[0] - radius - 0.5 * (ext3[0] - length + 4.0 * dx)
+        y0 = lidar.position[1] - 0.5 * ext3[1]
+        zb = zc - 0.5 * ext3[2]
     data = {c: (("x", "y", "z"), np.ascontiguousarray(box[c].values[:, :ny, :])) for c in ("u", "v", "w")}
     attrs = dict(box.attrs)
-    attrs.update(period_x=nx * d, lateral_doubling=int(lateral_doubling), generated_shape=(nx, ny_gen, nz))
+    attrs.update(period_x=nx * dx, lateral_doubling=int(lateral_doubling), generated_shape=(nx, ny_gen, nz))
     del box
-    coords = {"x": lidar.position[0] - radius - d + np.arange(nx) * d, "y": y0 + np.arange(ny) * d,
-              "z": zb + np.arange(nz) * d}
+    coords = {"x": x0 + np.arange(nx) * dx, "y": y0 + np.arange(ny) * dy,
+              "z": zb + np.arange(nz) * dz}
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 

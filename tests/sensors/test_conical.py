@@ -273,3 +273,34 @@ def test_spectral_tier_bits_do_not_depend_on_threads():
     np.testing.assert_array_equal(out[0].speed_e, out[1].speed_e)
     np.testing.assert_array_equal(out[0].vlos_e, out[1].vlos_e)
     np.testing.assert_array_equal(out[0].flags_e, out[1].flags_e)
+
+
+def test_conical_field_of_one_extent_is_one_realisation_on_two_grids():
+    # A fixed physical size makes boxes of two spacings one realisation (their shared Fourier
+    # coefficients equal to round-off) placed at the same physical points: what a paired study of
+    # the spacing needs.  Without doubling the kept box is the whole periodic box.
+    lid = ConicalLidar(heights=(40.0,), cell_length=4.0)
+    p = MannParameters.iec(40.0, 1.0)
+    ext = (480.0, 96.0, 72.0)
+    kw = dict(lateral_doubling=False, extent=ext, dtype=np.float64)
+    c = conical_field(lid, 5.0, 30.0, p, 4, spacing=(8.0, 6.0, 6.0), **kw)
+    f = conical_field(lid, 5.0, 30.0, p, 4, spacing=(4.0, 3.0, 3.0), **kw)
+    assert c.u.shape == (60, 16, 12) and f.u.shape == (120, 32, 24)
+    for ax in "xyz":  # every coarse point is a fine point
+        np.testing.assert_allclose(f[ax].values[::2], c[ax].values, atol=1e-9)
+    sc, sf = c.u.shape, f.u.shape
+    idx = [np.arange(-((n - 1) // 2), (n + 1) // 2) for n in sc[:2]] + [np.arange((sc[2] + 1) // 2)]
+    g = np.meshgrid(*idx, indexing="ij")
+    for comp in "uvw":
+        a = np.fft.rfftn(c[comp].values) / c[comp].size
+        b = np.fft.rfftn(f[comp].values) / f[comp].size
+        x = a[g[0] % sc[0], g[1] % sc[1], g[2]]
+        y = b[g[0] % sf[0], g[1] % sf[1], g[2]]
+        assert np.abs(x - y).max() < 1e-12 * math.sqrt(np.mean(np.abs(x) ** 2))
+    # the default sizing of the same spacings is another realisation
+    d = conical_field(lid, 5.0, 30.0, p, 4, spacing=(8.0, 6.0, 6.0), lateral_doubling=False, dtype=np.float64)
+    assert d.u.shape != c.u.shape
+    with pytest.raises(ValueError, match=r"extent\[0\]"):
+        conical_field(lid, 5.0, 30.0, p, 4, spacing=8.0, extent=(100.0, 96.0, 72.0))
+    hf = conical_field(lid, 5.0, 30.0, p, 4, spacing=(8.0, 6.0, 6.0), hf_compensation=True, **kw)
+    assert hf.attrs["hf_compensation"] == 1 and float(hf.u.var()) > float(c.u.var())

@@ -128,3 +128,49 @@ def test_the_campaign_cup_has_its_documented_distance_constant():
     # linear interpolation of the 0.25 m field and of the 10 Hz input: sinc^2 factors, 1 - 0.0041 at 10 Hz
     assert math.hypot(c[0], c[1]) / 0.3 == pytest.approx(H * np.sinc(fq * 0.1) ** 2, rel=2e-3)
     assert abs(cup_transfer(fq, 1.0 / U)) > H + 0.1  # a shorter constant would pass visibly more
+
+
+def test_cross_wind_structure_lands_in_the_radial_variance_that_the_1d_model_leaves_out():
+    # CS's model filters along the wind only: a field that does not vary along x has all its variance at
+    # k1 = 0, where every scan filter is 1, so the model's radial variance from it is 0.  On the circle the
+    # beam sees u = a cos(k y) at y = rho sin Phi sin(theta): a cos(theta) cos(k R sin theta) pattern that
+    # no rectified cosine fits.  Reference: the Lorentzian-averaged speeds in closed form (the cosine's odd
+    # part integrates to 0 over the symmetric span) and a plain least-squares fit over the points the lidar kept.
+    from cwlidar_sim.analysis.cs_model import model_integrals
+    from cwlidar_sim.analysis.vad import fit_record
+
+    z, U, a = 40.0, 8.0, 1.0
+    lid = ConicalLidar(heights=(z,), weighting="lorentzian", cell_length=0.25, sub_dwells=1)
+    r, R = lid.focus(z), z * math.tan(PHI)
+    zR = lid.instrument_at(z).rayleigh_length
+    k = math.pi / R  # half a wave across the circle
+    ext = lid.beam_extent(z)
+    y = np.arange(-ext["radius"] - 2.0, ext["radius"] + 2.0, 0.2)
+    zz = np.arange(ext["z_lo"] - 4.0, ext["z_hi"] + 4.0, 4.0)
+    shape = (16, y.size, zz.size)
+    u = np.broadcast_to((a * np.cos(k * y))[None, :, None], shape).copy()
+    fld = xr.Dataset({"u": (("x", "y", "z"), u), "v": (("x", "y", "z"), np.zeros(shape)),
+                      "w": (("x", "y", "z"), np.zeros(shape))},
+                     coords={"x": 4.0 * np.arange(16), "y": y, "z": zz})
+    rec = measure_conical(fld, lid, 2.0, U)
+    fit = fit_record(rec, z, 1, reference_deg=0.0)
+    th = np.radians(rec.azimuth_e)
+    half = lid.span * zR
+    g = np.array([2 * quad(lambda s: zR / math.pi / (zR**2 + s**2), 0.0, half, weight="cos",
+                           wvar=abs(k * math.sin(PHI) * st))[0] if st != 0 else 1 - 2 * math.atan2(zR, half) / math.pi
+                  for st in np.sin(th)])
+    vr = math.sin(PHI) * np.cos(th) * (U + a * np.cos(k * r * math.sin(PHI) * np.sin(th)) * g)
+    np.testing.assert_allclose(rec.vlos_e, vr, rtol=0, atol=1e-4)  # 0.25 m cells, 0.2 m grid: 3e-5 seen
+    sel = rec.select(z)
+    keep = np.isfinite(sel["speed_e"]) & (sel["flags_e"] == 0)
+    resid = []
+    for rev in range(2):
+        m = keep & (sel["revolution_e"] == rev)
+        X = np.stack([np.cos(th[m]), np.sin(th[m]), np.ones(m.sum())], 1)
+        c = np.linalg.lstsq(X, vr[m], rcond=None)[0]
+        resid.append(np.sum((vr[m] - X @ c) ** 2) / (m.sum() - 3))
+    np.testing.assert_allclose(fit.residual_var_p, resid, rtol=1e-3)
+    # 84 % of the projected variance sin^2 Phi / 2 * a^2 / 2 is left in the residual; the model says 0
+    assert fit.residual_var_p.mean() > 0.8 * 0.5 * math.sin(PHI) ** 2 * 0.5 * a * a
+    m = model_integrals(z, U, 1, rayleigh_length=zR, n_k=400)
+    assert m["l_az"] > 2 * R  # the model's filters act along x only, whatever the circle's cross-wind extent

@@ -37,11 +37,9 @@ SCENE = dict(alpha_eps=0.06224407174474577, length_scale=18.76, gamma=3.9)
 U = 8.1
 
 
-def _aperture_cells(truncation):
-    from cwlidar_sim.analysis import estimator_theory as et
+def _aperture_cells(truncation, base):
+    """The theory's cell builder ``base`` with the cells' weights from the truncated aperture."""
     from cwlidar_sim.beam.aperture import TruncatedAperture, weight_aperture
-
-    base = et._line_cells
 
     def cells(instrument, weighting="exact", span=20.0, cell_length=0.5, *, growth=0.0, tail="mean_wind"):
         c = base(instrument, weighting, span, cell_length, growth=growth, tail=tail)
@@ -81,7 +79,7 @@ def aperture(a):
                                                                inst.replace(telescope_radius=0.017))]
     try:
         for name, T, ins in cases:
-            et._line_cells = _aperture_cells(T)
+            et._line_cells = _aperture_cells(T, orig)
             t0 = time.perf_counter()
             r = estimator_transfer(ins, p, U, estimators=("median",), k_edges=edges, n_lines=a.lines)
             ref = np.exp(-2 * k * zR)
@@ -155,7 +153,7 @@ def main(argv=None):
     sub = ap.add_subparsers(dest="what", required=True)
     a1 = sub.add_parser("aperture")
     a1.add_argument("--lines", type=int, default=4)
-    a1.add_argument("--truncations", type=float, nargs="*", default=[math.inf, 1.5, 1.37, 1.3])
+    a1.add_argument("--truncations", type=float, nargs="*", default=[math.inf, 1.5, 1.37, 1.3, 1.25, 1.2])
     a2 = sub.add_parser("floor")
     a2.add_argument("--estimates", type=int, default=4000)
     for x in (a1, a2):

@@ -162,7 +162,9 @@ def main(argv=None):
     rows = aperture(a) if a.what == "aperture" else floor(a)
     path = pathlib.Path(a.json or f"results/a2012_residuals_{a.what}.json")
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(rows, indent=1))
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(rows, indent=1))
+    tmp.replace(path)
 
 
 if __name__ == "__main__":

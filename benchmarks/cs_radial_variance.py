@@ -108,8 +108,11 @@ def main(argv=None):
     for z in a.heights:
         res.append(one_height(z, a.seed, a.duration))
         print(json.dumps(res[-1]), flush=True)
-        pathlib.Path(a.json).parent.mkdir(parents=True, exist_ok=True)
-        pathlib.Path(a.json).write_text(json.dumps(res, indent=1))
+        out = pathlib.Path(a.json)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_suffix(".tmp")
+        tmp.write_text(json.dumps(res, indent=1))
+        tmp.replace(out)  # atomic: each finished height is kept
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """A2012's open residuals as hypotheses tested with the simulator (docs/estimator_theory.md, "Findings").
 
     python benchmarks/a2012_residuals.py aperture [--lines 4] [--truncations inf 1.5 1.37 1.3] [--json PATH]
-    python benchmarks/a2012_residuals.py floor [--estimates 2000] [--json PATH]
+    python benchmarks/a2012_residuals.py floor [--estimates 4000] [--seed 7] [--json PATH]
 
 ``aperture``: the median's method 2 (estimator theory, A2012's scene: focus 67.5 m, the bundled scene's
 Mann parameters, U = 8.1 m/s, CNR -10 dB, 4 lines) with the probe cells weighted by the truncated-aperture
@@ -104,7 +104,7 @@ def floor(a):
     n_e = a.estimates
     dx = 0.25
     n = 1 << int(math.ceil(math.log2(U * n_e / inst.estimate_rate / dx + 400)))
-    fld = generate_line(p, n, dx, 7)
+    fld = generate_line(p, n, dx, a.seed)
     t = np.arange(n_e) / inst.estimate_rate
     k = np.array([0.8, 2.2])
     Fu = one_point_spectra(k, p)[0]                   # two-sided [m^3/s^2]
@@ -123,7 +123,7 @@ def floor(a):
     for name, ikw, lkw in cases:
         lid = StaringLidar(instrument=inst.replace(**ikw), cell_length=dx, **lkw)
         t0 = time.perf_counter()
-        rec = measure_staring(fld, lid, t, U, 11)
+        rec = measure_staring(fld, lid, t, U, a.seed + 4)
         ok = np.isfinite(rec.speed_e)
         err = rec.speed_e - rec.vlos_e
         sn = float(np.std(err[ok]))
@@ -156,6 +156,7 @@ def main(argv=None):
     a1.add_argument("--truncations", type=float, nargs="*", default=[math.inf, 1.5, 1.37, 1.3, 1.25, 1.2])
     a2 = sub.add_parser("floor")
     a2.add_argument("--estimates", type=int, default=4000)
+    a2.add_argument("--seed", type=int, default=7, help="seed of the Mann line (the lidar's: seed + 4)")
     for x in (a1, a2):
         x.add_argument("--json")
     a = ap.parse_args(argv)

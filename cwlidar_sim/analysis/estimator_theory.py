@@ -68,7 +68,7 @@ import numpy as np
 from .._validation import check_choice, check_int, check_real, check_seed
 
 __all__ = ["EstimatorTransfer", "THEORY_ESTIMATORS", "estimator_transfer", "fit_zr_eff", "DEFAULT_BAND", "THEORY_SEED",
-           "ProbeLengthFit", "ProbeLengthError", "fit_probe_length", "ZR_FACTORS"]
+           "ProbeLengthFit", "ProbeLengthError", "fit_probe_length", "radius_of_rayleigh_length", "ZR_FACTORS"]
 
 #: Band of k [rad/m] over which zR_eff is fitted by default.
 DEFAULT_BAND = (0.02, 0.6)
@@ -486,6 +486,18 @@ def _check_measured(k_k, T2_k, sigma_k, band):
     return k, T, s, inb
 
 
+def radius_of_rayleigh_length(zR: float, zR_sigma: float, *, wavelength: float, focus: float):
+    """Telescope radius a0 [m] giving the Rayleigh length zR (A2012 Eq. 1 inverted) and its 1-sigma [m].
+
+    ``a0 = sqrt(lambda r^2 / (pi zR))``, so ``a0 ~ zR^(-1/2)`` and, to first
+    order, ``sigma_a0 = a0 sigma_zR / (2 zR)``.
+    """
+    zR = check_real("zR", zR, lo=0.0, lo_open=True)
+    zR_sigma = check_real("zR_sigma", zR_sigma, lo=0.0)
+    a0 = math.sqrt(wavelength * focus**2 / (math.pi * zR))
+    return a0, 0.5 * a0 * zR_sigma / zR
+
+
 def fit_probe_length(k_k, T2_k, sigma_T2_k=None, *, instrument, params, U, estimator="median", band=DEFAULT_BAND,
                      zR_factors=ZR_FACTORS, n_lines=4, n_points=4096, seed=THEORY_SEED, **theory_kw) -> ProbeLengthFit:
     """The probe length (zR and the telescope radius a0 it implies) of measured method-2 values.
@@ -617,8 +629,8 @@ def fit_probe_length(k_k, T2_k, sigma_T2_k=None, *, instrument, params, U, estim
     bm = np.mean(lt, axis=1)                                       # band mean of log T2 at each grid zR
     slope = abs(float(np.interp(fine[i0], 0.5 * (lz[1:] + lz[:-1]), np.diff(bm) / np.diff(lz)))) / zR_here(fine[i0])
     zsig = math.sqrt((q * zsig) ** 2 + (th_sd / slope) ** 2) if slope > 0 else math.inf
-    a0 = math.sqrt(instrument.wavelength * instrument.focus**2 / (math.pi * zR))
+    a0, a0_sigma = radius_of_rayleigh_length(zR, zsig, wavelength=instrument.wavelength, focus=instrument.focus)
     ze, zes, _ = fit_zr_eff(k, T, s, band)
-    return ProbeLengthFit(estimator=estimator, zR=zR, zR_sigma=zsig, a0=a0, a0_sigma=0.5 * a0 * zsig / zR,
+    return ProbeLengthFit(estimator=estimator, zR=zR, zR_sigma=zsig, a0=a0, a0_sigma=a0_sigma,
                           zR_eff=ze, zR_eff_sigma=zes, band=band, n_bins=n, chi2=float(chi[i0]),
                           zR_grid=np.exp(fine), chi2_grid=chi, nominal_zR=zR0, nominal_a0=a00)

@@ -69,6 +69,7 @@ __all__ = [
     "scan_arrays",
     "sonic_radial_variance",
     "period_statistics",
+    "ambiguity_rate",
 ]
 
 
@@ -411,3 +412,30 @@ def period_statistics(fit: VadFit, *, min_used_fraction: float = 0.65) -> dict:
         "selected": bool(used >= f),
         "unresolved_rate": fit.unresolved_rate,
     }
+
+
+def ambiguity_rate(direction_p, true_direction_p) -> float:
+    """Fraction of scans whose resolved direction lies more than 90 deg from the true one [-].
+
+    Parameters
+    ----------
+    direction_p : array_like, shape (n_scans,)
+        The fits' directions [deg] (NaN: not fitted, left out).
+    true_direction_p : array_like, shape (n_scans,)
+        The true (e.g. the sonic's) direction over each scan [deg].
+
+    Returns
+    -------
+    float
+        NaN where no scan was fitted.  Angles are compared on the circle
+        (179 deg and -179 deg are 2 deg apart).
+    """
+    d = np.asarray(direction_p, dtype=np.float64)
+    t = np.asarray(true_direction_p, dtype=np.float64)
+    if d.shape != t.shape or d.ndim != 1:
+        raise ValueError(f"direction_p {d.shape} and true_direction_p {t.shape} must be 1-D of one length")
+    ok = np.isfinite(d) & np.isfinite(t)
+    if not ok.any():
+        return float("nan")
+    dd = np.abs((d[ok] - t[ok] + 180.0) % 360.0 - 180.0)
+    return float(np.mean(dd > 90.0))

@@ -389,7 +389,7 @@ def _scans(out, rec, lidar, z, U, vel_ec, rev_e, params, scan_revs, reference, m
            wind_direction_deg):
     """The VAD fits at height z for each scan length, into ``out['scans']`` (directions in the lidar's frame)."""
     from ..analysis import cs_model
-    from ..analysis.vad import fit_record, period_statistics
+    from ..analysis.vad import ambiguity_rate, fit_record, period_statistics
 
     # the fits run in the field's frame (the wind along +x); directions are reported in the lidar's
     mean_dir = math.degrees(math.atan2(vel_ec[:, 1].mean(), vel_ec[:, 0].mean()))
@@ -404,8 +404,6 @@ def _scans(out, rec, lidar, z, U, vel_ec, rev_e, params, scan_revs, reference, m
         fit = fit_record(rec, z, n, half_angle_deg=lidar.half_angle_deg, reference_deg=ref,
                          excluded_flags=excluded_flags)
         st = period_statistics(fit)
-        ok = np.isfinite(fit.direction_p)
-        dd = np.abs((fit.direction_p[ok] - true_dir[ok] + 180.0) % 360.0 - 180.0)
         s = {
             "lidar_mean": st["mean_speed"], "lidar_std": st["std_speed"],
             "lidar_direction": _wrap180(st["mean_direction"] + wind_direction_deg),
@@ -414,7 +412,7 @@ def _scans(out, rec, lidar, z, U, vel_ec, rev_e, params, scan_revs, reference, m
             "tp": st["mean_tp"], "radial_variance": st["radial_variance"],
             "radial_variance_ratio": _ratio(st["radial_variance"], out["sonic_radial_variance"]),
             "availability": st["availability"], "points_used_fraction": st["mean_points_used_fraction"],
-            "selected": st["selected"], "ambiguity_rate": float(np.mean(dd > 90.0)) if ok.any() else float("nan"),
+            "selected": st["selected"], "ambiguity_rate": ambiguity_rate(fit.direction_p, true_dir),
             "unresolved_rate": st["unresolved_rate"], "n_scans": st["n_scans"],
             "l_az": cs_model.scan_length(z, U, n, half_angle_deg=lidar.half_angle_deg,
                                          revolution_time=lidar.revolution_time),

@@ -66,14 +66,16 @@ Standard errors about 0.01.  Mean horizontal speed within 0.4 % of the cup's;
 points used, no scan lost, no ambiguity left.  (Measured with span 5, the
 sensor's default: the scenes' span 30 raises the tier-1 ratio by 0.07 at 40 m
 and 0.03 at 100 m; see docs/convergence.md for every knob, paired.)
-Single-width boxes lower it by about 0.02.  Diagnostic: in a field varying
-along x only (CS's 1-D assumption, 6 periods) the simulated ratio is 0.93-0.94
-(1 s) and 0.89-0.93 (3 s), above the model's 0.82-0.86 -- the rectified-sine filter over ``l_az`` over-filters
-the VAD's U -- while in 3-D turbulence the decorrelation across the circle's
-cross-wind extent (absent from the model) lowers it below the model: the
-model's agreement with CS's ~0.8 is partly a cancellation.  The same 1-D
-field gives radial-variance ratios of 0.17 (40 m) and 0.12 (100 m) against
-the model's 0.16 and 0.07.
+Single-width boxes lower it by about 0.02.  Diagnostic (span 5, not re-run
+at the converged settings): in a field whose three components all vary along
+x only the simulated ratio was 0.93-0.94 (1 s) and 0.89-0.93 (3 s).  That is
+not CS's 1-D case, whose model has u alone: with v and w varying along x too,
+the VAD's horizontal speed picks up the tilt of w across the circle
+(cross-contamination, absent from the model), so the excess over the model
+says nothing about the model's scan filter.  The radial-variance ratio's excess
+over the model is explained in docs/cs_radial_variance.md (the fit's residual
+carries cross-circle turbulence; the sonic's 10-minute variance holds less than
+the tensor's).
 """
 
 from __future__ import annotations

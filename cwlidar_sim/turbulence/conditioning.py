@@ -252,7 +252,11 @@ def convection_speed(records) -> float:
     speeds = [r.mean_speed for r in records if math.isfinite(r.mean_speed)]
     if not speeds:
         raise ValueError("no record carries u or speed to give the convection speed; pass U explicitly")
-    return float(np.mean(speeds))
+    U = float(np.mean(speeds))
+    if not U > 0.5:
+        raise ValueError(f"the records' mean speed is {U:.3g} m/s, not a mean wind for Taylor's hypothesis "
+                         f"(fluctuations only?); pass U [m/s] explicitly")
+    return U
 
 
 def _check_U(U, records):

@@ -259,3 +259,22 @@ def test_virtual_mast_csv_conditions_a_twin_that_holds_the_truth(tmp_path):
     # The record's own small rotation (the row's mean v) aside, the twin is the truth at the sensor.
     tr = truth["u"].values[(-np.arange(shape[0])) % shape[0], 3, 4]
     assert np.corrcoef(back[:, 0], tr)[0, 1] > 0.99
+
+
+def test_mann_parameters_fitted_to_a_read_record_recover_the_tensor(tmp_path):
+    """The scene's fit_to path on a record read from file: a line of the tensor, sampled as a sonic."""
+    from cwlidar_sim.analysis.records import fit_mann_to_record
+    from cwlidar_sim.turbulence import MannParameters, generate_line
+
+    P, U, n = MannParameters(0.06, 20.0, 3.9), 8.0, 2**14
+    line = generate_line(P, n, 0.5, 4, dtype=np.float64)
+    fs = U / 0.5
+    rev = (-np.arange(n)) % n
+    p = tmp_path / "fit.csv"
+    _write_csv(p, {"u": list(U + line["u"].values[rev]), "v": list(line["v"].values[rev]),
+                   "w": list(line["w"].values[rev])})
+    fit = fit_mann_to_record(read_record(RecordSpec(str(p), sample_rate=fs, rotation="none")), k_min=0.01,
+                             segment_duration=n / fs / 4)
+    # Four segments of 2 km: the fit's own 1-sigma (chi-square) uncertainties set the tolerance.
+    for name, true in (("length_scale", 20.0), ("gamma", 3.9), ("alpha_eps", 0.06)):
+        assert abs(getattr(fit.params, name) - true) < 4 * fit.std[name] + 0.02 * true, (name, fit.params, fit.std)

@@ -384,6 +384,8 @@ def test_bad_records_and_fields_are_refused_by_name():
     rec = LineRecord((0.0, 8.0, 8.0), fs, good, name="mast")
     with pytest.raises(ValueError, match=r"mast: the record spans U T .*dx = U T / Nx"):
         condition_field(box, rec, seed=0, U=U / 2)
+    with pytest.raises(ValueError, match=r"mean speed is 0.* pass U"):
+        condition_field(box, LineRecord((0.0, 8.0, 8.0), fs, {"u": np.sin(np.arange(64.0))}), seed=0)
     with pytest.raises(ValueError, match="z = 40 m is outside"):
         condition_field(box, LineRecord((0.0, 8.0, 40.0), fs, good), seed=0, U=U)
     with pytest.raises(ValueError, match="mixes PointValues"):

@@ -71,7 +71,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import check_int, check_memory, check_real, check_tuple
+from .._validation import check_bool, check_int, check_memory, check_real, check_tuple
 
 __all__ = ["hawc2_paths", "read_hawc2", "read_netcdf", "write_hawc2", "write_netcdf"]
 
@@ -177,7 +177,7 @@ def write_hawc2(box, base, *, reverse_x: bool = False, max_chunk_bytes: int = _D
     (dx, dy, dz) [m] from elsewhere (e.g. ``box.attrs``).  Each file is first
     written as ``NAME.part`` and renamed when complete.
     """
-    reverse_x = _check_bool("reverse_x", reverse_x)
+    reverse_x = check_bool("reverse_x", reverse_x)
     max_chunk_bytes = check_int("max_chunk_bytes", max_chunk_bytes, lo=1)
     arrays = _field_arrays(box, "box", allowed=(_FIELD_DIMS[0],))
     paths = hawc2_paths(base)
@@ -261,8 +261,8 @@ def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, mmap: 
     paths = hawc2_paths(base_or_paths)
     shape = check_tuple("shape", shape, 3, lambda n, v: check_int(n, v, lo=1))
     spacing = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
-    reverse_x = _check_bool("reverse_x", reverse_x)
-    mmap = _check_bool("mmap", mmap)
+    reverse_x = check_bool("reverse_x", reverse_x)
+    mmap = check_bool("mmap", mmap)
     extra = _check_attrs(attrs)
     count = shape[0] * shape[1] * shape[2]
     expected = count * _HAWC2_DTYPE.itemsize
@@ -382,7 +382,7 @@ def read_netcdf(path, *, lazy: bool = False):
     import xarray as xr
 
     path = _check_path("path", path)
-    lazy = _check_bool("lazy", lazy)
+    lazy = check_bool("lazy", lazy)
     if not path.is_file():
         raise FileNotFoundError(f"NetCDF file not found: {str(path)!r}")
     ds = xr.open_dataset(path, engine="h5netcdf", mask_and_scale=False, decode_times=False, cache=False)
@@ -402,12 +402,6 @@ def read_netcdf(path, *, lazy: bool = False):
 # ---------------------------------------------------------------------------
 # helpers
 # ---------------------------------------------------------------------------
-def _check_bool(name, value) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be True or False, got {type(value).__name__} {value!r}")
-    return bool(value)
-
-
 def _check_path(name, value) -> Path:
     if not isinstance(value, (str, os.PathLike)):
         raise TypeError(f"{name} must be str or os.PathLike, got {type(value).__name__} {value!r}")

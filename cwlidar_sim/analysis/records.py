@@ -559,6 +559,10 @@ class Record:
         Mean of u (sonic) or speed (cup) [m/s].
     rotation : dict
         The rotation applied (angles [deg]).
+    time0 : float
+        Time of the period's first sample on the file's clock [s] (seconds
+        as written; ISO 8601 times from the file's first; 0 without a time
+        column).
     """
 
     spec: RecordSpec
@@ -569,6 +573,7 @@ class Record:
     flags: np.ndarray
     mean_speed: float
     rotation: dict
+    time0: float = 0.0
 
     @property
     def n_samples(self) -> int:
@@ -660,7 +665,7 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
         for a in vals.values():
             a.setflags(write=False)
         flags.setflags(write=False)
-        out.append(Record(spec, k, start, fs, vals, flags, U, rot))
+        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start))
     return out
 
 

@@ -374,6 +374,22 @@ MUTATIONS = [
       "planar fit: the sonic's w offset b0 left in"),
     M("records-units-cm", "measured records", "cwlidar_sim/analysis/records.py",
       '"cm": 0.01,', '"cm": 0.1,', ("tests/analysis/test_records.py::test_netcdf_cf_names_and_units",), "cm s-1 read as dm s-1"),
+    # --- the virtual twin of a staring scene (campaign/twin.py) ------------------------------------
+    M("twin-scene-unconditioned", "virtual twin", "cwlidar_sim/campaign/twin.py",
+      "        field = condition_field(field, twin_line_records(scene, tp, plan), seed=seed, U=tp.U, params=params,\n"
+      "                                inplace=True)\n", "",
+      ("tests/campaign/test_twin.py::test_closed_loop_coherence_lidar_on_twin_vs_lidar_on_truth",),
+      "the twin's field left unconditioned: the lidar flies through a statistical cousin"),
+    M("twin-scene-record-at-telescope", "virtual twin", "cwlidar_sim/campaign/twin.py",
+      "    focus = np.asarray(plan.lidar_position) + scene.lidar.build_instrument().focus * np.asarray(plan.direction)\n"
+      "    out = []",
+      "    focus = np.asarray(plan.lidar_position)\n    out = []",
+      ("tests/campaign/test_twin.py::test_closed_loop_coherence_lidar_on_twin_vs_lidar_on_truth",),
+      "record positions taken from the telescope instead of the focus"),
+    M("twin-scene-delay-sign", "virtual twin", "cwlidar_sim/campaign/twin.py",
+      "        pos[0] -= tp.U * tp.delay", "        pos[0] += tp.U * tp.delay",
+      ("tests/campaign/test_twin.py::test_twin_reproduces_the_record_at_the_sonic_within_the_noise",),
+      "the record's first-sample delay applied the wrong way (twin and record a sample apart)"),
 ]
 
 

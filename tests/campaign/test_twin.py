@@ -203,10 +203,10 @@ def test_closed_loop_coherence_lidar_on_twin_vs_lidar_on_truth(closed_loop):
 
     One bin of 7 raw periodogram values per decade-half (1/7 for unrelated series), so 0.9 is not chance.
     """
-    from cwlidar_sim.campaign.twin import focus_coherence, twin_periods
-    from cwlidar_sim.campaign.planning import plan_field, scene_params
-    from cwlidar_sim.campaign.twin import twin_period_scene
     import dataclasses
+
+    from cwlidar_sim.campaign.planning import plan_field, scene_params
+    from cwlidar_sim.campaign.twin import focus_coherence, twin_period_scene, twin_periods
 
     (r,) = closed_loop["loop"]
     coh = r["coherence"]  # (twins, bins)
@@ -235,6 +235,18 @@ def test_resume_skips_finished_periods_and_recomputes_changed_ones(closed_loop):
     assert run_twin(closed_loop["scene"], closed_loop["out"], n_twins=N_TWINS, progress=lines.append) == [f]
     assert os.stat(f).st_mtime_ns == m0 and any("done already" in s for s in lines)
     assert not [p for p in os.listdir(closed_loop["out"]) if p.startswith(".tmp")]
+    # other inputs (here the twin count) make a finished file stale: recomputed, not reused
+    import shutil
+
+    from cwlidar_sim.campaign import read_results
+
+    other = closed_loop["out"].parent / "other"
+    other.mkdir()
+    shutil.copy(f, other / os.path.basename(f))
+    lines = []
+    (g,) = run_twin(closed_loop["scene"], other, n_twins=1, progress=lines.append)
+    assert any("from other inputs; recomputing" in s for s in lines)
+    assert read_results(g).sizes["twin"] == 1
 
 
 def test_twin_file_has_units_and_the_spread_beside_the_record(closed_loop):

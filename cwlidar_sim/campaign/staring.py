@@ -120,6 +120,10 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     plan = plan_field(scene, index, params)
     say(f"{period.name}: {plan.kind} field {plan.shape}")
     if make_field is None:
+        if scene.turbulence.condition_on:
+            raise ValueError(f"scene {scene.name!r} names records in [turbulence] condition_on: its periods are the "
+                             f"records' and its fields are conditioned on them; run it with 'cwlidar-sim twin' "
+                             f"(cwlidar_sim.campaign.twin.run_twin)")
         field = generate_field(plan, params, s_field)
     else:
         plan, field = make_field(plan, s_field)

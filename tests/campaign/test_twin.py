@@ -72,6 +72,21 @@ def test_condition_on_is_validated_by_name_and_round_trips(tmp_path):
     assert "condition_on" not in plain.as_dict()["turbulence"]
 
 
+def test_conditioned_scenes_run_only_as_twins_and_conical_scenes_refuse_records():
+    from cwlidar_sim.campaign import bundled_scene
+    from cwlidar_sim.campaign.planning import scene_params
+    from cwlidar_sim.campaign.scene import scene_from_dict
+    from cwlidar_sim.campaign.staring import run_period
+
+    s = loads_scene(SCENE.format(path="m.csv"))
+    with pytest.raises(ValueError, match="run it with 'cwlidar-sim twin'"):
+        run_period(s, 0, scene_params(s)[0])
+    d = bundled_scene("cs").as_dict()
+    d["turbulence"]["condition_on"] = [{"path": "m.csv"}]
+    with pytest.raises(ValueError, match="a conical scene cannot be conditioned on records yet"):
+        scene_from_dict(d)
+
+
 def test_records_off_the_line_need_a_plane_or_box():
     from cwlidar_sim.campaign import choose_field
 

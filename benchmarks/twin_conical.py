@@ -68,7 +68,7 @@ def _lidar_std(field, lidar, T):
     return float(period_statistics(fit)["std_speed"])
 
 
-def run(P, N, T, seed0=2019):
+def run(P, N, T, seed0=2019, on_period=None):
     from cwlidar_sim.sensors import Sonic, sample_sonic
     from cwlidar_sim.turbulence.conditioning import LineRecord, condition_field
 
@@ -94,6 +94,8 @@ def run(P, N, T, seed0=2019):
             del box
         rows.append({"period": p, "truth_std": s_truth, "twin_std": twins, "prior_std": prior,
                      "record_u_std": float(np.std(vel[:, 0]))})
+        if on_period is not None:
+            on_period(params, shape, rows)  # what is finished is kept (the report so far)
         tw = np.array(twins)
         log(f"period {p + 1}/{P}: truth {s_truth:.3f} m/s, twins {tw.mean():.3f} +- {tw.std(ddof=1):.3f} "
             f"[{tw.min():.3f}, {tw.max():.3f}], prior spread {np.std(prior, ddof=1):.3f} "
@@ -126,13 +128,16 @@ def main(argv=None):
     P = a.periods or (6 if a.quick else 30)
     N = a.twins or (5 if a.quick else 8)
     T = a.duration or (300.0 if a.quick else 600.0)
-    params, shape, rows = run(P, N, T)
-    rep = {"machine": machine(), "height_m": HEIGHT, "mean_speed_m_s": U, "spacing_m": DX, "noise_m_s": NOISE,
-           "duration_s": T, "box_shape": shape, "params": params.as_dict(), "summary": summary(rows, N),
-           "rows": rows}
+    def report(params, shape, rows):
+        rep = {"machine": machine(), "height_m": HEIGHT, "mean_speed_m_s": U, "spacing_m": DX, "noise_m_s": NOISE,
+               "duration_s": T, "box_shape": shape, "params": params.as_dict(), "summary": summary(rows, N),
+               "rows": rows, "complete": len(rows) == P}
+        if a.json:
+            write_json(a.json, rep)
+        return rep
+
+    rep = report(*run(P, N, T, on_period=report))
     log(str(rep["summary"]))
-    if a.json:
-        write_json(a.json, rep)
     return 0
 
 

@@ -459,6 +459,47 @@ def _cmd_probe_length(args) -> int:
     return 0
 
 
+def _add_twin(sub):
+    p = _command(sub, "twin", "virtual twin: the lidar in fields conditioned on records",
+                 "Read the records the scene names in [turbulence] condition_on (or --records, one file per "
+                 "record, in order), cut them into the scene's periods, and for each period fly the scene's lidar "
+                 "and sonic through N fields conditioned on the records (Hoffman-Ribak). Writes DIR/<scene>_twin_"
+                 "P<k>.nc per period: the twins' 10 Hz series, their 10-min mean and std, T1/T2 and the coherence "
+                 "against the record, with the spread across the twins beside the record's own statistics. Bad "
+                 "records are refused before anything is computed; a rerun skips the finished periods.",
+                 ["python -c 'from cwlidar_sim.campaign.twin_example import write_twin_example as w; "
+                  "w(\"ex\")'   # the bundled example's truth and CSV",
+                  "cwlidar-sim twin ex/twin.toml --twins 8 --out results/twin",
+                  "cwlidar-sim twin my_scene.toml --records mast_40m.csv --twins 16 --out results/mine"])
+    p.add_argument("scene", help="staring scene TOML with [turbulence] condition_on")
+    p.add_argument("--records", nargs="+", default=None, metavar="FILE",
+                   help="record files replacing the scene's condition_on paths, in order")
+    p.add_argument("--twins", type=int, default=8, help="twins per period (default 8)")
+    p.add_argument("--out", required=True, help="output folder (created; resumed if it holds finished periods)")
+    p.add_argument("--periods", type=int, nargs="+", default=None, metavar="K", help="only these period indices")
+    p.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(func=_cmd_twin)
+
+
+def _cmd_twin(args) -> int:
+    from .campaign import load_scene
+    from .campaign.twin import run_twin
+
+    def log(line):
+        if not args.no_progress:
+            print(line, file=sys.stderr)
+
+    scene = load_scene(args.scene)
+    try:
+        files = run_twin(scene, args.out, paths=args.records, n_twins=args.twins, progress=log, periods=args.periods)
+    except KeyboardInterrupt:
+        print(f"cwlidar-sim twin: interrupted; finished periods are kept in {args.out}; run the same command again "
+              f"to resume", file=sys.stderr)
+        return 130
+    print(json.dumps({"periods": files}, indent=2))
+    return 0
+
+
 # Files shipped with the package, found without importing cwlidar_sim.campaign (listing stays instant):
 # scenes (``run NAME``, ``reproduce``) and campaign examples (``campaign NAME``).
 _BUNDLED_DIRS = (("scene", ("campaign", "scenes")), ("campaign", ("campaign", "examples")))
@@ -572,6 +613,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_sweep(sub)
     _add_probe_length(sub)
     _add_scenes(sub)
+    _add_twin(sub)
     return parser
 
 

@@ -925,3 +925,62 @@ def cs_model_quadrature(z, U, n_rev, zR, half_angle_deg=30.0, u_star=1.0, k_lo=1
     return {"lidar_var_u": float(np.dot(Fu * lor * Lu, dk)), "hp_u": float(np.dot(Fu * lor * (1 - Lu), dk)),
             "hp_v": float(np.dot(Fv * lor * (1 - Lv), dk)), "hp_w": float(np.dot(Fw * lor * (1 - Lw), dk)),
             "l_az": l_az}
+
+
+# =============================================================================
+# turbulence conditioning (cwlidar_sim/turbulence/conditioning.py): dense Gaussian conditioning
+# =============================================================================
+def conditioning_box_covariance(shape, spacing, alpha_eps, L, gamma):
+    """Covariance matrix of (u, v, w) at every node of a box with correction="none", from its definition.
+
+    Odd sizes only (no Nyquist modes, so every mode is the plain tensor at its wave vector):
+    ``Sigma[(i, a), (j, b)] = sum over the modes k != 0 of dk1 dk2 dk3 (M M^T)_ij(k) cos(k.(x_a - x_b))``
+    with M from ``mann_amplitude``; component-major order, nodes in C order of (ix, iy, iz).
+    """
+    if any(n % 2 == 0 for n in shape):
+        raise ValueError("odd sizes only")
+    dk = [2.0 * math.pi / (n * d) for n, d in zip(shape, spacing)]
+    idx = [np.arange(n) - n // 2 for n in shape]  # signed mode indices, symmetric
+    K = np.array(np.meshgrid(*[i * d for i, d in zip(idx, dk)], indexing="ij")).reshape(3, -1).T
+    phi = np.zeros((K.shape[0], 3, 3))
+    for m, (k1, k2, k3) in enumerate(K):
+        a = np.array(mann_amplitude(k1, k2, k3, alpha_eps, L, gamma))
+        phi[m] = a @ a.T * dk[0] * dk[1] * dk[2]
+    X = np.array(np.meshgrid(*[np.arange(n) * d for n, d in zip(shape, spacing)], indexing="ij")).reshape(3, -1).T
+    N = X.shape[0]
+    lag = X[:, None, :] - X[None, :, :]  # (N, N, 3)
+    cos = np.cos(np.einsum("abd,md->abm", lag, K))  # (N, N, modes)
+    S = np.zeros((3 * N, 3 * N))
+    for i in range(3):
+        for j in range(3):
+            S[i * N:(i + 1) * N, j * N:(j + 1) * N] = cos @ phi[:, i, j]
+    return S
+
+
+def conditioning_dense(Sigma, Hm, d, noise_var):
+    """Mean and covariance of x ~ N(0, Sigma) given d = Hm x + e, e ~ N(0, diag(noise_var)) (textbook formulas)."""
+    S = Hm @ Sigma @ Hm.T + np.diag(noise_var)
+    K = np.linalg.solve(S, Hm @ Sigma).T
+    return K @ d, Sigma - K @ Hm @ Sigma
+
+
+def conditioning_trilinear_row(shape, spacing, p, comp):
+    """Row of the measurement matrix: component ``comp`` at point p, trilinear, x periodic (as beam.sample_los)."""
+    N = int(np.prod(shape))
+    row = np.zeros(3 * N)
+    corners = []
+    for ax in range(3):
+        f = p[ax] / spacing[ax]
+        if ax == 0:
+            i = int(math.floor(f))
+            t = f - i
+            corners.append([(i % shape[0], 1 - t), ((i + 1) % shape[0], t)])
+        else:
+            i = min(int(math.floor(f)), shape[ax] - 2)
+            t = f - i
+            corners.append([(i, 1 - t), (i + 1, t)])
+    for ix, bx in corners[0]:
+        for iy, by in corners[1]:
+            for iz, bz in corners[2]:
+                row[comp * N + (ix * shape[1] + iy) * shape[2] + iz] += bx * by * bz
+    return row

@@ -73,6 +73,15 @@ def test_notebook_runs_in_quick_mode(path, tmp_path, monkeypatch):
         _check_a2012(nb, tmp_path / "out" / "a2012.nc")
     if "cs_" in path.name:
         _check_cs(nb, tmp_path / "out" / "cs.nc")
+    if path.name == "twin.ipynb":
+        _check_twin(nb)
+
+
+def _check_twin(nb):
+    """The twin notebook: the closed loop it prints holds (squared coherence twin-truth > 0.9 below 0.05 rad/m)."""
+    text = _stdout(nb)
+    line = next(s for s in text.splitlines() if s.startswith("twin-truth squared coherence below 0.05 rad/m:"))
+    assert float(line.split(":")[1]) > 0.9, line
 
 
 def _check_cs(nb, results):

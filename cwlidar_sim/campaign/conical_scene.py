@@ -206,6 +206,15 @@ class SurfaceTurbulenceSpec(Spec):
     length_scale: float | None = None
     gamma: float | None = None
 
+    @classmethod
+    def from_dict(cls, d: dict):
+        """Build from the ``[turbulence]`` table; unknown keys are rejected by name."""
+        if isinstance(d, dict) and "condition_on" in d:
+            raise ValueError("turbulence.condition_on: a conical scene cannot be conditioned on records yet (the twin "
+                             "command runs staring scenes; benchmarks/twin_conical.py conditions a conical lidar's "
+                             "box on a mast directly)")
+        return super().from_dict(d)
+
     def __post_init__(self):
         check_choice("turbulence.source", self.source, ("mann1994", "iec", "fixed"))
         set_field(self, "z0", check_real("turbulence.z0", self.z0, lo=0.0, hi=2.0, lo_open=True))

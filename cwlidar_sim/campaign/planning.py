@@ -141,16 +141,19 @@ def choose_field(scene: Scene, period) -> tuple[str, str]:
     """
     el = scene.lidar.elevation_deg
     off = scene.sonic.offset
-    line_ok = el == 0.0 and period.misalignment_deg == 0.0 and off[1] == 0.0 and off[2] == 0.0
-    plane_ok = el == 0.0 and off[2] == 0.0
+    # the records a twin is conditioned on are sensors too (positions relative to the focus)
+    recs = [r.position for r in scene.turbulence.condition_on]
+    line_ok = (el == 0.0 and period.misalignment_deg == 0.0 and off[1] == 0.0 and off[2] == 0.0
+               and all(p[1] == 0.0 and p[2] == 0.0 for p in recs))
+    plane_ok = el == 0.0 and off[2] == 0.0 and all(p[2] == 0.0 for p in recs)
     forced = scene.field.kind
     if forced == "line" and not line_ok:
         raise ValueError(f"field.kind = 'line' cannot hold period {period.name!r}: a line needs a horizontal beam "
                          f"aligned with the wind (misalignment {period.misalignment_deg} deg, elevation {el} deg) "
-                         f"and the sonic on it (offset {off})")
+                         f"and the sonic and the conditioning records on it (offset {off})")
     if forced == "plane" and not plane_ok:
         raise ValueError(f"field.kind = 'plane' cannot hold period {period.name!r}: a plane needs a horizontal beam "
-                         f"(elevation {el} deg) and the sonic at its height (offset z = {off[2]} m)")
+                         f"(elevation {el} deg) and the sonic and the records at its height (offset z = {off[2]} m)")
     if forced != "auto":
         return forced, f"forced by field.kind = {forced!r}"
     if line_ok:
@@ -181,7 +184,8 @@ def plan_field(scene: Scene, index: int, params) -> FieldPlan:
     r_lo, r_hi = max(0.0, r - reach), r + reach
     off = np.asarray(scene.sonic.offset)
     # Points relative to the telescope: the beam's ends and the sonic.
-    rel = np.stack([r_lo * n, r_hi * n, r * n + off, np.zeros(3)])
+    rel = np.stack([r_lo * n, r_hi * n, r * n + off, np.zeros(3)]
+                   + [r * n + np.asarray(rec.position) for rec in scene.turbulence.condition_on])
     lo, hi = rel.min(axis=0), rel.max(axis=0)
     f = scene.field
     U = period.mean_speed

@@ -53,8 +53,8 @@ import os
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
 from .conical_scene import ConicalScene
 from .lidar_spec import CHAIN_TIERS, LidarSpecBase
-from .spec import (SCENE_KINDS, Spec, check_periods, check_scene_keys, check_scene_name, parse_toml,
-                   periods_from_dict, read_text_file, set_field)
+from .spec import (SCENE_KINDS, Spec, check_condition_on, check_periods, check_scene_keys, check_scene_name,
+                   parse_toml, periods_from_dict, read_text_file, set_field)
 
 __all__ = [
     "FIELD_KINDS",
@@ -94,14 +94,24 @@ class TurbulenceSpec(Spec):
         a dimension ``time`` with a coordinate in seconds; u along the mean
         wind) to fit the three parameters to (relative paths are taken from
         the scene file's folder).  Exclusive with the three parameters.
+    condition_on : tuple of RecordSpec
+        Measured records the field is conditioned on (the virtual twin,
+        :mod:`cwlidar_sim.campaign.twin`): tables of
+        :class:`cwlidar_sim.analysis.records.RecordSpec` keys (``path``,
+        ``kind`` 'sonic' or 'cup', ``position`` [m] relative to the lidar's
+        focus in the field's frame, ``noise_std`` [m/s], columns, units,
+        cleaning); relative paths are taken from the scene file's folder.
+        Default: none (an unconditioned field).
     """
 
     alpha_eps: float | None = None
     length_scale: float | None = None
     gamma: float | None = None
     fit_to: str | None = None
+    condition_on: tuple = ()
 
     def __post_init__(self):
+        _set(self, "condition_on", check_condition_on(self.condition_on))
         given = [x is not None for x in (self.alpha_eps, self.length_scale, self.gamma)]
         if self.fit_to is not None:
             check_str("turbulence.fit_to", self.fit_to)

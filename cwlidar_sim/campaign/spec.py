@@ -22,7 +22,8 @@ import os
 from .._validation import check_keys, check_str
 
 __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field", "check_scene_name",
-           "check_scene_keys", "periods_from_dict", "check_periods", "read_text_file", "parse_toml"]
+           "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
+           "parse_toml"]
 
 #: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`).
 RESULTS_VERSION = 2
@@ -44,6 +45,10 @@ def spec_as_dict(obj) -> dict:
             continue
         if dataclasses.is_dataclass(v):
             v = v.as_dict()
+        elif f.name == "condition_on":
+            if not v:
+                continue  # an unconditioned scene keeps its key (and its stored results)
+            v = condition_on_as_dicts(v)
         elif isinstance(v, tuple) and v and dataclasses.is_dataclass(v[0]):
             v = [x.as_dict() for x in v]
         elif isinstance(v, tuple):
@@ -113,6 +118,39 @@ def check_periods(periods, cls, what: str) -> tuple:
     if len(set(names)) != len(names):
         raise ValueError(f"period names must be unique, got {names}")
     return periods
+
+
+def check_condition_on(entries) -> tuple:
+    """``[turbulence] condition_on``: a tuple of :class:`~cwlidar_sim.analysis.records.RecordSpec`, names unique.
+
+    Each entry is a RecordSpec or its table (unknown keys rejected by name,
+    every value checked by the spec); an error names the entry's index.
+    """
+    from ..analysis.records import RecordSpec
+
+    if isinstance(entries, (dict, str, bytes)) or not isinstance(entries, (list, tuple)):
+        raise TypeError(f"turbulence.condition_on must be an array of tables (one per record), got "
+                        f"{type(entries).__name__}")
+    out = []
+    for i, e in enumerate(entries):
+        if isinstance(e, RecordSpec):
+            out.append(e)
+            continue
+        if not isinstance(e, dict):
+            raise TypeError(f"turbulence.condition_on[{i}] must be a table of record keys, got {type(e).__name__}")
+        try:
+            out.append(RecordSpec.from_dict(dict(e)))
+        except (TypeError, ValueError) as err:
+            raise type(err)(f"turbulence.condition_on[{i}]: {err}") from None
+    names = [r.name for r in out]
+    if len(set(names)) != len(names):
+        raise ValueError(f"turbulence.condition_on: record names must be unique, got {names} (set name = ...)")
+    return tuple(out)
+
+
+def condition_on_as_dicts(entries) -> list:
+    """The records of ``condition_on`` as TOML-shaped tables (None and empty values dropped)."""
+    return [{k: v for k, v in r.as_dict().items() if v is not None and v != {}} for r in entries]
 
 
 def read_text_file(path, what: str) -> tuple[str, str]:

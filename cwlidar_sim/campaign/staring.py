@@ -77,7 +77,7 @@ def _subcell_spread(scene, params):
     return math.sqrt(spread * spread + dv * dv)
 
 
-def run_period(scene: Scene, index: int, params, *, status=None):
+def run_period(scene: Scene, index: int, params, *, status=None, make_field=None):
     """Simulate and analyse one period of a staring scene.
 
     Parameters
@@ -89,6 +89,10 @@ def run_period(scene: Scene, index: int, params, *, status=None):
         Turbulence of the field.
     status : callable, optional
         Called with a short text at each stage (progress display).
+    make_field : callable, optional
+        ``make_field(plan, seed) -> (plan, field)`` instead of the plan's
+        unconditioned field (the virtual twin, :mod:`cwlidar_sim.campaign.twin`,
+        conditions it on records); the sensors fly through whatever it returns.
 
     Returns
     -------
@@ -115,7 +119,14 @@ def run_period(scene: Scene, index: int, params, *, status=None):
     t0 = time.perf_counter()
     plan = plan_field(scene, index, params)
     say(f"{period.name}: {plan.kind} field {plan.shape}")
-    field = generate_field(plan, params, s_field)
+    if make_field is None:
+        if scene.turbulence.condition_on:
+            raise ValueError(f"scene {scene.name!r} names records in [turbulence] condition_on: its periods are the "
+                             f"records' and its fields are conditioned on them; run it with 'cwlidar-sim twin' "
+                             f"(cwlidar_sim.campaign.twin.run_twin)")
+        field = generate_field(plan, params, s_field)
+    else:
+        plan, field = make_field(plan, s_field)
     t_field = time.perf_counter() - t0
 
     # --- sonic: 32 Hz, 16-sample partitions -> 10 Hz ---------------------

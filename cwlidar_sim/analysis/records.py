@@ -1,0 +1,695 @@
+"""Measured wind records (sonic, cup) for the virtual twin: file -> checked, cleaned, rotated series.
+
+A :class:`RecordSpec` describes one sensor's file; :func:`read_record` reads
+it as one period, :func:`read_periods` as consecutive periods of a given
+duration.  Everything is checked before anything is computed, and a bad
+record gives a one-line ValueError naming the file, the period and what is
+wrong.  :meth:`Record.line_record` hands the result to
+:mod:`cwlidar_sim.turbulence.conditioning`.
+
+Files
+-----
+* CSV: a header row of column names, then one row per sample; numbers
+  (empty, ``nan`` or ``NA`` fields are missing values).  The time column (if
+  any) holds seconds or ISO 8601 timestamps; without one the spec's
+  ``sample_rate`` gives the times.  Velocities in m/s unless the spec's
+  ``units`` says otherwise (CSV carries no units of its own).
+* NetCDF (netCDF-4 through h5netcdf, netCDF-3 through scipy): variables
+  found by the spec's ``columns``, else by CF standard name or name:
+  ``eastward_wind``/``northward_wind``/``upward_air_velocity``,
+  ``x_wind``/``y_wind`` (sensor axes), plain ``u``/``v``/``w``; a cup's
+  ``wind_speed`` or ``speed``.  The ``units`` attribute is parsed (m s-1,
+  m/s, cm s-1, km h-1, knots, mph, ft s-1 ...); units that do not parse are
+  an error; a variable without units is taken as m s-1.  Time: a ``time``
+  coordinate in s, min, h or days (``... since ...`` accepted; only
+  differences are used), or the spec's ``sample_rate``.
+
+Cleaning (per period)
+---------------------
+1. Times: strictly increasing (else an error naming the first offending
+   sample); samples must sit within a quarter step of the regular grid
+   ``t0 + i / fs``; missing grid times become gaps.
+2. Despiking: a sample is a spike if it departs from the running median
+   (window ``despike_window`` s) by more than ``despike_threshold`` robust
+   standard deviations, 1.4826 x the median absolute deviation of the
+   departures over the period (Mauder et al. 2013 use q = 7 with the MAD);
+   only runs of at most ``spike_max_run`` samples count as spikes (longer
+   excursions are kept as real).  A spike in any component removes the
+   sample in all.
+3. Gaps (missing values, missing times, spikes): a run up to ``max_gap``
+   seconds is filled by linear interpolation (held at the period's edges)
+   and flagged (bit 1 spike, bit 2 gap); a longer one, or more than
+   ``max_filled_fraction`` filled in all, is an error naming the period and
+   the gap.
+4. Rotation (sonic) into the mean wind: "double" (yaw to zero mean v, then
+   pitch to zero mean w, per period), "planar" (Wilczak et al. 2001: the
+   plane ``w = b0 + b1 u + b2 v`` fitted to the periods' means, its normal
+   as z, then yaw per period; needs >= 3 periods of different directions),
+   or "none" (already in the field's frame).  The sensor's axes must be
+   right-handed (east, north, up is).  After rotation u is along the mean
+   wind, v to its left, w up.
+5. Taylor's hypothesis: the period's mean speed must reach
+   ``min_mean_speed`` and its turbulence intensity sigma_u / U stay below
+   ``max_intensity``.
+
+A cup gives the horizontal speed ``sqrt((U + u)^2 + v^2)``; it is cleaned by
+steps 1-3 and 5 and needs no rotation.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import re
+
+import numpy as np
+
+from .._validation import check_choice, check_keys, check_real, check_tuple
+
+__all__ = ["RecordSpec", "Record", "read_record", "read_periods", "parse_speed_units", "parse_time_units",
+           "fit_mann_to_record"]
+
+KINDS = ("sonic", "cup")
+ROTATIONS = ("double", "planar", "none")
+FLAG_SPIKE = 1
+FLAG_GAP = 2
+_ROLES = {"sonic": ("u", "v", "w"), "cup": ("speed",)}
+_CF_NAMES = {
+    "u": ("eastward_wind", "x_wind", "u"),
+    "v": ("northward_wind", "y_wind", "v"),
+    "w": ("upward_air_velocity", "w"),
+    "speed": ("wind_speed", "speed", "ws"),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class RecordSpec:
+    """Description of one sensor's record file (frozen, validated).
+
+    Parameters
+    ----------
+    path : str
+        CSV (``.csv``, ``.txt``) or NetCDF (``.nc``, ``.nc4``, ``.cdf``) file.
+    kind : {"sonic", "cup"}
+    position : (float, float, float)
+        (x, y, z) of the sensor relative to the scene [m] (x along the mean
+        wind, y to the left, z up).
+    columns : mapping, optional
+        Role -> column or variable name; roles "u", "v", "w" (sonic) or
+        "speed" (cup), and "time".  Default: the roles' own names (CSV) or
+        the CF names of the module notes (NetCDF).
+    sample_rate : float, optional
+        fs [Hz] in (0, 1e4]; required without a time column, checked
+        against it otherwise.
+    noise_std : float
+        White measurement noise per sample [m/s], in [0, 10].
+    units : mapping, optional
+        Role -> unit string for CSV columns (default m s-1, time s); for
+        NetCDF it overrides missing units attributes only.
+    name : str
+        Label (default: the file's name).
+    rotation : {"double", "planar", "none"}
+        Sonic only (module notes); a cup is never rotated.
+    despike_threshold : float
+        q in robust standard deviations, > 1 (0 turns despiking off).
+    despike_window : float
+        Running-median window [s], > 0.
+    spike_max_run : int
+        Longest run of samples that counts as one spike, >= 1.
+    max_gap : float
+        Longest gap filled [s], >= 0.
+    max_filled_fraction : float
+        Largest share of filled samples in a period, in [0, 0.5].
+    min_mean_speed : float
+        Smallest mean speed for Taylor's hypothesis [m/s], > 0.
+    max_intensity : float
+        Largest sigma_u / U for Taylor's hypothesis, in (0, 2].
+    distance_constant : float
+        Cup only: l0 [m] in [0, 100] (0: ideal).
+    """
+
+    path: str
+    kind: str = "sonic"
+    position: tuple = (0.0, 0.0, 0.0)
+    columns: object = None
+    sample_rate: float | None = None
+    noise_std: float = 0.0
+    units: object = None
+    name: str = ""
+    rotation: str = "double"
+    despike_threshold: float = 7.0
+    despike_window: float = 5.0
+    spike_max_run: int = 3
+    max_gap: float = 1.0
+    max_filled_fraction: float = 0.05
+    min_mean_speed: float = 1.0
+    max_intensity: float = 0.5
+    distance_constant: float = 0.0
+
+    def __post_init__(self):
+        from .._validation import check_int
+
+        if not isinstance(self.path, (str, os.PathLike)) or not str(self.path):
+            raise TypeError(f"RecordSpec.path must be a file path, got {self.path!r}")
+        object.__setattr__(self, "path", str(self.path))
+        check_choice("RecordSpec.kind", self.kind, KINDS)
+        object.__setattr__(self, "position", check_tuple("RecordSpec.position", self.position, 3, check_real))
+        roles = _ROLES[self.kind] + ("time",)
+        object.__setattr__(self, "columns", _role_map("columns", self.columns, roles))
+        object.__setattr__(self, "units", _role_map("units", self.units, roles))
+        if self.sample_rate is not None:
+            object.__setattr__(self, "sample_rate", check_real("RecordSpec.sample_rate", self.sample_rate, lo=0.0,
+                                                               hi=1e4, lo_open=True))
+        for f, lo, hi, lo_open in (("noise_std", 0.0, 10.0, False), ("despike_window", 0.0, 3600.0, True),
+                                   ("max_gap", 0.0, 3600.0, False), ("max_filled_fraction", 0.0, 0.5, False),
+                                   ("min_mean_speed", 0.0, 100.0, True), ("max_intensity", 0.0, 2.0, True),
+                                   ("distance_constant", 0.0, 100.0, False)):
+            object.__setattr__(self, f, check_real(f"RecordSpec.{f}", getattr(self, f), lo=lo, hi=hi,
+                                                   lo_open=lo_open))
+        q = check_real("RecordSpec.despike_threshold", self.despike_threshold, lo=0.0, hi=1e3)
+        if 0 < q <= 1:
+            raise ValueError(f"RecordSpec.despike_threshold={q} is out of range; allowed: 0 (off) or > 1")
+        object.__setattr__(self, "despike_threshold", q)
+        object.__setattr__(self, "spike_max_run", check_int("RecordSpec.spike_max_run", self.spike_max_run,
+                                                            lo=1, hi=1000))
+        check_choice("RecordSpec.rotation", self.rotation, ROTATIONS)
+        if self.kind == "cup" and self.rotation != "double" and self.rotation != "none":
+            raise ValueError(f"RecordSpec.rotation={self.rotation!r} applies to a sonic; a cup has no axes")
+        if self.kind == "sonic" and self.distance_constant > 0:
+            raise ValueError("RecordSpec.distance_constant applies to a cup (kind='cup')")
+        if not isinstance(self.name, str):
+            raise TypeError(f"RecordSpec.name must be a str, got {type(self.name).__name__}")
+        if not self.name:
+            object.__setattr__(self, "name", os.path.basename(self.path))
+
+    def column(self, role: str) -> str | None:
+        return dict(self.columns).get(role)
+
+    def unit(self, role: str) -> str | None:
+        return dict(self.units).get(role)
+
+    def as_dict(self) -> dict:
+        """Plain dict of the fields (round-trips through :meth:`from_dict`)."""
+        d = dataclasses.asdict(self)
+        d["position"] = list(self.position)
+        d["columns"] = dict(self.columns)
+        d["units"] = dict(self.units)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "RecordSpec":
+        """Build from a mapping (e.g. a TOML table); unknown keys are rejected by name."""
+        check_keys(cls, d, required=["path"])
+        return cls(**d)
+
+
+def _role_map(field, value, roles):
+    if value is None:
+        return ()
+    if not isinstance(value, dict) and not (isinstance(value, tuple) and all(len(p) == 2 for p in value)):
+        raise TypeError(f"RecordSpec.{field} must be a mapping of role -> name, got {value!r}")
+    items = dict(value)
+    unknown = sorted(set(items) - set(roles))
+    if unknown:
+        raise ValueError(f"RecordSpec.{field} has unknown role(s) {unknown}; allowed: {list(roles)}")
+    for k, v in items.items():
+        if not isinstance(v, str) or not v:
+            raise TypeError(f"RecordSpec.{field}[{k!r}] must be a non-empty str, got {v!r}")
+    return tuple(sorted(items.items()))
+
+
+# ---------------------------------------------------------------------------
+# units
+# ---------------------------------------------------------------------------
+_LENGTH = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0, "cm": 0.01, "mm": 1e-3,
+           "km": 1e3, "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "mi": 1609.344, "mile": 1609.344,
+           "miles": 1609.344}
+_TIME = {"s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "min": 60.0,
+         "mins": 60.0, "minute": 60.0, "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hrs": 3600.0,
+         "hour": 3600.0, "hours": 3600.0, "d": 86400.0, "day": 86400.0, "days": 86400.0}
+_SPEED_WORDS = {"knot": 1852.0 / 3600.0, "knots": 1852.0 / 3600.0, "kt": 1852.0 / 3600.0,
+                "kts": 1852.0 / 3600.0, "kn": 1852.0 / 3600.0, "mph": 1609.344 / 3600.0,
+                "kph": 1.0 / 3.6, "kmh": 1.0 / 3.6}
+
+
+def parse_speed_units(units: str) -> float:
+    """Factor from a speed unit string to m/s: ``m s-1``, ``m/s``, ``cm s^-1``, ``km h-1``, ``knots``, ``mph`` ...
+
+    Raises ValueError naming the string when it does not parse.
+    """
+    if not isinstance(units, str):
+        raise TypeError(f"units must be a str, got {type(units).__name__}")
+    s = units.strip().lower()
+    if s in _SPEED_WORDS:
+        return _SPEED_WORDS[s]
+    m = (re.fullmatch(r"([a-z]+)\s*(?:/|\s+per\s+)\s*([a-z]+)", s)
+         or re.fullmatch(r"([a-z]+)\s*[\s.*·]\s*([a-z]+)\s*(?:\^|\*\*)?\s*-\s*1", s))
+    if m and m.group(1) in _LENGTH and m.group(2) in _TIME:
+        return _LENGTH[m.group(1)] / _TIME[m.group(2)]
+    raise ValueError(f"units {units!r} do not parse as a speed; allowed: a length over a time such as 'm s-1', "
+                     f"'m/s', 'cm s-1', 'km h-1', or 'knots', 'mph'")
+
+
+def parse_time_units(units: str) -> float:
+    """Factor from a time unit string (``s``, ``seconds since 2020-01-01``, ``min``, ``hours`` ...) to seconds."""
+    if not isinstance(units, str):
+        raise TypeError(f"units must be a str, got {type(units).__name__}")
+    s = units.strip().lower().split(" since ")[0].strip()
+    if s in _TIME:
+        return _TIME[s]
+    raise ValueError(f"time units {units!r} do not parse; allowed: s, min, h, days (optionally '... since DATE')")
+
+
+# ---------------------------------------------------------------------------
+# reading
+# ---------------------------------------------------------------------------
+def _to_float(text):
+    t = text.strip()
+    if t == "" or t.lower() in ("nan", "na", "n/a", "null", "none"):
+        return math.nan
+    return float(t)
+
+
+def _read_csv(spec):
+    """(times [s] or None, {role: values [m/s]}) of a CSV record."""
+    import csv
+
+    roles = _ROLES[spec.kind]
+    with open(spec.path, newline="", encoding="utf-8") as f:
+        rows = list(csv.reader(f))
+    if not rows:
+        raise ValueError(f"{spec.name}: {spec.path!r} is empty")
+    header = [h.strip() for h in rows[0]]
+    names = {r: spec.column(r) or r for r in roles}
+    tcol = spec.column("time")
+    if tcol is None and "time" in header:
+        tcol = "time"
+    missing = [n for n in list(names.values()) + ([tcol] if tcol else []) if n not in header]
+    if missing:
+        raise ValueError(f"{spec.name}: {spec.path!r} lacks column(s) {missing}; it has {header}")
+    body = rows[1:]
+    out = {}
+    for r, n in names.items():
+        j = header.index(n)
+        try:
+            vals = np.array([_to_float(row[j]) if j < len(row) else math.nan for row in body])
+        except ValueError as e:
+            raise ValueError(f"{spec.name}: column {n!r} of {spec.path!r} is not numeric ({e})") from None
+        out[r] = vals * parse_speed_units(spec.unit(r) or "m s-1")
+    t = None
+    if tcol:
+        j = header.index(tcol)
+        cells = [row[j].strip() if j < len(row) else "" for row in body]
+        t = _parse_times(cells, spec, f"column {tcol!r}")
+    return t, out
+
+
+def _parse_times(cells, spec, where):
+    try:
+        t = np.array([float(c) for c in cells])
+        return t * parse_time_units(spec.unit("time") or "s")
+    except ValueError:
+        pass
+    try:
+        d = np.array(cells, dtype="datetime64[ns]")
+    except ValueError:
+        raise ValueError(f"{spec.name}: {where} of {spec.path!r} holds neither seconds nor ISO 8601 times "
+                         f"(first value {cells[0]!r})") from None
+    return (d - d[0]).astype(np.int64) * 1e-9
+
+
+def _find_variable(ds, role, spec):
+    name = spec.column(role)
+    if name is not None:
+        if name not in ds.variables:
+            raise ValueError(f"{spec.name}: {spec.path!r} has no variable {name!r} (columns[{role!r}]); "
+                             f"it has {sorted(map(str, ds.variables))}")
+        return name
+    by_std = {str(ds[v].attrs.get("standard_name", "")): str(v) for v in ds.variables}
+    for cand in _CF_NAMES[role]:
+        if cand in by_std:
+            return by_std[cand]
+        if cand in ds.variables:
+            return cand
+    raise ValueError(f"{spec.name}: {spec.path!r} has no variable for {role} (tried standard names and names "
+                     f"{list(_CF_NAMES[role])}; set columns[{role!r}]); it has {sorted(map(str, ds.variables))}")
+
+
+def _read_netcdf(spec):
+    import xarray as xr
+
+    ds = None
+    errors = []
+    for engine in ("h5netcdf", "scipy"):
+        try:
+            ds = xr.open_dataset(spec.path, engine=engine, decode_times=False, decode_cf=False)
+            break
+        except Exception as e:  # noqa: BLE001  (either engine may refuse the format)
+            errors.append(f"{engine}: {e}")
+    if ds is None:
+        raise ValueError(f"{spec.name}: cannot read {spec.path!r} as NetCDF ({'; '.join(errors)})")
+    with ds:
+        out = {}
+        for role in _ROLES[spec.kind]:
+            v = _find_variable(ds, role, spec)
+            da = ds[v]
+            if da.ndim != 1:
+                raise ValueError(f"{spec.name}: variable {v!r} of {spec.path!r} has dims {da.dims}; allowed: one")
+            units = da.attrs.get("units") or spec.unit(role) or "m s-1"
+            a = np.asarray(da.values, dtype=np.float64)
+            fill = da.attrs.get("_FillValue", da.attrs.get("missing_value"))
+            if fill is not None:
+                a = np.where(a == float(np.asarray(fill).ravel()[0]), np.nan, a)
+            try:
+                out[role] = a * parse_speed_units(str(units))
+            except ValueError as e:
+                raise ValueError(f"{spec.name}: variable {v!r} of {spec.path!r}: {e}") from None
+        t = None
+        tname = spec.column("time") or ("time" if "time" in ds.variables else None)
+        if tname is not None:
+            if tname not in ds.variables:
+                raise ValueError(f"{spec.name}: {spec.path!r} has no time variable {tname!r}")
+            tu = str(ds[tname].attrs.get("units", spec.unit("time") or "s"))
+            try:
+                t = np.asarray(ds[tname].values, dtype=np.float64) * parse_time_units(tu)
+            except ValueError as e:
+                raise ValueError(f"{spec.name}: time of {spec.path!r}: {e}") from None
+    return t, out
+
+
+def _load(spec):
+    if not os.path.isfile(spec.path):
+        raise ValueError(f"{spec.name}: no such file {spec.path!r}")
+    ext = os.path.splitext(spec.path)[1].lower()
+    if ext in (".csv", ".txt"):
+        t, vals = _read_csv(spec)
+    elif ext in (".nc", ".nc4", ".cdf", ".netcdf"):
+        t, vals = _read_netcdf(spec)
+    else:
+        raise ValueError(f"{spec.name}: {spec.path!r} has extension {ext!r}; allowed: .csv, .txt (CSV) or .nc, "
+                         f".nc4, .cdf (NetCDF)")
+    n = len(next(iter(vals.values())))
+    if any(len(v) != n for v in vals.values()) or (t is not None and len(t) != n):
+        raise ValueError(f"{spec.name}: columns of {spec.path!r} differ in length")
+    if n < 16:
+        raise ValueError(f"{spec.name}: {spec.path!r} has {n} samples; allowed: >= 16")
+    return t, vals
+
+
+def _regular_grid(t, vals, spec):
+    """Place the samples on t0 + i / fs; missing grid times become NaN.  Returns (fs, t0, {role: values})."""
+    if t is None:
+        if spec.sample_rate is None:
+            raise ValueError(f"{spec.name}: {spec.path!r} has no time column; give sample_rate [Hz] in the spec")
+        return spec.sample_rate, 0.0, vals
+    if not np.all(np.isfinite(t)):
+        i = int(np.nonzero(~np.isfinite(t))[0][0])
+        raise ValueError(f"{spec.name}: time of {spec.path!r} is missing at sample {i}")
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        i = int(np.nonzero(dt <= 0)[0][0])
+        raise ValueError(f"{spec.name}: time of {spec.path!r} is not strictly increasing: sample {i + 1} at "
+                         f"t = {t[i + 1]:.6g} s follows t = {t[i]:.6g} s")
+    step = float(np.median(dt))
+    fs = 1.0 / step
+    if spec.sample_rate is not None:
+        if abs(spec.sample_rate * step - 1.0) > 0.01:
+            raise ValueError(f"{spec.name}: sample_rate = {spec.sample_rate} Hz but the time column of "
+                             f"{spec.path!r} steps by {step:.6g} s ({fs:.6g} Hz)")
+        fs = spec.sample_rate
+    pos = (t - t[0]) * fs
+    idx = np.rint(pos).astype(np.int64)
+    off = np.abs(pos - idx)
+    if np.any(off > 0.25):
+        i = int(np.argmax(off))
+        raise ValueError(f"{spec.name}: sample {i} of {spec.path!r} at t = {t[i]:.6g} s lies {off[i]:.2f} steps off "
+                         f"the regular {fs:.6g} Hz grid; allowed: 0.25 (resample irregular records first)")
+    if np.any(np.diff(idx) == 0):
+        raise ValueError(f"{spec.name}: two samples of {spec.path!r} fall on one time step of the {fs:.6g} Hz grid")
+    m = int(idx[-1]) + 1
+    out = {}
+    for r, v in vals.items():
+        a = np.full(m, np.nan)
+        a[idx] = v
+        out[r] = a
+    return fs, float(t[0]), out
+
+
+def _runs(mask):
+    """(start, length) of the runs of True in a boolean array."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    starts = np.nonzero(d == 1)[0]
+    ends = np.nonzero(d == -1)[0]
+    return list(zip(starts.tolist(), (ends - starts).tolist()))
+
+
+def _despike(vals, fs, spec):
+    """Mask of spike samples (any component), by the running-median / MAD rule of the module notes."""
+    from scipy.ndimage import median_filter
+
+    spikes = np.zeros(len(next(iter(vals.values()))), bool)
+    if spec.despike_threshold == 0:
+        return spikes
+    win = max(3, int(round(spec.despike_window * fs)) | 1)
+    for v in vals.values():
+        ok = np.isfinite(v)
+        if ok.sum() < 16:
+            continue
+        filled = np.interp(np.arange(v.size), np.nonzero(ok)[0], v[ok])
+        dev = filled - median_filter(filled, size=win, mode="nearest")
+        mad = np.median(np.abs(dev[ok] - np.median(dev[ok])))
+        if not mad > 0:
+            continue
+        out = ok & (np.abs(dev) > spec.despike_threshold * 1.4826 * mad)
+        for s, n in _runs(out):
+            if n <= spec.spike_max_run:
+                spikes[s:s + n] = True
+    return spikes
+
+
+def _fill(vals, fs, spikes, spec, label, t0):
+    """Fill short gaps linearly (hold at the edges); flags; error for long gaps."""
+    n = spikes.size
+    missing = spikes.copy()
+    for v in vals.values():
+        missing |= ~np.isfinite(v)
+    max_run = int(math.floor(spec.max_gap * fs + 1e-9))
+    for s, m in _runs(missing):
+        if m > max_run:
+            raise ValueError(f"{label}: gap of {m / fs:.6g} s ({m} samples) at t = {t0 + s / fs:.6g} s is longer "
+                             f"than max_gap = {spec.max_gap:.6g} s")
+    frac = missing.mean()
+    if frac > spec.max_filled_fraction:
+        raise ValueError(f"{label}: {100 * frac:.3g} % of the samples are missing or spikes; allowed: "
+                         f"max_filled_fraction = {100 * spec.max_filled_fraction:.3g} %")
+    good = np.nonzero(~missing)[0]
+    out = {}
+    for r, v in vals.items():
+        a = v.copy()
+        if missing.any():
+            a[missing] = np.interp(np.nonzero(missing)[0], good, v[good])
+        out[r] = a
+    flags = np.zeros(n, np.uint8)
+    flags[spikes] |= FLAG_SPIKE
+    flags[missing & ~spikes] |= FLAG_GAP
+    return out, flags
+
+
+# ---------------------------------------------------------------------------
+# rotation
+# ---------------------------------------------------------------------------
+def _double_rotation(u, v, w):
+    yaw = math.atan2(v.mean(), u.mean())
+    u1 = u * math.cos(yaw) + v * math.sin(yaw)
+    v1 = -u * math.sin(yaw) + v * math.cos(yaw)
+    pitch = math.atan2(w.mean(), u1.mean())
+    u2 = u1 * math.cos(pitch) + w * math.sin(pitch)
+    w2 = -u1 * math.sin(pitch) + w * math.cos(pitch)
+    return (u2, v1, w2), {"yaw_deg": math.degrees(yaw), "pitch_deg": math.degrees(pitch)}
+
+
+def _planar_fit(means_p3, label):
+    """Wilczak et al. (2001): w = b0 + b1 u + b2 v over the periods' means; the plane's unit normal and b0."""
+    m = np.asarray(means_p3)
+    if m.shape[0] < 3:
+        raise ValueError(f"{label}: rotation='planar' needs >= 3 periods, got {m.shape[0]}; use 'double'")
+    A = np.column_stack([np.ones(m.shape[0]), m[:, 0], m[:, 1]])
+    if np.linalg.matrix_rank(A, tol=1e-6 * max(1.0, np.abs(A).max())) < 3:
+        raise ValueError(f"{label}: rotation='planar' needs periods of different wind directions (the fit is "
+                         f"singular); use 'double'")
+    b, *_ = np.linalg.lstsq(A, m[:, 2], rcond=None)
+    k = np.array([-b[1], -b[2], 1.0])
+    return k / np.linalg.norm(k), float(b[0]), b
+
+
+def _planar_rotation(u, v, w, k, b0):
+    vel = np.stack([u, v, w - b0])
+    mean = vel.mean(axis=1)
+    h = mean - (mean @ k) * k
+    i = h / np.linalg.norm(h)
+    j = np.cross(k, i)
+    return (i @ vel, j @ vel, k @ vel), {"yaw_deg": math.degrees(math.atan2(h[1], h[0])),
+                                         "tilt_deg": math.degrees(math.acos(min(1.0, k[2]))), "b0": b0}
+
+
+# ---------------------------------------------------------------------------
+# records
+# ---------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True, eq=False)
+class Record:
+    """One period of a sensor's record, cleaned and in the field's frame.
+
+    Attributes
+    ----------
+    spec : RecordSpec
+    period : int
+        Index of the period in the file (0 for :func:`read_record`).
+    start : float
+        Time of the period's first sample from the file's first [s].
+    sample_rate : float
+        fs [Hz].
+    values : dict
+        ``{"u", "v", "w"}`` (sonic, rotated: u along the mean wind, mean
+        included) or ``{"speed"}`` (cup) [m/s], finite, regular.
+    flags : ndarray of uint8
+        Per sample: 0 measured, bit 1 (FLAG_SPIKE) despiked and filled, bit 2
+        (FLAG_GAP) missing and filled.
+    mean_speed : float
+        Mean of u (sonic) or speed (cup) [m/s].
+    rotation : dict
+        The rotation applied (angles [deg]).
+    time0 : float
+        Time of the period's first sample on the file's clock [s] (seconds
+        as written; ISO 8601 times from the file's first; 0 without a time
+        column).
+    """
+
+    spec: RecordSpec
+    period: int
+    start: float
+    sample_rate: float
+    values: dict
+    flags: np.ndarray
+    mean_speed: float
+    rotation: dict
+    time0: float = 0.0
+
+    @property
+    def n_samples(self) -> int:
+        return self.flags.size
+
+    @property
+    def duration(self) -> float:
+        return self.n_samples / self.sample_rate
+
+    @property
+    def n_spikes(self) -> int:
+        return int(np.count_nonzero(self.flags & FLAG_SPIKE))
+
+    @property
+    def n_filled(self) -> int:
+        return int(np.count_nonzero(self.flags))
+
+    def line_record(self, position=None):
+        """This record as a :class:`cwlidar_sim.turbulence.conditioning.LineRecord` (position default: the spec's)."""
+        from ..turbulence.conditioning import LineRecord
+
+        return LineRecord(self.spec.position if position is None else position, self.sample_rate, self.values,
+                          noise_std=self.spec.noise_std, distance_constant=self.spec.distance_constant,
+                          name=f"{self.spec.name}[{self.period}]")
+
+
+def _clean_period(spec, fs, t0, vals, index):
+    label = f"{spec.name} period {index} (t = {t0:.6g}-{t0 + len(next(iter(vals.values()))) / fs:.6g} s)"
+    spikes = _despike(vals, fs, spec)
+    filled, flags = _fill(vals, fs, spikes, spec, label, t0)
+    return label, filled, flags
+
+
+def _taylor_check(label, spec, u_or_speed):
+    U = float(np.mean(u_or_speed))
+    if not U >= spec.min_mean_speed:
+        raise ValueError(f"{label}: mean speed {U:.3g} m/s is below min_mean_speed = {spec.min_mean_speed:.3g} m/s "
+                         f"(Taylor's hypothesis)")
+    ti = float(np.std(u_or_speed)) / U
+    if ti > spec.max_intensity:
+        raise ValueError(f"{label}: turbulence intensity sigma_u/U = {ti:.3g} exceeds max_intensity = "
+                         f"{spec.max_intensity:.3g} (Taylor's hypothesis)")
+    return U
+
+
+def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list:
+    """Read a record as consecutive periods of ``period_duration`` seconds (None: one period).
+
+    An incomplete last period is dropped.  Returns a list of :class:`Record`;
+    ``rotation="planar"`` fits the plane to all the periods' means.
+    """
+    if not isinstance(spec, RecordSpec):
+        raise TypeError(f"spec must be a RecordSpec, got {type(spec).__name__}")
+    t, raw = _load(spec)
+    fs, t0, grid = _regular_grid(t, raw, spec)
+    n = len(next(iter(grid.values())))
+    if period_duration is None:
+        m = n
+    else:
+        pd = check_real("period_duration", period_duration, lo=0.0, lo_open=True)
+        m = int(round(pd * fs))
+        if abs(m - pd * fs) > 1e-6 * max(1.0, pd * fs) or m < 16:
+            raise ValueError(f"period_duration = {pd} s is not a whole number (>= 16) of samples at {fs:.6g} Hz")
+        if m > n:
+            raise ValueError(f"{spec.name}: {spec.path!r} holds {n / fs:.6g} s, less than one period of {pd} s")
+    periods = []
+    for k in range(n // m):
+        sl = slice(k * m, (k + 1) * m)
+        label, vals, flags = _clean_period(spec, fs, t0 + k * m / fs, {r: v[sl] for r, v in grid.items()}, k)
+        periods.append((label, vals, flags, k * m / fs))
+    rot_common = None
+    if spec.kind == "sonic" and spec.rotation == "planar":
+        means = [[vals[c].mean() for c in "uvw"] for _, vals, _, _ in periods]
+        rot_common = _planar_fit(means, spec.name)
+    out = []
+    for k, (label, vals, flags, start) in enumerate(periods):
+        if spec.kind == "sonic":
+            if spec.rotation == "double":
+                (u, v, w), rot = _double_rotation(vals["u"], vals["v"], vals["w"])
+            elif spec.rotation == "planar":
+                (u, v, w), rot = _planar_rotation(vals["u"], vals["v"], vals["w"], rot_common[0], rot_common[1])
+            else:
+                (u, v, w), rot = (vals["u"], vals["v"], vals["w"]), {}
+            vals = {"u": u, "v": v, "w": w}
+            U = _taylor_check(label, spec, u)
+        else:
+            rot = {}
+            U = _taylor_check(label, spec, vals["speed"])
+        for a in vals.values():
+            a.setflags(write=False)
+        flags.setflags(write=False)
+        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start))
+    return out
+
+
+def read_record(spec: RecordSpec) -> Record:
+    """Read a whole file as one period (see :func:`read_periods`); planar fit needs several periods."""
+    if isinstance(spec, RecordSpec) and spec.kind == "sonic" and spec.rotation == "planar":
+        raise ValueError(f"{spec.name}: rotation='planar' needs several periods; use read_periods or 'double'")
+    return read_periods(spec)[0]
+
+
+def fit_mann_to_record(record: Record, *, k_min: float = 1e-3, k_max: float = 2.0, per_decade: int = 5,
+                       segment_duration: float = 600.0):
+    """Mann parameters fitted to a sonic record's spectra (as a scene's ``fit_to`` does); returns a MannFit."""
+    from .fitting import fit_mann
+    from .spectra import component_spectra, log_bins
+
+    if not isinstance(record, Record) or record.spec.kind != "sonic":
+        raise ValueError("fit_mann_to_record needs a sonic Record (u, v, w)")
+    fs, U = record.sample_rate, record.mean_speed
+    seg = min(check_real("segment_duration", segment_duration, lo=0.0, lo_open=True), record.duration)
+    lo = max(check_real("k_min", k_min, lo=0.0, lo_open=True), 2 * math.pi / (seg * U))
+    hi = min(check_real("k_max", k_max, lo=0.0, lo_open=True), math.pi * fs / U)
+    if not hi > lo:
+        raise ValueError(f"fit_mann_to_record: no wavenumbers between {lo:.3g} and {hi:.3g} rad/m")
+    k, F11, F22, F33, F13, nk = component_spectra(record.values["u"], record.values["v"], record.values["w"], fs=fs,
+                                                  U=U, k_edges=log_bins(lo, hi, per_decade), segment_duration=seg)
+    return fit_mann(k, F11, F22, F33, F13, n_k=nk)

@@ -1,0 +1,448 @@
+"""The virtual twin of a staring campaign: what this lidar would have measured in these very periods.
+
+A scene names its measured records in ``[turbulence] condition_on`` (each
+record's file, kind 'sonic' or 'cup', position [m] relative to the lidar's
+focus, noise).  :func:`run_twin` reads them, cuts them into the scene's
+periods, and for each period draws ``n_twins`` fields conditioned on the
+records (:func:`cwlidar_sim.turbulence.conditioning.condition_field`,
+Hoffman & Ribak 1991): every twin holds the eddies the records saw, plus
+what they could not see, drawn from the conditional distribution.  The
+lidar and the scene's sonic fly through each twin with the normal sensor
+code (:func:`cwlidar_sim.campaign.staring.run_period`); nothing of the
+signal chain is new.
+
+Per period (``DIR/<scene>_twin_<period>.nc``): the twins' 10 Hz lidar and
+sonic series, their 10-minute statistics (mean, standard deviation) and the
+transfer functions T1, T2 and the coherence of each twin's lidar against the
+*record's* radial speed (A2012 Eqs. 8, 11), with the mean and spread of each
+across the twins beside the record's own statistics.  Files are written
+atomically; a rerun skips every period whose file carries the same identity
+(scene, records' contents, twin count) and recomputes the others.
+
+Geometry and clock
+------------------
+* The field's x runs along the mean wind; the convection speed U of a period
+  is the mean of its records' mean speeds (one uniform mean wind: shear
+  between the records' heights is not represented).
+* The twin's field is periodic in x with length exactly ``U T`` (T the
+  period), so each record covers one whole line (the per-k1 method): with
+  the scene's spacing dx0, ``nx = n * max(1, round(U / (fs dx0)))`` nodes for
+  n samples at fs.  A record is read as periodic: its first and last seconds
+  meet.
+* The twin's clock starts at the whole second at or before the file's first
+  sample, plus k T for period k; a record whose first sample lies ``d``
+  seconds after that start is placed at ``x - U d`` (the field moves along
+  +x), so that twin and record agree sample by sample.
+* T1/T2 and the coherence use the first sonic record's speed toward the
+  lidar, ``-(U + u, v, w) . n``, at 10 Hz: A2012's resampling for 32 Hz
+  records, block averages for multiples of 10 Hz (any other rate is an
+  error before anything is computed).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+
+import numpy as np
+
+from .scene import PeriodSpec, Scene
+
+__all__ = ["TwinPeriod", "twin_periods", "twin_period_scene", "twin_line_records", "focus_coherence",
+           "record_radial_10hz", "run_twin_period", "run_twin", "twin_path", "TWIN_VERSION"]
+
+#: Layout version of the twin files (part of their identity).
+TWIN_VERSION = 1
+#: Second word of the twins' seed sequence ("tw").
+_TWIN_TAG = 0x7477
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class TwinPeriod:
+    """One period of the records: every conditioning record's cleaned :class:`~cwlidar_sim.analysis.records.Record`.
+
+    Attributes
+    ----------
+    index : int
+        Period index in the files.
+    records : tuple of Record
+        One per ``condition_on`` entry, in order.
+    U : float
+        Convection speed: the mean of the records' mean speeds [m/s].
+    delay : float
+        Time of the records' first sample after the twin period's start [s].
+    """
+
+    index: int
+    records: tuple
+    U: float
+    delay: float
+
+    @property
+    def duration(self) -> float:
+        return self.records[0].duration
+
+
+def _reference(scene: Scene) -> int:
+    """Index of the first sonic record (the reference of T1/T2), or -1."""
+    return next((i for i, r in enumerate(scene.turbulence.condition_on) if r.kind == "sonic"), -1)
+
+
+def _record_specs(scene: Scene, paths=None):
+    specs = list(scene.turbulence.condition_on)
+    if not specs:
+        raise ValueError(f"scene {scene.name!r}: [turbulence] condition_on names no records; a twin needs at least "
+                         f"one (path, kind, position, noise_std)")
+    if paths is not None:
+        paths = [os.fspath(p) for p in paths]
+        if len(paths) != len(specs):
+            raise ValueError(f"--records gives {len(paths)} file(s) but the scene's condition_on has {len(specs)} "
+                             f"record(s); allowed: one file per record, in order")
+        specs = [dataclasses.replace(s, path=p, name=s.name if s.name != os.path.basename(s.path) else
+                                     os.path.basename(p)) for s, p in zip(specs, paths)]
+        return specs
+    return [dataclasses.replace(s, path=scene.resolve(s.path)) for s in specs]
+
+
+def twin_periods(scene: Scene, paths=None) -> list:
+    """Read, clean and check the scene's records as periods of the scene's duration (before any compute).
+
+    Parameters
+    ----------
+    scene : Scene
+        A staring scene with ``[turbulence] condition_on``.
+    paths : list of str, optional
+        Files replacing the records' paths, in order (the same mast, another
+        campaign); default the scene's own (relative to its folder).
+
+    Returns
+    -------
+    list of TwinPeriod
+        Every complete period held by all records.  Raises ValueError (one
+        line, naming the file, the period and the problem) for a bad record.
+    """
+    from ..analysis.records import read_periods
+
+    if not isinstance(scene, Scene):
+        raise TypeError(f"the twin needs a staring Scene, got {type(scene).__name__} (conical scenes: not yet)")
+    T = scene.period_duration(scene.periods[0])
+    specs = _record_specs(scene, paths)
+    per = [read_periods(s, T) for s in specs]
+    counts = [len(p) for p in per]
+    if len(set(counts)) != 1:
+        raise ValueError("records hold different numbers of whole periods of "
+                         f"{T:g} s: " + ", ".join(f"{s.name}: {c}" for s, c in zip(specs, counts))
+                         + "; allowed: records of one campaign covering the same time")
+    ref = _reference(scene)
+    if ref >= 0:
+        fs = per[ref][0].sample_rate
+        if not (fs == 32.0 or (abs(fs / 10.0 - round(fs / 10.0)) < 1e-9 and fs >= 10.0)):
+            raise ValueError(f"{specs[ref].name}: T1/T2 against the record need it at 10 Hz: its {fs:g} Hz is neither "
+                             f"32 Hz (A2012's resampling) nor a multiple of 10 Hz (block averages)")
+    t_start = min(p[0].time0 for p in per)
+    origin = math.floor(t_start + 1e-9)
+    out = []
+    for k in range(counts[0]):
+        recs = tuple(p[k] for p in per)
+        U = float(np.mean([r.mean_speed for r in recs]))
+        if not 1.0 <= U <= 30.0:
+            raise ValueError(f"period {k}: the records' mean speed is {U:.3g} m/s; allowed: [1, 30] m/s (Taylor's "
+                             f"hypothesis)")
+        starts = [r.time0 for r in recs]
+        if max(starts) - min(starts) > 0.5 / recs[0].sample_rate:
+            raise ValueError(f"period {k}: the records start at different times {starts} s; allowed: simultaneous "
+                             f"records (within half a sample)")
+        out.append(TwinPeriod(k, recs, U, float(recs[0].time0 - (origin + k * T))))
+    return out
+
+
+def twin_period_scene(scene: Scene, tp: TwinPeriod, twin: int) -> Scene:
+    """The one-period scene of twin ``twin`` of period ``tp``: the records' U, its own seed.
+
+    The scene's first ``[[period]]`` is the template (misalignment, start
+    in the background cycle, advanced by k T); the seed is
+    ``SeedSequence(scene.seed, spawn_key=(0x7477, k, twin))``.
+    """
+    tmpl = scene.periods[0]
+    T = tp.duration
+    seq = np.random.SeedSequence(scene.seed, spawn_key=(_TWIN_TAG, tp.index, int(twin)))
+    seed = int(seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
+    p = PeriodSpec(name=f"P{tp.index:03d}", mean_speed=tp.U, misalignment_deg=tmpl.misalignment_deg, duration=T,
+                   start=tmpl.start + tp.index * T, seed=seed)
+    return scene.replace(periods=(p,), duration=T)
+
+
+def _twin_grid(tp, plan):
+    """(nx, dx): the field's x nodes, ``n * max(1, round(U / (fs dx0)))``, and their spacing ``U T / nx``."""
+    r0 = tp.records[0]
+    per_sample = max(1, int(round(tp.U / (r0.sample_rate * plan.spacing[0]))))
+    nx = r0.n_samples * per_sample
+    return nx, tp.U * tp.duration / nx
+
+
+def twin_line_records(scene: Scene, tp: TwinPeriod, plan):
+    """The period's records as LineRecords at their positions in the field of ``plan`` (see the module notes)."""
+    focus = np.asarray(plan.lidar_position) + scene.lidar.build_instrument().focus * np.asarray(plan.direction)
+    out = []
+    for spec, rec in zip(scene.turbulence.condition_on, tp.records):
+        pos = focus + np.asarray(spec.position)
+        pos[0] -= tp.U * tp.delay
+        out.append(rec.line_record(tuple(float(x) for x in pos)))
+    return out
+
+
+def _make_field(scene, tp, params, plans):
+    from ..turbulence.conditioning import condition_field
+    from .planning import generate_field
+
+    def make(plan, seed):
+        nx, dx = _twin_grid(tp, plan)
+        plan = dataclasses.replace(plan, shape=(nx,) + tuple(plan.shape[1:]), spacing=(dx,) + tuple(plan.spacing[1:]))
+        field = generate_field(plan, params, seed)
+        field = condition_field(field, twin_line_records(scene, tp, plan), seed=seed, U=tp.U, params=params,
+                                inplace=True)
+        plans.append(plan)
+        return plan, field
+
+    return make
+
+
+def focus_coherence(scene: Scene, tp: TwinPeriod, plan, params, k_edges):
+    """Theory: squared coherence gamma^2 of u at the lidar's focus with the records, on log bins.
+
+    Per bin ``1 - sum(posterior) / sum(prior)`` over the field's k1 modes in
+    it (spectrum-weighted, as the bin-averaged estimates are).  For a beam
+    along the wind in a line field the lidar reads a filter of that very
+    line, so this is also the coherence of the lidar with the records; the
+    twin's lidar against the truth's lidar then has squared coherence
+    ``(sum(gamma^2 prior) / sum(prior))^2`` (returned second).  Elsewhere
+    (lateral averaging across a misaligned beam) it is an upper bound.
+    """
+    from ..turbulence import generate_line
+    from ..turbulence.conditioning import conditional_variance
+    from .planning import generate_field
+
+    if plan.kind == "line":
+        tmpl = generate_line(params, plan.shape[0], plan.spacing[0], 0)
+    else:
+        tmpl = generate_field(plan, params, 0)
+    focus = np.asarray(plan.lidar_position) + scene.lidar.build_instrument().focus * np.asarray(plan.direction)
+    cv = conditional_variance(tmpl, twin_line_records(scene, tp, plan), [tuple(focus)], U=tp.U, params=params)
+    k = cv.k1_k
+    pr, po = cv.prior_ktc[:, 0, 0], cv.posterior_ktc[:, 0, 0]
+    edges = np.asarray(k_edges)
+    g2 = np.full(edges.size - 1, np.nan)
+    g4 = np.full(edges.size - 1, np.nan)
+    for b in range(edges.size - 1):
+        sel = (k >= edges[b]) & (k < edges[b + 1]) & (k > 0)
+        if np.any(sel) and pr[sel].sum() > 0:
+            g2[b] = 1.0 - po[sel].sum() / pr[sel].sum()
+            g4[b] = g2[b] ** 2
+    return g2, g4
+
+
+def record_radial_10hz(scene: Scene, tp: TwinPeriod, direction) -> np.ndarray | None:
+    """The reference sonic record's speed toward the lidar at 10 Hz [m/s] (None without a sonic record)."""
+    from ..sensors import block_average, resample_a2012
+
+    ref = _reference(scene)
+    if ref < 0:
+        return None
+    rec = tp.records[ref]
+    vel = np.stack([rec.values[c] for c in "uvw"], axis=1)
+    vs = -(vel @ np.asarray(direction, dtype=np.float64))
+    if rec.sample_rate == 32.0:
+        return resample_a2012(vs)
+    return block_average(vs, int(round(rec.sample_rate / 10.0)))[0]
+
+
+def run_twin_period(scene: Scene, tp: TwinPeriod, n_twins: int, params, *, status=None):
+    """The ``n_twins`` twins of one period and their statistics against the record, as an xarray.Dataset.
+
+    Dimensions ``twin``, ``time_10hz``, ``k``; every variable has ``units``
+    and ``long_name``.  ``*_twin_mean`` / ``*_twin_std`` are the mean and the
+    standard deviation (ddof = 1) across the twins: the conditional
+    distribution's spread given what the records saw.
+    """
+
+    from ..analysis import log_bins, transfer_functions
+    from .staring import run_period
+
+    say = status or (lambda s: None)
+    a = scene.analysis
+    k_edges = log_bins(a.k_min, a.k_max, a.per_decade)
+    rows = []
+    rec10 = None
+    plans = []
+    for j in range(n_twins):
+        sc = twin_period_scene(scene, tp, j)
+        say(f"P{tp.index:03d} twin {j + 1}/{n_twins}")
+        ds = run_period(sc, 0, params, make_field=_make_field(sc, tp, params, plans))
+        lid = np.asarray(ds["lidar_10hz"].values[0], dtype=np.float64)
+        son = np.asarray(ds["sonic_10hz"].values[0], dtype=np.float64)
+        if rec10 is None:
+            from .planning import plan_field
+
+            rec10 = record_radial_10hz(scene, tp, plan_field(sc, 0, params).direction)
+            if rec10 is not None and rec10.size != lid.size:
+                raise ValueError(f"period {tp.index}: the record gives {rec10.size} values at 10 Hz, the lidar "
+                                 f"{lid.size}")
+        row = {"lidar": lid, "sonic": son, "seed": int(sc.periods[0].seed)}
+        if rec10 is not None:
+            tf = transfer_functions(lid, rec10, fs=10.0, U=tp.U, k_edges=k_edges, segment_duration=a.segment_duration,
+                                    window=a.window, detrend=a.detrend)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                coh = np.abs(tf.chi_k) ** 2 / (tf.F_r_k * tf.F_s_k)
+            row.update(T1=np.asarray(tf.T1_k), T2=np.asarray(tf.T2_k), coh=coh, k=np.asarray(tf.k_k))
+        rows.append(row)
+    out = _dataset(scene, tp, rows, rec10, k_edges)
+    if "k" in out.coords:
+        g2, g4 = focus_coherence(scene, tp, plans[-1], params, k_edges)
+        out["coherence_theory"] = (("k",), g2, {"units": "1", "long_name": "theory: squared coherence of u at the "
+                                                "focus with the records (twin lidar vs record)"})
+        out["coherence_theory_twin_truth"] = (("k",), g4, {"units": "1", "long_name": "theory: squared coherence of "
+                                                           "a twin's lidar with the truth's (gamma^2 squared)"})
+    return out
+
+
+def _stats(x):
+    """(mean, std) over time of each row, NaN-aware [same units]."""
+    with np.errstate(invalid="ignore"):
+        return np.nanmean(x, axis=-1), np.nanstd(x, axis=-1)
+
+
+def _dataset(scene, tp, rows, rec10, k_edges):
+    import xarray as xr
+
+    n10 = rows[0]["lidar"].size
+    N = len(rows)
+    lid = np.stack([r["lidar"] for r in rows])
+    son = np.stack([r["sonic"] for r in rows])
+    TT = ("twin", "time_10hz")
+    coords = {"twin": ("twin", np.arange(N)),
+              "time_10hz": ("time_10hz", 0.05 + 0.1 * np.arange(n10), {"units": "s", "long_name": "time in the period"})}
+    dv = {"lidar_10hz": (TT, lid.astype(np.float32), {"units": "m s-1", "long_name": "each twin's lidar speed, 10 Hz"}),
+          "sonic_10hz": (TT, son.astype(np.float32),
+                         {"units": "m s-1", "long_name": "each twin's sonic speed toward the lidar, 10 Hz"}),
+          "seed": (("twin",), np.array([r["seed"] for r in rows], np.int64), {"units": "1", "long_name": "twin seed"})}
+
+    def spread(name, x, units, what):
+        import warnings
+
+        dv[name] = (("twin",) + ((), ("k",))[x.ndim - 1], x, {"units": units, "long_name": f"{what}, each twin"})
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # empty bins are NaN for every twin
+            m = np.nanmean(x, axis=0)
+            s = np.nanstd(x, axis=0, ddof=1) if N > 1 else np.full_like(m, np.nan)
+        dims = ((), ("k",))[x.ndim - 1]
+        dv[name + "_twin_mean"] = (dims, m, {"units": units, "long_name": f"{what}, mean over the twins"})
+        dv[name + "_twin_std"] = (dims, s, {"units": units, "long_name": f"{what}, std across the twins (ddof 1)"})
+
+    m, s = _stats(lid)
+    spread("lidar_mean", m, "m s-1", "10-min mean of the lidar speed")
+    spread("lidar_std", s, "m s-1", "10-min std of the lidar speed")
+    if rec10 is not None:
+        coords["k"] = ("k", rows[0]["k"], {"units": "rad m-1", "long_name": "wavenumber 2 pi f / U (bin centre)"})
+        spread("transfer_ratio", np.stack([r["T1"] for r in rows]), "1", "T1 = F_lidar / F_record (A2012 Eq. 8)")
+        spread("transfer_cross", np.stack([r["T2"] for r in rows]), "1",
+               "T2 = Re(chi_lidar_record)^2 / F_record^2 (A2012 Eq. 11)")
+        spread("coherence_record", np.stack([r["coh"] for r in rows]), "1",
+               "squared coherence of the lidar with the record")
+        rm, rs = _stats(rec10)
+        dv["record_10hz"] = (("time_10hz",), rec10, {"units": "m s-1",
+                                                     "long_name": "the reference record's speed toward the lidar, 10 Hz"})
+        dv["record_mean"] = ((), rm, {"units": "m s-1", "long_name": "10-min mean of record_10hz"})
+        dv["record_std"] = ((), rs, {"units": "m s-1", "long_name": "10-min std of record_10hz"})
+    for i, rec in enumerate(tp.records):
+        key = "speed" if rec.spec.kind == "cup" else "u"
+        dv[f"record{i}_mean_speed"] = ((), rec.mean_speed, {"units": "m s-1", "long_name": f"{rec.spec.name}: mean {key}"})
+        dv[f"record{i}_std"] = ((), float(np.std(rec.values[key])),
+                                {"units": "m s-1", "long_name": f"{rec.spec.name}: std of {key}"})
+        dv[f"record{i}_filled"] = ((), rec.n_filled, {"units": "1", "long_name": f"{rec.spec.name}: filled samples"})
+    attrs = {"scene": scene.name, "period": f"P{tp.index:03d}", "period_index": tp.index, "n_twins": N,
+             "convection_speed": tp.U, "duration": tp.duration, "record_delay": tp.delay,
+             "records": json.dumps([r.spec.name for r in tp.records]),
+             "reference_record": (tp.records[_reference(scene)].spec.name if rec10 is not None else ""),
+             "twin_version": TWIN_VERSION}
+    return xr.Dataset(dv, coords=coords, attrs=attrs)
+
+
+def twin_path(out_dir, scene: Scene, index: int) -> str:
+    """``DIR/<scene>_twin_P<index>.nc``."""
+    return os.path.join(os.fspath(out_dir), f"{scene.name}_twin_P{index:03d}.nc")
+
+
+def _identity(scene, params, tp, n_twins):
+    """Digest of what a period's file depends on: the scene, the tensor, the records' bytes, the twin count."""
+    h = hashlib.sha256()
+    h.update(json.dumps({"scene": scene.as_dict(), "params": params.as_dict() if params is not None else None,
+                         "n_twins": n_twins, "version": TWIN_VERSION, "period": tp.index},
+                        sort_keys=True, default=str).encode())
+    for r in tp.records:
+        for c in sorted(r.values):
+            h.update(np.ascontiguousarray(r.values[c], dtype=np.float64).tobytes())
+    return h.hexdigest()[:32]
+
+
+def run_twin(scene: Scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, periods=None) -> list:
+    """The twins of every period of the scene's records, one NetCDF per period; resumes.
+
+    Parameters
+    ----------
+    scene : Scene
+        A staring scene with ``[turbulence] condition_on``.
+    out_dir : str or path
+        Output folder (created).
+    paths : list of str, optional
+        Record files replacing the scene's, in order.
+    n_twins : int
+        Twins per period; in [1, 10000].  Their spread is the conditional
+        distribution's: use >= 8 for a std of the spread within 25 %.
+    progress : callable, optional
+        Called with a line of text per stage (default: silent).
+    periods : list of int, optional
+        Only these period indices.
+
+    Returns
+    -------
+    list of str
+        The period files, written or found complete.
+    """
+    from .._validation import check_int
+    from .planning import scene_params
+    from .store import read_results, write_results
+
+    n_twins = check_int("n_twins", n_twins, lo=1, hi=10000)
+    say = progress or (lambda s: None)
+    tps = twin_periods(scene, paths)  # every record checked before anything is computed
+    if periods is not None:
+        bad = [i for i in periods if not 0 <= int(i) < len(tps)]
+        if bad:
+            raise ValueError(f"periods {bad} are not in the records' {len(tps)} period(s)")
+        tps = [tps[int(i)] for i in periods]
+    params, _ = scene_params(scene)
+    os.makedirs(out_dir, exist_ok=True)
+    files = []
+    for n, tp in enumerate(tps):
+        path = twin_path(out_dir, scene, tp.index)
+        key = _identity(scene, params, tp, n_twins)
+        if os.path.isfile(path):
+            try:
+                done = read_results(path).attrs.get("identity") == key
+            except ValueError:
+                done = False
+            if done:
+                say(f"[{n + 1}/{len(tps)}] P{tp.index:03d}: done already ({path})")
+                files.append(path)
+                continue
+            say(f"[{n + 1}/{len(tps)}] P{tp.index:03d}: {path} is from other inputs; recomputing")
+        ds = run_twin_period(scene, tp, n_twins, params,
+                             status=lambda s, n=n: say(f"[{n + 1}/{len(tps)}] {s}"))
+        ds.attrs["identity"] = key
+        write_results(ds, path)
+        say(f"[{n + 1}/{len(tps)}] P{tp.index:03d}: wrote {path}")
+        files.append(path)
+    return files

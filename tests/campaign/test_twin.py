@@ -1,0 +1,291 @@
+"""The virtual twin of a staring scene: condition_on in scenes, bad records before compute, the closed loop, resume."""
+
+import json
+import math
+import os
+
+import numpy as np
+import pytest
+
+from cwlidar_sim.campaign import loads_scene
+from cwlidar_sim.campaign.scene import Scene
+
+SCENE = """
+name = "tw"
+duration = 60.0
+[turbulence]
+alpha_eps = 0.06
+length_scale = 18.0
+gamma = 3.9
+condition_on = [{{ path = "{path}", kind = "sonic", noise_std = 0.05, rotation = "none" }}]
+[lidar]
+preset = "prototype"
+tier = "los"
+instrument = {{ focus = 67.5 }}
+[field]
+kind = "line"
+dx = 0.25
+[analysis]
+segment_duration = 60.0
+fit = false
+estimator_theory_lines = 0
+[[period]]
+name = "A"
+mean_speed = 8.0
+"""
+
+
+def _csv(path, t, u, v, w, header="time,u,v,w"):
+    with open(path, "w") as f:
+        f.write(header + "\n")
+        for row in zip(t, u, v, w):
+            f.write(",".join("" if (isinstance(x, float) and math.isnan(x)) else str(x) for x in row) + "\n")
+
+
+def _smooth(n, seed, U=8.0, s=0.6):
+    rng = np.random.default_rng(seed)
+    x = np.convolve(rng.normal(0, 1, n + 63), np.ones(64) / 8.0, mode="valid")
+    return U + s * (x - x.mean()) / x.std(), s * rng.normal(0, 0.3, n), s * rng.normal(0, 0.2, n)
+
+
+# ---------------------------------------------------------------------------
+# scenes
+# ---------------------------------------------------------------------------
+def test_condition_on_is_validated_by_name_and_round_trips(tmp_path):
+    s = loads_scene(SCENE.format(path="m.csv"), base_dir=str(tmp_path))
+    (r,) = s.turbulence.condition_on
+    assert (r.kind, r.noise_std, r.position, r.rotation) == ("sonic", 0.05, (0.0, 0.0, 0.0), "none")
+    assert Scene.from_dict(s.as_dict()) == s
+    with pytest.raises(ValueError, match=r"condition_on\[0\]: unknown key\(s\) for RecordSpec: \['nois'\]"):
+        loads_scene(SCENE.format(path="m.csv").replace("noise_std", "nois"))
+    with pytest.raises(ValueError, match=r"condition_on\[0\].*RecordSpec.kind"):
+        loads_scene(SCENE.format(path="m.csv").replace('kind = "sonic"', 'kind = "vane"'))
+    with pytest.raises(TypeError, match="condition_on must be an array of tables"):
+        loads_scene(SCENE.format(path="m.csv").replace("condition_on = [", "condition_on = ").replace(
+            'rotation = "none" }]', 'rotation = "none" }'))
+    dup = SCENE.format(path="m.csv").replace('rotation = "none" }]', 'rotation = "none" }, { path = "m.csv" }]')
+    with pytest.raises(ValueError, match="record names must be unique"):
+        loads_scene(dup)
+    # an unconditioned scene's identity (and its stored results) is unchanged by the new key
+    plain = loads_scene(SCENE.format(path="m.csv").replace(
+        'condition_on = [{ path = "m.csv", kind = "sonic", noise_std = 0.05, rotation = "none" }]', ""))
+    assert "condition_on" not in plain.as_dict()["turbulence"]
+
+
+def test_conditioned_scenes_run_only_as_twins_and_conical_scenes_refuse_records():
+    from cwlidar_sim.campaign import bundled_scene
+    from cwlidar_sim.campaign.planning import scene_params
+    from cwlidar_sim.campaign.scene import scene_from_dict
+    from cwlidar_sim.campaign.staring import run_period
+
+    s = loads_scene(SCENE.format(path="m.csv"))
+    with pytest.raises(ValueError, match="run it with 'cwlidar-sim twin'"):
+        run_period(s, 0, scene_params(s)[0])
+    d = bundled_scene("cs").as_dict()
+    d["turbulence"]["condition_on"] = [{"path": "m.csv"}]
+    with pytest.raises(ValueError, match="a conical scene cannot be conditioned on records yet"):
+        scene_from_dict(d)
+
+
+def test_records_off_the_line_need_a_plane_or_box():
+    from cwlidar_sim.campaign import choose_field
+
+    text = SCENE.format(path="m.csv").replace('rotation = "none"', 'rotation = "none", position = [0.0, 3.0, 0.0]')
+    s = loads_scene(text)
+    with pytest.raises(ValueError, match="conditioning records on it"):
+        choose_field(s, s.periods[0])
+    s = s.replace(field=s.field.__class__(kind="auto", dx=0.25))
+    assert choose_field(s, s.periods[0])[0] == "plane"
+
+
+# ---------------------------------------------------------------------------
+# bad records: one line, before anything is computed
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("case, match", [
+    ("columns", r"lacks column\(s\) \['w'\]"),
+    ("time", r"not strictly increasing: sample 5"),
+    ("nan_run", r"gap of"),
+    ("slow", r"mean speed 0.3 m/s is below min_mean_speed"),
+    ("rate", r"neither 32 Hz .* nor a multiple of 10 Hz"),
+    ("count", r"--records gives 2 file\(s\) but the scene's condition_on has 1"),
+])
+def test_bad_records_give_one_line_errors_before_compute(tmp_path, monkeypatch, case, match):
+    import cwlidar_sim.campaign.staring as staring
+    from cwlidar_sim.campaign.twin import run_twin
+
+    n, fs = 1920, 32.0
+    t = np.arange(n) / fs
+    u, v, w = _smooth(n, 1)
+    header = "time,u,v,w"
+    paths = None
+    if case == "columns":
+        header = "time,u,v,ww"
+    elif case == "time":
+        t = t.copy()
+        t[5] = t[4]
+    elif case == "nan_run":
+        u = u.copy()
+        u[100:200] = np.nan
+    elif case == "slow":
+        u = u - 7.7
+    elif case == "rate":
+        t = np.arange(n) / 25.0
+    elif case == "count":
+        paths = [str(tmp_path / "m.csv")] * 2
+    _csv(tmp_path / "m.csv", t, u, v, w, header)
+    s = loads_scene(SCENE.format(path="m.csv"), base_dir=str(tmp_path))
+
+    def boom(*a, **k):
+        raise AssertionError("computed before the records were checked")
+
+    monkeypatch.setattr(staring, "run_period", boom)
+    with pytest.raises(ValueError, match=match) as e:
+        run_twin(s, tmp_path / "out", paths=paths, n_twins=2)
+    assert "\n" not in str(e.value)
+    assert not (tmp_path / "out").exists() or not os.listdir(tmp_path / "out")
+
+
+def test_units_that_do_not_parse_are_refused(tmp_path):
+    from cwlidar_sim.campaign.twin import twin_periods
+
+    n = 1920
+    _csv(tmp_path / "m.csv", np.arange(n) / 32.0, *_smooth(n, 2))
+    text = SCENE.format(path="m.csv").replace('rotation = "none"', 'rotation = "none", units = { u = "furlongs" }')
+    with pytest.raises(ValueError, match="furlongs") as e:
+        twin_periods(loads_scene(text, base_dir=str(tmp_path)))
+    assert "\n" not in str(e.value)
+
+
+# ---------------------------------------------------------------------------
+# the bundled example: truth -> mast CSV -> twins from the CSV only -> lidar on twin vs lidar on truth
+# ---------------------------------------------------------------------------
+N_TWINS = 3
+DURATION = 120.0
+
+
+@pytest.fixture(scope="module")
+def closed_loop(tmp_path_factory):
+    from cwlidar_sim.campaign import load_scene
+    from cwlidar_sim.campaign.twin import run_twin
+    from cwlidar_sim.campaign.twin_example import closed_loop, write_twin_example
+
+    d = tmp_path_factory.mktemp("twin")
+    paths = write_twin_example(d / "ex", duration=DURATION)
+    scene = load_scene(paths["scene"])
+    lines = []
+    files = run_twin(scene, d / "out", n_twins=N_TWINS, progress=lines.append)
+    return {"paths": paths, "scene": scene, "files": files, "lines": lines, "out": d / "out",
+            "loop": closed_loop(files, paths["truth"], k_edges=[0.005, 0.05, 0.1])}
+
+
+def test_example_scenes_are_package_data_and_the_csv_is_all_the_twin_reads(closed_loop):
+    from cwlidar_sim.campaign.twin_example import example_text
+
+    assert "condition_on" in example_text("twin.toml") and "condition_on" not in example_text("truth.toml")
+    (rec,) = closed_loop["scene"].turbulence.condition_on
+    assert os.path.basename(rec.path) == "mast_sonic.csv"
+    with open(closed_loop["paths"]["csv"]) as f:
+        assert f.readline().strip() == "time,u,v,w"
+    assert len(closed_loop["files"]) == 1 and any("twin 3/3" in s for s in closed_loop["lines"])
+
+
+def test_twin_reproduces_the_record_at_the_sonic_within_the_noise(closed_loop):
+    """At the conditioning point the twin's sonic differs from the record by the two sensors' noise.
+
+    Hoffman-Ribak: given d, the twin at the sensor minus d is distributed as (truth - d) = -noise, of
+    variance <= sigma_n^2 per 32 Hz sample (equal where the signal dominates); the twin's own sonic adds
+    sigma_s^2.  Both reach the 10 Hz series through A2012's resampling weights w: var = (.) sum(w^2).
+    """
+    from cwlidar_sim.campaign import read_results
+    from cwlidar_sim.sensors import resample_a2012
+
+    ds = read_results(closed_loop["files"][0])
+    sig_n = closed_loop["scene"].turbulence.condition_on[0].noise_std
+    sig_s = closed_loop["scene"].sonic.noise_std
+    w2 = float(np.mean(resample_a2012(np.eye(32))[:, :] ** 2) * 32)  # mean over outputs of sum(w^2)
+    diff = np.asarray(ds["sonic_10hz"].values, float) - np.asarray(ds["record_10hz"].values)[None]
+    var = np.mean(diff**2, axis=1)
+    n = diff.shape[1]
+    hi = (sig_n**2 + sig_s**2) * w2 * (1 + 4 * math.sqrt(2.0 / n))
+    lo = sig_s**2 * w2 * (1 - 4 * math.sqrt(2.0 / n))
+    assert np.all(var < hi) and np.all(var > lo), (var, lo, hi)
+    # the line's mean is the record's: every twin's lidar mean is the record's mean speed
+    assert np.allclose(ds["lidar_mean"].values, float(ds["record_mean"]), atol=2e-3)
+
+
+def test_closed_loop_coherence_lidar_on_twin_vs_lidar_on_truth(closed_loop):
+    """Staring lidar at the sonic: squared coherence twin-truth > 0.9 below 0.05 rad/m, and the theory's gamma^4.
+
+    One bin of 7 raw periodogram values per decade-half (1/7 for unrelated series), so 0.9 is not chance.
+    """
+    import dataclasses
+
+    from cwlidar_sim.campaign.planning import plan_field, scene_params
+    from cwlidar_sim.campaign.twin import focus_coherence, twin_period_scene, twin_periods
+
+    (r,) = closed_loop["loop"]
+    coh = r["coherence"]  # (twins, bins)
+    assert coh.shape == (N_TWINS, 2)
+    assert np.all(coh[:, 0] > 0.9), coh
+    scene = closed_loop["scene"]
+    (tp,) = twin_periods(scene)
+    params, _ = scene_params(scene)
+    sc = twin_period_scene(scene, tp, 0)
+    plan = plan_field(sc, 0, params)
+    n = tp.records[0].n_samples
+    plan = dataclasses.replace(plan, shape=(n,), spacing=(tp.U * tp.duration / n,))
+    g2, g4 = focus_coherence(sc, tp, plan, params, [0.005, 0.05, 0.1])
+    assert np.all(g2 > 0.99)  # 0.05 m/s of noise against the eddies' spectrum
+    # measured against theory within the estimator's scatter near coherence 1 plus the record's ends
+    # (a record is read as periodic: over the lidar's reach the twin sees the other end, the truth unseen air)
+    assert np.all(np.abs(coh - g4[None]) < 0.02), (coh, g4)
+
+
+def test_resume_skips_finished_periods_and_recomputes_changed_ones(closed_loop):
+    from cwlidar_sim.campaign.twin import run_twin
+
+    f = closed_loop["files"][0]
+    m0 = os.stat(f).st_mtime_ns
+    lines = []
+    assert run_twin(closed_loop["scene"], closed_loop["out"], n_twins=N_TWINS, progress=lines.append) == [f]
+    assert os.stat(f).st_mtime_ns == m0 and any("done already" in s for s in lines)
+    assert not [p for p in os.listdir(closed_loop["out"]) if p.startswith(".tmp")]
+    # other inputs (here the twin count) make a finished file stale: recomputed, not reused
+    import shutil
+
+    from cwlidar_sim.campaign import read_results
+
+    other = closed_loop["out"].parent / "other"
+    other.mkdir()
+    shutil.copy(f, other / os.path.basename(f))
+    lines = []
+    (g,) = run_twin(closed_loop["scene"], other, n_twins=1, progress=lines.append)
+    assert any("from other inputs; recomputing" in s for s in lines)
+    assert read_results(g).sizes["twin"] == 1
+
+
+def test_twin_file_has_units_and_the_spread_beside_the_record(closed_loop):
+    from cwlidar_sim.campaign import read_results
+
+    ds = read_results(closed_loop["files"][0])
+    for v in ds.data_vars:
+        assert "units" in ds[v].attrs, v
+    assert ds.sizes["twin"] == N_TWINS and ds.attrs["n_twins"] == N_TWINS
+    sd = np.std(ds["lidar_std"].values, ddof=1)
+    assert float(ds["lidar_std_twin_std"]) == pytest.approx(sd)
+    assert np.isfinite(float(ds["record_std"])) and ds["transfer_ratio"].dims == ("twin", "k")
+    # seeds: distinct twins, same bits again for the same scene
+    assert len(set(ds["seed"].values.tolist())) == N_TWINS
+
+
+def test_cli_twin_runs_and_refuses_bad_records_in_one_line(closed_loop, tmp_path, capsys):
+    from cwlidar_sim.cli import main
+
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time,u,v\n0,8,0\n")
+    rc = main(["twin", closed_loop["paths"]["scene"], "--records", str(bad), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and err.count("\n") == 0 and "lacks column(s) ['w']" in err
+    rc = main(["twin", closed_loop["paths"]["scene"], "--twins", str(N_TWINS), "--out", str(closed_loop["out"]),
+               "--no-progress"])
+    assert rc == 0 and json.loads(capsys.readouterr().out)["periods"] == closed_loop["files"]

@@ -62,8 +62,8 @@ sensor at rest at ``x_p`` samples box p under Taylor's hypothesis, frozen
 within the plane's neighbourhood, and decorrelated from the other planes
 by the model.  Cost per extra plane: one box, one forward and one inverse
 3-D FFT of u, v, w (:func:`cwlidar_sim._fft.rfftn3`) and one pass over the
-modes; memory: the outputs plus two half spectra of three components and
-one float32 per mode of the lifetime table.  This is the construction of
+modes; memory: the outputs plus at most two chain states (half spectra of
+u, v, w), the innovation box and one float32 per mode of the lifetime table.  This is the construction of
 Chen, Guo, Schlipf & Cheng (2022, Wind Energ. Sci. 7, evoTurb: independent
 3-D fields combined by the Cholesky factor of the longitudinal coherence),
 per Fourier mode of a Mann box with the model's coherence instead of an
@@ -359,8 +359,9 @@ def iter_evolving_boxes(params: MannParameters, shape, spacing, seed: int, evolu
         ``x = plane_x[p]`` samples (Taylor within the plane's neighbourhood);
         attrs add ``plane_x`` [m], ``lifetime`` [s], ``mean_speed`` [m/s] and
         ``evolution_seed``.  Plane 0 is ``generate_box(seed)`` bit for bit.
-        Only the current chain state (two half spectra) is held between
-        yields.
+        Between yields the generator holds at most two chain states (the
+        half spectra of u, v, w of plane 0, until the second side starts,
+        and of the last plane) plus the mode table.
     """
     from .box import BoxGenerator, _check_grid
 
@@ -446,13 +447,13 @@ def generate_evolving_boxes(params: MannParameters, shape, spacing, seed: int, e
     -------
     list of xarray.Dataset
         Box p for ``plane_x[p]`` [m].  Memory: one box per plane plus the
-        generator's two half spectra.
+        generator's chain states (:func:`iter_evolving_boxes`).
     """
     from .._validation import check_memory
     from .box import box_nbytes
 
     x = _check_planes(plane_x)
-    check_memory(f"{x.size} evolving boxes of shape {tuple(shape)}", (x.size + 2) * box_nbytes(tuple(shape), dtype))
+    check_memory(f"{x.size} evolving boxes of shape {tuple(shape)}", (x.size + 3) * box_nbytes(tuple(shape), dtype))
     boxes = [None] * x.size
     for p, box in iter_evolving_boxes(params, shape, spacing, seed, evolution, x, correction=correction,
                                       hf_compensation=hf_compensation, dtype=dtype):

@@ -53,10 +53,22 @@ RESULT_TAG = "@@BENCH_RESULT@@"
 #: The checkout holding this benchmarks/ folder.  ``python benchmarks/x.py`` puts only
 #: benchmarks/ on sys.path, so an installed cwlidar_sim (e.g. an editable install of
 #: another checkout) would be imported; the checkout goes right after PYTHONPATH's
-#: entries instead, so that ``--pythonpath DIR`` still wins.
+#: entries instead, so that ``--pythonpath DIR`` still wins.  The place is found by
+#: looking the entries up in sys.path (a script that inserted its own folder in front,
+#: as every benchmark does, shifts them: counting them placed the checkout in front of
+#: ``--pythonpath DIR``, and the "before" of a before/after comparison ran this checkout).
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if REPO_ROOT not in sys.path:
-    sys.path.insert(1 + len([p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]), REPO_ROOT)
+
+
+def _place_repo_root():
+    if REPO_ROOT in sys.path:
+        return
+    entries = {os.path.abspath(p) for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p}
+    after = [i for i, p in enumerate(sys.path) if p and os.path.abspath(p) in entries]
+    sys.path.insert(max(after) + 1 if after else min(1, len(sys.path)), REPO_ROOT)
+
+
+_place_repo_root()
 
 __all__ = ["RESULT_TAG", "vmhwm", "vmrss", "ru_maxrss", "TreeRssSampler", "timed", "time_repeats",
            "child_main", "spawn", "spawn_rounds", "summarize", "machine", "versions", "log"]

@@ -39,7 +39,6 @@ import _protocol  # noqa: E402  (the shared child-process protocol)
 from _protocol import TreeRssSampler, child_main, log, machine, ru_maxrss, write_json  # noqa: E402
 from _protocol import vmhwm as peak_rss  # noqa: E402
 from _protocol import vmrss as current_rss  # noqa: E402
-import numpy as np
 
 ALPHA_EPS = 1.0
 LENGTH_SCALE = 33.6

@@ -60,7 +60,8 @@ def ratios_signal(rep):
     return {"tier2_realtime_factor": _get(rep, "tier2", "realtime_factor"),
             "tier3_realtime_factor": _get(rep, "tier3", "realtime_factor"),
             "tier3_over_fft_floor": _get(rep, "tier3", "ratio_to_floor"),
-            "tier3_over_fft_floor_median": _get(rep, "tier3", "ratio_to_floor_median")}
+            "tier3_over_fft_floor_median": _get(rep, "tier3", "ratio_to_floor_median"),
+            "tier3_over_fft_floor_cpu": _get(rep, "tier3", "cpu_ratio_to_floor")}
 
 
 def ratios_campaign(rep):
@@ -88,12 +89,30 @@ def ratios_scaling(rep):
 
 
 def ratios_speed(rep):
-    recs = rep.get("records", [])
-    best = min((r["wall_s_per_sim_hour"] for r in recs if r.get("wall_s_per_sim_hour")), default=None)
-    return {f"{r['scene']}: {r['label']}": {"wall_s_per_sim_hour": r["wall_s_per_sim_hour"],
-                                          "cpu_s_per_sim_hour": r.get("cpu_s_per_sim_hour"), "error": r["error"],
-                         "over_cheapest": (r["wall_s_per_sim_hour"] / best) if best else None,
-                         "pareto": r.get("pareto")} for r in recs}
+    """The fidelity chart's time and error per setting.
+
+    ``speed_vs_accuracy.json`` is a list of records (older reports: a dict with ``records``).  The
+    over-cheapest ratio uses the CPU time (the chart's own time axis: one thread, so steady under load).
+    """
+    recs = rep.get("records", []) if isinstance(rep, dict) else list(rep)
+
+    def t(r, key):
+        v = r.get(key)
+        return v if isinstance(v, (int, float)) and v > 0 else None
+
+    best = {}
+    for r in recs:
+        v = t(r, "cpu_s_per_sim_hour")
+        if v is not None:
+            best[r.get("scene")] = min(v, best.get(r.get("scene"), v))
+    out = {}
+    for r in recs:
+        cpu, cheapest = t(r, "cpu_s_per_sim_hour"), best.get(r.get("scene"))
+        out[f"{r.get('scene')}: {r.get('label')}"] = {
+            "wall_s_per_sim_hour": r.get("wall_s_per_sim_hour"), "cpu_s_per_sim_hour": r.get("cpu_s_per_sim_hour"),
+            "error": r.get("error"), "over_cheapest_in_scene": cpu / cheapest if cpu and cheapest else None,
+            "pareto": r.get("pareto")}
+    return out
 
 
 #: name -> (script, arguments full, arguments quick, ratio extractor, json flag)
@@ -134,9 +153,14 @@ def main(argv=None):
             entry["error"] = p.stderr[-3000:]
             log(f"   FAILED (rc={p.returncode}): {p.stderr[-500:]}")
         else:
-            with open(path) as f:
-                summary["ratios"][name] = extract(json.load(f))
-            log(f"   {wall:.0f} s: {json.dumps(summary['ratios'][name], default=float)[:600]}")
+            try:
+                with open(path) as f:
+                    summary["ratios"][name] = extract(json.load(f))
+            except Exception as exc:  # a report this summary cannot read must not stop the other benchmarks
+                entry["error"] = f"summary of {path} failed: {type(exc).__name__}: {exc}"
+                log(f"   {entry['error']}")
+            else:
+                log(f"   {wall:.0f} s: {json.dumps(summary['ratios'][name], default=float)[:600]}")
         summary["benchmarks"][name] = entry
         write_json(os.path.join(a.out, "run_all.json"), summary)
     log(f"written {os.path.join(a.out, 'run_all.json')}")

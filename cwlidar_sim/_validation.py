@@ -63,6 +63,29 @@ def check_seed(name: str, value) -> int:
     return check_int(name, value, lo=0, hi=2**63 - 1)
 
 
+def check_bool(name: str, value) -> bool:
+    """Return ``value`` as a bool after checking it is one (``numpy.bool_`` too; not 0/1 or a string)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool (true or false), got {type(value).__name__} {value!r}")
+    return bool(value)
+
+
+def check_str(name: str, value, *, allow_empty: bool = False) -> str:
+    """Return ``value`` after checking it is a string (non-empty unless ``allow_empty``)."""
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a string, got {type(value).__name__} {value!r}")
+    if not allow_empty and not value:
+        raise ValueError(f"{name} must not be empty; allowed: a non-empty string")
+    return value
+
+
+def check_vec3(name: str, value, *, bound: float = 1e6) -> tuple:
+    """Return a 3-vector [m] as a tuple of floats, each finite and within ``+-bound``."""
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise ValueError(f"{name} must be a list of 3 numbers [m], got {value!r}")
+    return tuple(check_real(f"{name}[{i}]", v, lo=-bound, hi=bound) for i, v in enumerate(value))
+
+
 def check_tuple(name: str, value, n: int, item_check):
     """Check a length-``n`` sequence element by element with ``item_check(label, v)``."""
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):

@@ -9,14 +9,43 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import textwrap
+
+
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions pre-wrapped by :func:`_command`, examples kept as written, one line per command."""
+
+    def __init__(self, prog):
+        super().__init__(prog, max_help_position=28)
+
+    def add_argument(self, action):
+        super().add_argument(action)
+        if isinstance(action, argparse._SubParsersAction):
+            # argparse measures the commands one indent shallower than it prints them, which would
+            # push the help of the longest name (campaign-report) onto a line of its own
+            self._action_max_length = max(self._action_max_length,
+                                          max((len(a.dest) for a in action._get_subactions()), default=0)
+                                          + self._current_indent + self._indent_increment)
+
+
+def _command(sub, name, help, description, examples):
+    """A subcommand whose ``--help`` ends with worked examples (``examples``: lines of shell)."""
+    width = 78
+    text = "\n\n".join(textwrap.fill(par, width) for par in description.split("\n\n"))
+    epilog = "examples:\n" + "\n".join("  " + line for line in examples)
+    return sub.add_parser(name, help=help, description=text, epilog=epilog, formatter_class=_Formatter)
 
 
 def _add_box(sub):
-    p = sub.add_parser(
-        "box",
-        help="generate a Mann turbulence box",
-        description="Generate a periodic Mann (1998) turbulence box and write it to NetCDF or HAWC2 binary.",
+    p = _command(
+        sub, "box", "generate a Mann turbulence box (NetCDF or HAWC2)",
+        "Generate a periodic Mann (1998) turbulence box and write it to NetCDF or HAWC2 binary.",
+        ["cwlidar-sim box --alpha-eps 1 --length-scale 33.6 --gamma 3.9 --shape 4096 32 32 \\",
+         "    --spacing 2 2 2 --seed 1 --out box.nc --stats --plot box_spectra.png",
+         "cwlidar-sim box --alpha-eps 1 --length-scale 33.6 --gamma 3.9 --shape 8192 32 32 \\",
+         "    --spacing 1 2 2 --seed 7 --format hawc2 --out turb     # turb_u.bin, turb_v.bin, turb_w.bin"],
     )
     p.add_argument("--alpha-eps", type=float, required=True, help="alpha*epsilon^(2/3) [m^(4/3) s^-2]")
     p.add_argument("--length-scale", type=float, required=True, help="length scale L [m]")
@@ -75,14 +104,16 @@ def _cmd_box(args) -> int:
 
 
 def _add_doppler(sub):
-    p = sub.add_parser(
-        "doppler",
-        help="simulate Doppler speed estimates of a uniform target",
-        description="Simulate N speed estimates of a target moving uniformly at V m/s along the beam "
-                    "through one tier (los: the ideal weighted line-of-sight average, returns V exactly; "
-                    "spectral: expected spectrum times speckle statistics; signal: the 50 MHz heterodyne "
-                    "signal, block FFTs and averaging), with an instrument preset (overridable), and "
-                    "print mean, std, availability and quality-flag counts.",
+    p = _command(
+        sub, "doppler", "Doppler estimates of a uniform target, any tier",
+        "Simulate N speed estimates of a target moving uniformly at V m/s along the beam "
+        "through one tier (los: the ideal weighted line-of-sight average, returns V exactly; "
+        "spectral: expected spectrum times speckle statistics; signal: the 50 MHz heterodyne "
+        "signal, block FFTs and averaging), with an instrument preset (overridable), and "
+        "print mean, std, availability and quality-flag counts.",
+        ["cwlidar-sim doppler --speed 5 --cnr -20 --tier spectral --estimator median --n 500 --seed 1 --json",
+         "cwlidar-sim doppler --speed 5 --cnr -25 --tier signal --estimator centroid --threshold-raise 10 --n 50",
+         "cwlidar-sim doppler --speed 8 --cnr -10 --preset cs --set window=hann --cloud 1600 6e5 12"],
     )
     p.add_argument("--speed", type=float, required=True, help="radial speed V [m/s] (positive away from the lidar)")
     p.add_argument("--cnr", type=float, required=True,
@@ -162,9 +193,14 @@ def _cmd_doppler(args) -> int:
 
 
 def _add_campaign(sub):
-    p = sub.add_parser("run", help="run a campaign scene (TOML)",
-                       description="Run every period of a scene file and write DIR/<name>.nc.")
-    p.add_argument("scene", help="scene file (TOML)")
+    p = _command(sub, "run", "run a scene file (TOML) and write its results",
+                 "Run every period of a scene file and write DIR/<name>.nc. SCENE is a file, or the name of a "
+                 "bundled scene ('cwlidar-sim scenes' lists them). Re-running into the same folder computes only "
+                 "the periods that are missing.",
+                 ["cwlidar-sim scenes --write a2012 my_scene.toml     # a commented starting point",
+                  "cwlidar-sim run my_scene.toml --out results/mine --figures",
+                  "cwlidar-sim run my_scene.toml --out results/mine --dask tcp://scheduler:8786"])
+    p.add_argument("scene", help="scene file (TOML), or a bundled scene's name")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--dask", default=None, metavar="ADDRESS",
                    help="run the periods on this Dask scheduler (e.g. tcp://host:8786); default: locally")
@@ -173,17 +209,20 @@ def _add_campaign(sub):
     p.add_argument("--figures", action="store_true", help="also write the figures (as 'report' does)")
     p.set_defaults(func=_cmd_run)
 
-    p = sub.add_parser("report", help="write the figures of a campaign's results",
-                       description="Read DIR/*.nc written by 'run' or 'reproduce' and write the figures as PNG.")
+    p = _command(sub, "report", "write the figures of a results folder",
+                 "Read DIR/*.nc written by 'run' or 'reproduce' and write the figures as PNG.",
+                 ["cwlidar-sim report results/mine", "cwlidar-sim report results --out figures"])
     p.add_argument("dir", metavar="DIR")
     p.add_argument("--out", default=None, metavar="FIGDIR", help="figure folder (default DIR)")
     p.set_defaults(func=_cmd_report)
 
-    p = sub.add_parser("reproduce", help="reproduce a published result (a2012, cs)",
-                       description="Run a bundled scene and write its results and figures. a2012: Angelou et al. "
-                                   "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods. "
-                                   "cs: a conically scanning ZephIR against a cup, 40-100 m, 1 s and 3 s scans, "
-                                   "six 10-min periods per height.")
+    p = _command(sub, "reproduce", "reproduce a published result: a2012 or cs",
+                 "Run a bundled scene and write its results and figures. a2012: Angelou et al. "
+                 "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods. "
+                 "cs: a conically scanning ZephIR against a cup, 40-100 m, 1 s and 3 s scans, "
+                 "six 10-min periods per height.",
+                 ["cwlidar-sim reproduce a2012 --out results            # about a minute on 2 cores",
+                  "cwlidar-sim reproduce cs --quick --out results       # two periods per height"])
     p.add_argument("paper", choices=("a2012", "cs"))
     p.add_argument("--quick", action="store_true",
                    help="a2012: shortened periods; cs: two periods per height (about a minute each)")
@@ -259,7 +298,7 @@ def _run_and_report(scene, args, figures):
 def _cmd_run(args) -> int:
     from .campaign import load_scene
 
-    return _run_and_report(load_scene(args.scene), args, args.figures)
+    return _run_and_report(load_scene(_bundled_or_path(args.scene, "scene")), args, args.figures)
 
 
 def _cmd_report(args) -> int:
@@ -290,11 +329,15 @@ def _cmd_reproduce(args) -> int:
 
 
 def _add_sweep(sub):
-    p = sub.add_parser("campaign", help="run a campaign: a scene swept over its fields (TOML), on Dask",
-                       description="Expand a campaign file into tasks (sweep points x replicas) and run them on a "
-                                   "local Dask cluster sized to the machine, or on --scheduler. Each finished task is "
-                                   "written at once; re-running resumes (done tasks skipped, failed ones retried).")
-    p.add_argument("campaign", help="campaign file (TOML)")
+    p = _command(sub, "campaign", "run a sweep over a scene (TOML), on Dask",
+                 "Expand a campaign file into tasks (sweep points x replicas) and run them on a "
+                 "local Dask cluster sized to the machine, or on --scheduler. Each finished task is "
+                 "written at once; re-running resumes (done tasks skipped, failed ones retried). CAMPAIGN is a "
+                 "file, or the name of a bundled example ('cwlidar-sim scenes' lists them).",
+                 ["cwlidar-sim campaign campaign_quick --dry-run          # tasks, estimated time and memory",
+                  "cwlidar-sim campaign campaign_quick --out results/cq",
+                  "cwlidar-sim campaign my_sweep.toml --out DIR --scheduler tcp://host:8786"])
+    p.add_argument("campaign", help="campaign file (TOML), or a bundled example's name")
     p.add_argument("--out", default=None, metavar="DIR", help="campaign folder (required unless --dry-run)")
     p.add_argument("--dry-run", action="store_true", help="list the tasks with estimated time and memory; run nothing")
     p.add_argument("--workers", type=int, default=None, help="local cluster workers (default: sized to the machine)")
@@ -305,9 +348,10 @@ def _add_sweep(sub):
     p.add_argument("--json", action="store_true", help="--dry-run: print the tasks as JSON")
     p.set_defaults(func=_cmd_campaign)
 
-    p = sub.add_parser("campaign-report", help="merge a campaign's task results and draw the sweep figures",
-                       description="Merge DIR/tasks/*.nc into DIR/campaign.nc (sweep dimensions as coordinates) and "
-                                   "write DIR/figures/sweep_*.png.")
+    p = _command(sub, "campaign-report", "merge a campaign's tasks, draw the sweep figures",
+                 "Merge DIR/tasks/*.nc into DIR/campaign.nc (sweep dimensions as coordinates) and "
+                 "write DIR/figures/sweep_*.png.",
+                 ["cwlidar-sim campaign-report results/cq"])
     p.add_argument("dir", metavar="DIR")
     p.add_argument("--keep-series", action="store_true", help="keep the raw time series in campaign.nc")
     p.set_defaults(func=_cmd_campaign_report)
@@ -320,7 +364,7 @@ def _cmd_campaign(args) -> int:
     from .campaign.batch import dry_run, plan_cluster, run_campaign
     from .campaign.sweep import load_campaign
 
-    spec = load_campaign(args.campaign)
+    spec = load_campaign(_bundled_or_path(args.campaign, "campaign"))
     if args.memory_limit is not None and not args.memory_limit > 0:
         raise ValueError(f"--memory-limit {args.memory_limit} GB must be > 0")
     if args.dry_run:
@@ -375,10 +419,12 @@ def _cmd_campaign_report(args) -> int:
 
 
 def _add_probe_length(sub):
-    p = sub.add_parser("probe-length", help="fit the probe length (zR and telescope radius) to method-2 results",
-                       description="Fit the Rayleigh length zR and the telescope radius a0 it implies to the "
-                       "method-2 transfer function of a results file, with the estimator-aware theory "
-                       "(cwlidar_sim.analysis.fit_probe_length); prints JSON.")
+    p = _command(sub, "probe-length", "fit zR and the telescope radius to method 2",
+                 "Fit the Rayleigh length zR and the telescope radius a0 it implies to the "
+                 "method-2 transfer function of a results file, with the estimator-aware theory "
+                 "(cwlidar_sim.analysis.fit_probe_length); prints JSON.",
+                 ["cwlidar-sim probe-length results/a2012.nc",
+                  "cwlidar-sim probe-length results --estimator centroid --band 0.02 0.6"])
     p.add_argument("results", help="a results file (DIR/<name>.nc) or a folder holding one")
     p.add_argument("--estimator", default=None, help="the lidar's own estimator (default) or one of its variants'")
     p.add_argument("--band", nargs=2, type=float, default=None, metavar=("K_LO", "K_HI"),
@@ -391,8 +437,8 @@ def _cmd_probe_length(args) -> int:
     import glob
     import os
 
-    from .analysis.estimator_theory import DEFAULT_BAND, fit_probe_length_results
-    from .campaign import read_results
+    from .analysis.estimator_theory import DEFAULT_BAND
+    from .campaign import fit_probe_length_results, read_results
 
     path = args.results
     if os.path.isdir(path):
@@ -413,10 +459,108 @@ def _cmd_probe_length(args) -> int:
     return 0
 
 
+# Files shipped with the package, found without importing cwlidar_sim.campaign (listing stays instant):
+# scenes (``run NAME``, ``reproduce``) and campaign examples (``campaign NAME``).
+_BUNDLED_DIRS = (("scene", ("campaign", "scenes")), ("campaign", ("campaign", "examples")))
+
+
+def _bundled_files() -> dict:
+    """``{name: (kind, file)}`` of the bundled TOML files, ``file`` an importlib.resources Traversable."""
+    from importlib import resources
+
+    root = resources.files(__package__)
+    out = {}
+    for kind, parts in _BUNDLED_DIRS:
+        folder = root.joinpath(*parts)
+        if folder.is_dir():
+            for f in sorted(folder.iterdir(), key=lambda f: f.name):
+                if f.name.endswith(".toml"):
+                    out[f.name[:-len(".toml")]] = (kind, f)
+    return out
+
+
+def _bundled_or_path(arg: str, kind: str) -> str:
+    """``arg`` if it is a file; else the path of the bundled ``kind`` of that name; else a clear error."""
+    if os.path.exists(arg):
+        return arg
+    found = _bundled_files()
+    if found.get(arg, (None,))[0] == kind:
+        return str(found[arg][1])
+    if os.sep in arg or arg.endswith(".toml"):
+        return arg  # a path: the loader names it
+    names = sorted(n for n, (k, _) in found.items() if k == kind)
+    raise ValueError(f"no {kind} file {arg!r} and no bundled {kind} of that name; bundled: {', '.join(names)} "
+                     f"('cwlidar-sim scenes' lists them)")
+
+
+def _add_scenes(sub):
+    p = _command(sub, "scenes", "list the bundled scenes and examples; write one out",
+                 "List the scenes (for 'run' and 'reproduce') and the campaign examples (for 'campaign') that "
+                 "ship with the package, with their descriptions; or write one out as the starting point of "
+                 "your own. The files are commented: every key they set is explained where it is set.",
+                 ["cwlidar-sim scenes",
+                  "cwlidar-sim scenes --write a2012 my_scene.toml      # then edit it and:",
+                  "cwlidar-sim run my_scene.toml --out results/mine",
+                  "cwlidar-sim scenes --write campaign_quick my_sweep.toml",
+                  "cwlidar-sim scenes --show cs                        # print it"])
+    p.add_argument("--write", nargs=2, metavar=("NAME", "FILE"), default=None,
+                   help="write the bundled NAME to FILE (refuses to overwrite FILE unless --force)")
+    p.add_argument("--force", action="store_true", help="--write: overwrite FILE if it exists")
+    p.add_argument("--show", metavar="NAME", default=None, help="print the bundled NAME's TOML")
+    p.add_argument("--json", action="store_true", help="print the list as JSON")
+    p.set_defaults(func=_cmd_scenes)
+
+
+def _cmd_scenes(args) -> int:
+    import tomllib
+
+    found = _bundled_files()
+
+    def get(name):
+        if name not in found:
+            raise ValueError(f"no bundled scene or example {name!r}; bundled: {', '.join(sorted(found))}")
+        return found[name]
+
+    if args.show is not None:
+        print(get(args.show)[1].read_text(encoding="utf-8"), end="")
+        return 0
+    if args.write is not None:
+        name, path = args.write
+        kind, f = get(name)
+        if os.path.exists(path) and not args.force:
+            raise ValueError(f"{path} exists; pass --force to overwrite it")
+        folder = os.path.dirname(os.path.abspath(path))
+        os.makedirs(folder, exist_ok=True)
+        tmp = os.path.join(folder, f".{os.path.basename(path)}.{os.getpid()}.tmp")
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(f.read_text(encoding="utf-8"))
+        os.replace(tmp, path)
+        then = (f"cwlidar-sim run {path} --out results/{name}" if kind == "scene"
+                else f"cwlidar-sim campaign {path} --dry-run")
+        print(f"wrote {path} (bundled {kind} {name!r}); edit it, then: {then}")
+        return 0
+    rows = []
+    for name, (kind, f) in found.items():
+        d = tomllib.loads(f.read_text(encoding="utf-8"))
+        rows.append({"name": name, "kind": kind, "description": d.get("description", ""), "file": str(f)})
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    width = max(len(r["name"]) for r in rows)
+    for r in rows:
+        print(f"{r['name']:{width}}  {r['kind']:8}  {r['description']}")
+    print("\nscenes: cwlidar-sim run NAME --out DIR; campaigns: cwlidar-sim campaign NAME --out DIR;\n"
+          "your own: cwlidar-sim scenes --write NAME FILE, edit FILE, and run it")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="cwlidar-sim",
         description="Continuous-wave Doppler wind lidar simulator in synthetic Mann turbulence.",
+        epilog="'cwlidar-sim COMMAND --help' shows a command's options and examples;\n"
+               "'python -m cwlidar_sim' is the same program.",
+        formatter_class=_Formatter,
     )
     from . import __version__
 
@@ -427,6 +571,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_campaign(sub)
     _add_sweep(sub)
     _add_probe_length(sub)
+    _add_scenes(sub)
     return parser
 
 

@@ -426,7 +426,7 @@ def misaligned_reference(k1, alpha_eps, L, gamma, theta_deg, zR, h=0.03):
 
 
 # =============================================================================
-# turbulence plane generator (cwlidar_sim/turbulence/_kernels.py: chol3,
+# turbulence plane generator (cwlidar_sim/turbulence/_kernels/plane.py: chol3,
 # fill_plane_kernel)
 # =============================================================================
 def turbulence_fill_plane(phi_xy33, noise, n1_lo, scale):
@@ -503,7 +503,7 @@ def sensors_expected_spectrum(x_es, amp_s, window_n, rho, nf):
 
 
 # =============================================================================
-# turbulence box generator (cwlidar_sim/turbulence/_kernels.py: normal_at,
+# turbulence box generator (cwlidar_sim/turbulence/_kernels/: normal_at,
 # normals_kernel, fill_box_kernel): counter-based ziggurat noise and the
 # half spectrum of a small uncorrected box, one mode at a time.
 # =============================================================================
@@ -609,7 +609,9 @@ def _box_chol_lower(a):
 def box_half_spectrum(shape, spacing, seed, alpha_eps, L, gamma):
     """Half spectrum of a zero-mean box with correction="none", by its definition.
 
-    Mode n = (n1, n2, n3), n3 = 0 .. N3//2, has flat index m = (n1 N2 + n2)(N3//2 + 1) + n3
+    Mode n = (n1, n2, n3), n3 = 0 .. N3//2, with signed indices s_i (numpy's fftfreq signs: index
+    N/2 of an even axis is -N/2; s3 = n3) has the counter index
+    m = (s1 + 2^24) 2^36 + (s2 + 2^17) 2^18 + n3 (keyed by the wavenumber, not by the position)
     and normals a_j = z(6 m + 2 j), b_j = z(6 m + 2 j + 1) (``box_normal``); its coefficients are
     c_i = sqrt(dk1 dk2 dk3) sum_j M_ij(k_n) (a_j + i b_j) / sqrt(2) with M from ``mann_amplitude``
     and (k1, k2) in numpy's fftfreq order, k3 = n3 dk3.  In the z-Nyquist plane (even N3) M is
@@ -628,7 +630,9 @@ def box_half_spectrum(shape, spacing, seed, alpha_eps, L, gamma):
         for n2 in range(N2):
             k2 = dk[1] * (n2 if 2 * n2 < N2 else n2 - N2)
             for n3 in range(nh):
-                m = (n1 * N2 + n2) * nh + n3
+                s1 = n1 if 2 * n1 < N1 else n1 - N1
+                s2 = n2 if 2 * n2 < N2 else n2 - N2
+                m = ((s1 + 2**24) << 36) + ((s2 + 2**17) << 18) + n3
                 z = [box_normal(key, key_b, 6 * m + j) for j in range(6)]
                 if N3 % 2 == 0 and n3 == nh - 1:
                     amp = _box_chol_lower(np.mean([np.dot(a, np.transpose(a)) for a in (
@@ -682,10 +686,88 @@ def signal_tone_tables(dtheta_es, ln, group):
     return rot.real, rot.imag, step
 
 
+def signal_gaussian_deposit(x_s, amp_s, n_fft, m, tau_g, half):
+    """Reference for ``gaussian_deposit_rows`` (one row): every weight from its own exponential.
+
+    ``out[(m0 + j) mod M] += amp_s exp(-((m0 + j) h - theta_s)^2 / (4 tau_g))``, |j| <= half,
+    ``theta_s = 2 pi (x_s mod N) / N``, ``m0`` the grid point nearest theta_s, ``h = 2 pi / M``."""
+    out = [0.0] * m
+    h = 2.0 * math.pi / m
+    for x, a in zip(x_s, amp_s):
+        th = 2.0 * math.pi * (x % n_fft) / n_fft
+        m0 = int(math.floor(th / h + 0.5))
+        for j in range(-half, half + 1):
+            d = (m0 + j) * h - th
+            out[(m0 + j) % m] += a * math.exp(-d * d / (4.0 * tau_g))
+    return np.array(out)
+
+
+def signal_colour_start(key, estimate, cf):
+    """Reference for ``colour_start``: L (z0, z1) from the first normal pair of the estimate's start stream."""
+    skey = signal_mix64(int(key) ^ signal_mix64(int(estimate) + _SIG_GOLDEN))
+    _, z0, z1 = signal_normal_pair(signal_stream_start(skey, 1 << 62))
+    return [cf[5] * z0, cf[6] * z0 + cf[7] * z1]
+
+
+def signal_colour_noise(z_n, cf, state, segments=4):
+    """Reference for ``colour_noise_block``: the blocked scan in the kernel's order of operations.
+
+    ``y = a0 z + u_1 + u_2``, ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``, from ``state`` (u_c[-1]);
+    the block is cut into ``segments`` segments (the last takes the remainder), each scanned
+    from zero (``(a0 z + l_1) + l_2``), then ``rho_c^(k+1) C_c`` added with the carried state
+    ``C_c``.  Returns (y, new state).  Plain Python floats: the same IEEE operations as the kernel.
+    """
+    a0, b1, b2, r1, r2 = (float(c) for c in cf[:5])
+    n = len(z_n)
+    g = n // segments
+    bounds = [(s * g, n if s == segments - 1 else (s + 1) * g) for s in range(segments)]
+    y = [0.0] * n
+    ends = []
+    for lo, hi in bounds:
+        p = q = 0.0
+        for k in range(lo, hi):
+            z = float(z_n[k])
+            p = r1 * p + b1 * z
+            q = r2 * q + b2 * z
+            y[k] = (a0 * z + p) + q
+        ends.append((p, q))
+    # the powers rho^(k+1) by repeated multiplication, as _filter_powers makes them
+    pw1, pw2 = [r1], [r2]
+    for _ in range(n - 1):
+        pw1.append(pw1[-1] * r1)
+        pw2.append(pw2[-1] * r2)
+    c1, c2 = float(state[0]), float(state[1])
+    for (lo, hi), (e1, e2) in zip(bounds, ends):
+        if hi == lo:
+            continue
+        for k in range(hi - lo):
+            y[lo + k] += pw1[k] * c1 + pw2[k] * c2
+        c1 = pw1[hi - lo - 1] * c1 + e1
+        c2 = pw2[hi - lo - 1] * c2 + e2
+    return np.array(y), [c1, c2]
+
+
+def signal_noise_filter_correlation(cf, lags):
+    """Correlation of ``a0 z + u_1 + u_2`` at the given lags from its impulse response ``h_0 = a0 + b_1 + b_2``,
+    ``h_k = b_1 rho_1^k + b_2 rho_2^k``: ``r(tau) = sum_k h_k h_{k+tau}`` (truncated where rho^k < 1e-18)."""
+    a0, b1, b2, r1, r2 = (float(c) for c in cf[:5])
+    lags = [int(t) for t in lags]
+    rmax = max(r1, r2)
+    n_terms = (int(math.ceil(math.log(1e-18) / math.log(rmax))) if rmax > 0 else 1) + max(lags) + 1
+    k = np.arange(n_terms, dtype=np.float64)
+    h = b1 * r1**k + b2 * r2**k
+    h[0] += a0
+    return np.array([np.dot(h[: n_terms - t], h[t:]) for t in lags])
+
+
 def signal_synth_blocks(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp_im_st, phase_es, dtheta_es,
-                        noise_std, window_n):
+                        noise_std, window_n, colour=None):
     """Reference for ``synth_blocks_kernel``: every tone sample from cos/sin of its own phase
-    ``phase_es[e, s] + dtheta_es[e, s] (N i + n)`` (block i of estimate e), no recurrence."""
+    ``phase_es[e, s] + dtheta_es[e, s] (N i + n)`` (block i of estimate e), no recurrence.
+
+    ``colour = (ckey, ce0, cf, state)``: the normals coloured by :func:`signal_colour_noise`,
+    the state drawn by :func:`signal_colour_start` at each estimate's first block (``state``,
+    a list, is updated in place)."""
     n = len(window_n)
     ln = n // n_sub
     ns = len(amp_re_st)
@@ -693,6 +775,11 @@ def signal_synth_blocks(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     for b in range(b_lo, b_hi):
         e, i = divmod(b, m_blocks)
         x = signal_block_normals(key, block0 + b, n, noise_std)
+        if colour is not None:
+            ckey, ce0, cf, state = colour
+            if i == 0:
+                state[:] = signal_colour_start(ckey, ce0 + e, cf)
+            x, state[:] = signal_colour_noise(x, cf, state)
         for s in range(ns):
             for k in range(n):
                 ph = phase_es[e][s] + dtheta_es[e][s] * (n * i + k)

@@ -22,7 +22,8 @@
     aligned beam from a seeded ensemble of cheap line fields
     (:func:`estimator_transfer`) and its effective probe length
     (:func:`fit_zr_eff`); the probe length from measured method-2 values
-    (:func:`fit_probe_length`).
+    (:func:`fit_probe_length`; on a results file:
+    :func:`cwlidar_sim.campaign.fit_probe_length_results`).
 ``fitting``
     Least-squares fit of the Mann tensor parameters to measured one-point
     spectra (:func:`fit_mann`).
@@ -36,7 +37,6 @@ from .estimator_theory import (
     ProbeLengthFit,
     estimator_transfer,
     fit_probe_length,
-    fit_probe_length_results,
     fit_zr_eff,
 )
 from .fitting import MannFit, fit_mann
@@ -69,7 +69,6 @@ __all__ = [
     "ProbeLengthFit",
     "ProbeLengthError",
     "fit_probe_length",
-    "fit_probe_length_results",
     "MannFit",
     "fit_mann",
     "VadFit", "VadFlag", "fit_rectified_cosine", "fit_record", "period_statistics", "sonic_radial_variance",

@@ -16,10 +16,12 @@ For the staring beam along the mean wind (A2012's geometry, misalignment 0):
    parameters and spacing ``dx``), seeded from ``seed`` alone: nothing is
    shared with a campaign's realisation.
 2. One estimate per grid point ``x_i`` (the focus there): the range cells of
-   the :class:`cwlidar_sim.sensors.StaringLidar` (its weighting, span and
-   cell length) at ``x_i - s_s`` (the beam looks upwind), their speeds
-   ``U + u`` linearly interpolated on the periodic line, exactly as the
-   sensor samples a line field.
+   the staring beam (:func:`cwlidar_sim.beam.cells.probe_cells`, the cells
+   every lidar uses: its weighting, span, cell length, growth and tail rule)
+   at ``x_i - s`` (the beam looks upwind), their speeds ``U + u`` linearly
+   interpolated on the periodic line at the cells' sub-points, exactly as the
+   sensor samples a line field (the mean-wind tail stays out of the
+   spectrum, as in :mod:`cwlidar_sim.signal.chain`).
 3. The tier-2 continuum-speckle spectra of those cells
    (:func:`cwlidar_sim.signal.spectral.continuum_moments` and
    :func:`~cwlidar_sim.signal.spectral.sample_moments`: the instrument's
@@ -66,7 +68,7 @@ import numpy as np
 from .._validation import check_choice, check_int, check_real, check_seed
 
 __all__ = ["EstimatorTransfer", "THEORY_ESTIMATORS", "estimator_transfer", "fit_zr_eff", "DEFAULT_BAND", "THEORY_SEED",
-           "ProbeLengthFit", "ProbeLengthError", "fit_probe_length", "fit_probe_length_results", "ZR_FACTORS"]
+           "ProbeLengthFit", "ProbeLengthError", "fit_probe_length", "ZR_FACTORS"]
 
 #: Band of k [rad/m] over which zR_eff is fitted by default.
 DEFAULT_BAND = (0.02, 0.6)
@@ -156,16 +158,33 @@ def fit_zr_eff(k_k, T2_k, sigma_T2_k=None, band=DEFAULT_BAND):
     return z, sig, n
 
 
-def _line_cells(instrument, weighting, span, cell_length):
-    from ..sensors import StaringLidar
+def _line_cells(instrument, weighting: str = "exact", span: float = 20.0, cell_length: float = 0.5, *,
+                growth: float = 0.0, tail: str = "mean_wind"):
+    """Range cells of the staring beam: the probe cells every lidar uses (:func:`cwlidar_sim.beam.cells.probe_cells`).
 
-    return StaringLidar(instrument=instrument, weighting=weighting, span=span, cell_length=cell_length).cells()
+    The span ``[-span z_R, span z_R]`` around the focus, clipped at the
+    telescope, cut into cells of about ``cell_length`` (growing in the tails
+    with ``growth``), each sampled at its sub-points; the spectrum's cells
+    are these (the mean-wind tail cell is a sub-threshold pedestal, left out
+    of the spectrum as :mod:`cwlidar_sim.signal.chain` does).
+
+    Returns
+    -------
+    cwlidar_sim.beam.cells.ProbeCells
+    """
+    from ..beam.cells import probe_cells
+
+    check_choice("weighting", weighting, ("exact", "lorentzian"))
+    span = check_real("span", span, lo=0.0, hi=1000.0, lo_open=True)
+    cell_length = check_real("cell_length", cell_length, lo=0.0, hi=1000.0, lo_open=True)
+    return probe_cells(instrument.optics(), weighting, span, cell_length, growth=growth, tail=tail)
 
 
 def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k_edges=None,
-                       cnr_db=-10.0, weighting="exact", span=20.0, dx=0.5, cell_length=None,
-                       subcell_spread=None, transverse_speed=None, n_lines=8, n_points=4096, seed=THEORY_SEED,
-                       band=DEFAULT_BAND, modulation=None, gain=1.0, chunk=1024) -> EstimatorTransfer:
+                       cnr_db=-10.0, weighting="exact", span=20.0, dx=0.5, cell_length=None, cell_growth=0.0,
+                       tail="mean_wind", subcell_spread=None, transverse_speed=None, n_lines=8, n_points=4096,
+                       seed=THEORY_SEED, band=DEFAULT_BAND, modulation=None, gain=1.0,
+                       chunk=1024) -> EstimatorTransfer:
     """Expected method-2 transfer function of each estimator for the beam along the wind (module notes).
 
     Parameters
@@ -190,6 +209,8 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
         Line spacing [m]; in [0.05, 10] (the campaign's ``field.dx``).
     cell_length : float, optional
         Range-cell length [m]; default ``dx``.
+    cell_growth, tail
+        The probe cells' growth and tail rule (:func:`cwlidar_sim.beam.cells.probe_cells`), as the lidar's.
     subcell_spread : float, optional
         Sub-cell speed spread [m/s]; default ``sqrt(subcell_variance(params, dx))``.
     transverse_speed : float, optional
@@ -260,11 +281,13 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
     vt = check_real("transverse_speed", transverse_speed, lo=0.0, hi=1000.0)
     tau = instrument.speckle_time(vt)
 
-    cells = _line_cells(instrument, weighting, span, cell_length)
+    cells = _line_cells(instrument, weighting, span, cell_length, growth=cell_growth, tail=tail)
     w_s = np.ascontiguousarray(cells.weight_s, dtype=np.float64)
-    pos = -cells.s_s / dx                     # cell offsets in grid steps (the beam looks upwind, -x)
+    pos = -cells.sub_p / dx                   # sub-point offsets in grid steps (the beam looks upwind, -x)
     m_s = np.floor(pos).astype(np.int64)
     f_s = pos - m_s
+    frac_p, ptr_s = cells.fraction_p, cells.ptr_s
+    grown = cells.sub_p.size > cells.n_cells
     insts = [instrument.replace(estimator=e) for e in est]
 
     nf = n_points // 2 + 1
@@ -296,11 +319,15 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
             i0 = (i_e + m_s[None, :]) % n_points
             i1 = (i0 + 1) % n_points
             vlos_es = U + (1.0 - f_s) * u_x[i0] + f_s * u_x[i1]
+            if grown:  # a grown cell's speed is its sub-points' weighted mean, as the sensor samples it
+                vlos_es = U + np.add.reduceat((vlos_es - U) * frac_p, ptr_s[:-1], axis=1)
             if mod_x is None:
                 mean, var, _ = continuum_moments(instrument, vlos_es, w_s, cnr_db, spread, correlation_time=tau)
             else:
-                mean, var = _modulated_moments(instrument, vlos_es, w_s, (1.0 - f_s) * mod_x[i0] + f_s * mod_x[i1],
-                                               cnr_db, spread, tau)
+                mod_es = (1.0 - f_s) * mod_x[i0] + f_s * mod_x[i1]
+                if grown:
+                    mod_es = np.add.reduceat(mod_es * frac_p, ptr_s[:-1], axis=1)
+                mean, var = _modulated_moments(instrument, vlos_es, w_s, mod_es, cnr_db, spread, tau)
             spec = sample_moments(mean, var, key, e0=c0)
             if gain != 1.0:
                 spec *= gain
@@ -595,49 +622,3 @@ def fit_probe_length(k_k, T2_k, sigma_T2_k=None, *, instrument, params, U, estim
     return ProbeLengthFit(estimator=estimator, zR=zR, zR_sigma=zsig, a0=a0, a0_sigma=0.5 * a0 * zsig / zR,
                           zR_eff=ze, zR_eff_sigma=zes, band=band, n_bins=n, chi2=float(chi[i0]),
                           zR_grid=np.exp(fine), chi2_grid=chi, nominal_zR=zR0, nominal_a0=a00)
-
-
-def fit_probe_length_results(ds, *, estimator=None, **kw) -> ProbeLengthFit:
-    """:func:`fit_probe_length` on a campaign results Dataset (the periods' method 2, inverse-variance averaged).
-
-    ``estimator``: the lidar's own (default) or one of its estimator
-    variants.  The instrument, turbulence and cells come from the stored
-    scene; U is the mean of the periods' mean speeds.  The theory is for the
-    beam along the wind: misaligned periods lower method 2 further (A2012
-    Eqs. 12-14), which this fit would read as a longer probe.
-    """
-    import json as _json
-
-    from ..campaign.scene import Scene
-
-    scene = Scene.from_dict(_json.loads(ds.attrs["scene"]))
-    main = scene.lidar.build_instrument().estimator
-    est = main if estimator is None else estimator
-    if est == main:
-        T, S = ds.transfer_cross.values, ds.transfer_cross_sigma.values
-    else:
-        variants = _json.loads(ds.attrs.get("variants", "[]"))
-        names = [v["name"] for v in variants if v.get("estimator") == est and len(v) == 2]
-        if not names:
-            have = [main] + [v["estimator"] for v in variants if "estimator" in v]
-            raise ProbeLengthError(f"estimator {est!r} is not in these results; available: {have}")
-        vi = list(ds.variant.values).index(names[0])
-        T, S = ds.transfer_cross_variant.values[vi], ds.transfer_cross_sigma.values
-    T, S = np.atleast_2d(T), np.atleast_2d(S)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w = np.where(np.isfinite(T) & np.isfinite(S) & (S > 0), 1.0 / S**2, 0.0)
-        Tm = np.sum(np.where(w > 0, T, 0.0) * w, axis=0) / np.sum(w, axis=0)
-        Sm = 1.0 / np.sqrt(np.sum(w, axis=0))
-    params = scene.turbulence.params()
-    if params is None:
-        from ..turbulence import MannParameters
-
-        params = MannParameters(ds.attrs["alpha_eps"], ds.attrs["length_scale"], ds.attrs["gamma"])
-    spec = scene.lidar
-    kw.setdefault("cnr_db", spec.cnr_db)
-    kw.setdefault("weighting", spec.weighting)
-    kw.setdefault("span", spec.span)
-    kw.setdefault("dx", scene.field.dx)
-    kw.setdefault("transverse_speed", spec.transverse_speed)
-    return fit_probe_length(ds.k.values, Tm, Sm, instrument=spec.build_instrument(), params=params,
-                            U=float(np.mean(ds.mean_speed.values)), estimator=est, **kw)

@@ -33,8 +33,6 @@ def offset_coherence(k1_k, params, dz: float, dy: float = 0.0):
     Quadrature: the tensor's own panel nodes (:func:`cwlidar_sim.turbulence.spectra.half_line_nodes`),
     k2 and k3 over the whole line.
     """
-    from ..turbulence import spectral_tensor
-    from ..turbulence.spectra import _scales, half_line_nodes
 
     dz = check_real("dz", dz, lo=-1e3, hi=1e3)
     dy = check_real("dy", dy, lo=-1e3, hi=1e3)

@@ -124,24 +124,44 @@ def los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, r, ex, ey, ez, 
 
 
 @numba.njit(**NJIT_PARALLEL)
-def los_weighted_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_tc, range_s, weight_s, time_t, U, add_mean, vlos_t):
-    """Weighted line-of-sight speed ``vlos_t[t] = sum_s weight_s[s] n(t) . vel(origin + range_s[s] n(t), t)``.
+def los_cells_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_lc, range_p, fraction_p, ptr_s, weight_s, tail_weight,
+                     time_l, U, add_mean, store, vlos_ls, vlos_l):
+    """Line-of-sight speed of every range cell of every look, and their weighted sum: every sensor's sampler.
 
-    The sum over cells runs in index order within one time sample.
+    For look ``l`` (direction ``n_lc[l]``, time ``time_l[l]``, the field
+    advected at U along +x) and cell ``s`` with sub-points
+    ``p = ptr_s[s] .. ptr_s[s + 1] - 1`` at ranges ``range_p[p]``:
+    ``vlos_ls[l, s] = sum_p fraction_p[p] n . vel(origin + range_p[p] n)``
+    (:func:`los_point`); with ``tail_weight > 0`` one more column
+    ``vlos_ls[l, n_s] = n . (U, 0, 0)`` (``0`` without ``add_mean``: the mean
+    wind seen by the weight beyond the span,
+    :mod:`cwlidar_sim.beam.cells`).  ``vlos_l[l] = sum_s weight_s[s]
+    vlos_ls[l, s] + tail_weight vlos_ls[l, n_s]``, summed in cell order.
+    ``store = False`` skips writing ``vlos_ls`` (any shape).
     """
     nx, ny, nz = u.shape
-    n_t = time_t.shape[0]
-    n_s = range_s.shape[0]
-    for it in numba.prange(n_t):
-        ex = n_tc[it, 0]
-        ey = n_tc[it, 1]
-        ez = n_tc[it, 2]
-        shift = U * time_t[it]
+    n_l = time_l.shape[0]
+    n_s = weight_s.shape[0]
+    for il in numba.prange(n_l):
+        ex = n_lc[il, 0]
+        ey = n_lc[il, 1]
+        ez = n_lc[il, 2]
+        shift = U * time_l[il]
         acc = 0.0
         for js in range(n_s):
-            acc += weight_s[js] * los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, range_s[js],
-                                            ex, ey, ez, shift, U, add_mean)
-        vlos_t[it] = acc
+            vc = 0.0
+            for jp in range(ptr_s[js], ptr_s[js + 1]):
+                vc += fraction_p[jp] * los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, range_p[jp],
+                                                 ex, ey, ez, shift, U, add_mean)
+            acc += weight_s[js] * vc
+            if store:
+                vlos_ls[il, js] = vc
+        if tail_weight > 0.0:
+            vt = U * ex if add_mean else 0.0
+            acc += tail_weight * vt
+            if store:
+                vlos_ls[il, n_s] = vt
+        vlos_l[il] = acc
 
 
 def empty_outputs(n_t: int, n_s: int):

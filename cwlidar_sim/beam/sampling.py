@@ -47,7 +47,7 @@ import math
 import numpy as np
 
 from .._config import apply_numba_threads
-from .._validation import check_choice, check_int, check_memory, check_real
+from .._validation import check_bool, check_choice, check_int, check_memory, check_real
 from .optics import BeamOptics, RangeCells, weight_truncated
 
 __all__ = [
@@ -332,12 +332,6 @@ def _check_extent(fld: _Field, origin, n_tc, range_s, wrap: bool, offplane_tol: 
             )
 
 
-def _check_flag(name, value):
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a bool, got {type(value).__name__}")
-    return bool(value)
-
-
 # ---------------------------------------------------------------------------
 # sampling
 # ---------------------------------------------------------------------------
@@ -393,8 +387,8 @@ def sample_los(
     origin, n_tc, time_t, range_s = _prepare_beam(origin, direction, times, ranges)
     fld = _prepare_field(field, origin)
     U = check_real("U", U)
-    wrap = _check_flag("wrap", wrap)
-    add_mean = _check_flag("add_mean", add_mean)
+    wrap = check_bool("wrap", wrap)
+    add_mean = check_bool("add_mean", add_mean)
     offplane_tol = check_real("offplane_tol", offplane_tol, lo=0.0)
     _check_extent(fld, origin, n_tc, range_s, wrap, offplane_tol)
     n_t, n_s = time_t.size, range_s.size
@@ -501,14 +495,14 @@ def los_average(
     if not isinstance(optics, BeamOptics):
         raise TypeError(f"optics must be a BeamOptics, got {type(optics).__name__}")
     weighting = check_choice("weighting", weighting, ("exact", "lorentzian"))
-    renormalise = _check_flag("renormalise", renormalise)
+    renormalise = check_bool("renormalise", renormalise)
     cells = weight_truncated(optics, weighting, span=span, n_cells=n_cells, renormalise=renormalise)
     range_s = np.maximum(optics.focus + cells.s_s, 0.0)
     origin, n_tc, time_t, range_s = _prepare_beam(origin, direction, times, range_s)
     fld = _prepare_field(field, origin)
     U = check_real("U", U)
-    wrap = _check_flag("wrap", wrap)
-    add_mean = _check_flag("add_mean", add_mean)
+    wrap = check_bool("wrap", wrap)
+    add_mean = check_bool("add_mean", add_mean)
     offplane_tol = check_real("offplane_tol", offplane_tol, lo=0.0)
     _check_extent(fld, origin, n_tc, range_s, wrap, offplane_tol)
 
@@ -517,8 +511,10 @@ def los_average(
     apply_numba_threads()
     vlos_t = np.empty(time_t.size)
     weight_s = np.ascontiguousarray(cells.weight_s, dtype=np.float64)
-    _kernels.los_weighted_kernel(
-        fld.u, fld.v, fld.w, fld.grid, wrap, wrap, origin, n_tc, range_s, weight_s, time_t, U, add_mean, vlos_t
+    ns = weight_s.size
+    _kernels.los_cells_kernel(
+        fld.u, fld.v, fld.w, fld.grid, wrap, wrap, origin, n_tc, range_s, np.ones(ns), np.arange(ns + 1), weight_s,
+        0.0, time_t, U, add_mean, False, np.empty((0, 0)), vlos_t
     )
     return LosAverage(
         vlos_t=vlos_t,

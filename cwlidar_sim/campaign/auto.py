@@ -6,7 +6,7 @@ also the default range-cell length) and ``lidar.cell_length``.  The runner
 (:func:`cwlidar_sim.campaign.run_scene`) resolves them with :func:`resolve`
 before anything is computed, prints what it chose and why, and keeps the
 reasons in the results (``attrs["auto_choice"]``).  The field *kind* (line,
-plane, box) is chosen per period by :func:`cwlidar_sim.campaign.runner.choose_field`.
+plane, box) is chosen per period by :func:`cwlidar_sim.campaign.planning.choose_field`.
 
 The rule
 --------

@@ -5,17 +5,28 @@ Layout of a campaign folder ``DIR``:
 * ``campaign.json``: the campaign file's content and its tasks (id, values,
   replica, seed);
 * ``index.json``: per task, ``done`` or ``failed`` (with the error), its wall
-  time and the digest of its scene; rewritten atomically after every task;
+  time and its ``key`` (:func:`cwlidar_sim.campaign.store.scene_digest`: the
+  task's scene, its tensor -- given or fitted to a record --, the package and
+  results versions); rewritten atomically after every task;
+* ``tasks/<task_id>/<scene>.periods/``: the units (periods, or conical
+  period x height) of a task in progress, each written as soon as it
+  finishes, exactly as ``run`` keeps them (:class:`cwlidar_sim.campaign.store.PeriodStore`);
+  removed once the task's file is written;
 * ``tasks/<task_id>.nc``: each finished task's results (a scene results file,
-  as :func:`cwlidar_sim.campaign.run_scene` writes), written atomically by the
-  driver, so workers need no shared file system;
+  as :func:`cwlidar_sim.campaign.run_scene` writes);
 * ``campaign.nc`` and ``figures/``: written by :func:`merge_campaign`.
 
-Re-running the same command skips the tasks whose result is on disk for the
-same scene, retries the failed ones and computes the rest.  A task that
-raises is recorded and the campaign goes on.  A task whose memory estimate
-(:func:`cwlidar_sim.campaign.sweep.estimate_task`) exceeds a worker's memory
-is refused before it starts.
+Every unit of every task is its own Dask task, and the driver writes every
+file, so workers need no shared file system.  Re-running the same command
+skips the tasks whose result is on disk with the same key, reuses the stored
+units of an interrupted task whose units' keys still match
+(:func:`cwlidar_sim.campaign.store.scene_key`), retries the failed ones and
+computes the rest: nothing stale is reused (a changed ``[set]`` value, sweep
+value, campaign seed, tensor or ``fit_to`` record changes the keys of what it
+affects), nothing finished is computed twice.  A unit that raises fails its
+task, which is recorded, and the campaign goes on.  A task whose memory
+estimate (:func:`cwlidar_sim.campaign.sweep.estimate_task`) exceeds a
+worker's memory is refused before it starts.
 
 Threads: each worker runs one task at a time with ``threads`` numba/FFTW
 threads, and ``workers x threads`` never exceeds the cores (results are
@@ -27,10 +38,14 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import time
 
+from .. import _config
 from .._preflight import preflight
-from .sweep import CampaignSpec, _digest, estimate_task, expand
+from . import runner
+from .store import read_results, write_results
+from .sweep import CampaignSpec, _expand_values, estimate_task, expand
 
 __all__ = ["run_campaign", "merge_campaign", "plan_cluster", "dry_run", "CampaignIndex"]
 
@@ -112,28 +127,27 @@ class CampaignIndex:
             except (OSError, ValueError):
                 self.entries = {}
 
-    def record(self, task, status, **info) -> None:
+    def record(self, task, status, key=None, **info) -> None:
+        """Record ``task`` as ``status`` ('done' or 'failed'); ``key``: the identity of its results."""
         self.entries[task.task_id] = {"status": status, "values": task.values, "replica": task.replica,
-                                      "seed": task.seed, "scene_digest": _digest(task.scene.as_dict()), **info}
+                                      "seed": task.seed, "key": key, **info}
         _write_json(self.path, {"tasks": self.entries})
 
-    def is_done(self, task, result_path) -> bool:
+    def is_done(self, task, key, result_path) -> bool:
+        """Whether ``task`` is done with results of identity ``key`` whose file exists."""
         e = self.entries.get(task.task_id)
-        return (e is not None and e.get("status") == "done" and e.get("scene_digest") == _digest(task.scene.as_dict())
+        return (e is not None and e.get("status") == "done" and key is not None and e.get("key") == key
                 and os.path.isfile(result_path))
 
 
-def _run_task(scene, threads):
-    """Worker side: one task's scene, all periods, in memory (the driver writes it)."""
-    from .. import _config
-    from .runner import run_scene
-
+def _run_unit(scene, index, params, threads):
+    """Worker side: unit ``index`` of a task's scene, in memory (the driver writes it)."""
     _config.set_num_threads(int(threads))
-    return run_scene(scene, None, progress=False)
+    return runner._sensor(scene)[0](scene, index, params)
 
 
 def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, client=None, local=False,
-                 memory_limit=None, progress=True, log=None, on_task=None) -> dict:
+                 memory_limit=None, progress=True, log=None, on_task=None, on_unit=None) -> dict:
     """Run (or resume) every task of a campaign.
 
     Parameters
@@ -159,12 +173,16 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     on_task : callable, optional
         Called as ``on_task(task, status)`` after each task is recorded (a
         hook; an exception it raises stops the campaign, what is recorded stays).
+    on_unit : callable, optional
+        Called as ``on_unit(task, index)`` after each unit of a task is
+        computed and stored (a hook, like ``on_task``; the stored units stay).
 
     Returns
     -------
     dict
         Summary: tasks, done, reused, failed (id, label, error), wall time,
-        simulated hours and throughput.
+        simulated hours and throughput; ``units_reused`` counts the stored
+        units of interrupted tasks that were not computed again.
     """
     if not isinstance(spec, CampaignSpec):
         raise TypeError(f"spec must be a CampaignSpec, got {type(spec).__name__}")
@@ -172,9 +190,7 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     t0 = time.perf_counter()
     tasks = expand(spec)
     out_dir = os.fspath(out_dir)
-    from .store import estimate_bytes, write_results
-
-    preflight(out_dir, sum(estimate_bytes(t.scene) for t in tasks),
+    preflight(out_dir, sum(runner._sensor(t.scene)[1](t.scene) for t in tasks),
               scheduler=scheduler if client is None else None)
     task_dir = os.path.join(out_dir, "tasks")
     os.makedirs(task_dir, exist_ok=True)
@@ -183,36 +199,52 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
                                                         "replica": t.replica, "seed": t.seed} for t in tasks]})
     index = CampaignIndex(out_dir)
     path = {t.task_id: os.path.join(task_dir, f"{t.task_id}.nc") for t in tasks}
-    reused = [t for t in tasks if index.is_done(t, path[t.task_id])]
-    todo = [t for t in tasks if t not in reused]
-    if reused:
-        say(f"{len(reused)} of {len(tasks)} tasks already done in {task_dir}; reused")
-    est = {t.task_id: estimate_task(t.scene) for t in todo}
-    failed = []
-    finished = []
+    units_dir = {t.task_id: os.path.join(task_dir, t.task_id) for t in tasks}
+    failed, finished, reused = [], [], []
 
-    def record(task, status, **info):
-        index.record(task, status, **info)
+    def record(task, status, key=None, **info):
+        index.record(task, status, key=key, **info)
         if status == "failed":
             failed.append({"task_id": task.task_id, "label": task.label(), "error": info.get("error", "")})
-        if on_task is not None:
-            on_task(task, status)
+
+    # every task's scene resolved, its tensor fitted where asked, its stored units loaded: its key is known
+    runs, todo = {}, []
+    for t in tasks:
+        try:
+            runs[t.task_id] = runner.prepare_scene(t.scene, units_dir[t.task_id], check=False)
+        except Exception as e:  # a task's own failure (e.g. an unreadable fit_to record) is recorded
+            record(t, "failed", error=f"{type(e).__name__}: {e}")
+            say(f"task {t.task_id} ({t.label()}) failed: {type(e).__name__}: {e}")
+            if on_task is not None:
+                on_task(t, "failed")
+            continue
+        if index.is_done(t, runs[t.task_id].key(), path[t.task_id]):
+            reused.append(t)
+        else:
+            todo.append(t)
+    if reused:
+        say(f"{len(reused)} of {len(tasks)} tasks already done in {task_dir}; reused")
+    units_reused = sum(len(runs[t.task_id].done) for t in todo)
+    if units_reused:
+        say(f"{units_reused} finished unit(s) of interrupted tasks reused from {task_dir}")
+    est = {t.task_id: estimate_task(t.scene) for t in todo}
 
     cluster = plan = None
     own_client = False
-    if todo and not local and client is None:
+    n_units = sum(len(runs[t.task_id].todo) for t in todo)
+    if n_units and not local and client is None:
         from dask.distributed import Client, LocalCluster
 
         if scheduler is not None:
             client = Client(scheduler, timeout=10)
         else:
-            plan = plan_cluster(len(todo), max(e["memory_bytes"] for e in est.values()), workers)
+            plan = plan_cluster(n_units, max(e["memory_bytes"] for e in est.values()), workers)
             say(f"local Dask cluster: {plan['workers']} workers x {plan['threads']} threads ({plan['why']})")
             cluster = LocalCluster(n_workers=plan["workers"], threads_per_worker=1, processes=True,
                                    memory_limit=memory_limit or plan["memory_limit"], dashboard_address=None)
             client = Client(cluster)
         own_client = True
-    if client is not None and todo:
+    if client is not None and n_units:
         info = client.scheduler_info().get("workers", {})
         limits = [w.get("memory_limit") or math.inf for w in info.values()] or [math.inf]
         limit = memory_limit or min(limits)
@@ -228,6 +260,8 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
             record(t, "failed", error=f"refused before starting: estimated {need / 1e9:.2f} GB, "
                                       f"a worker has {limit / 1e9:.2f} GB")
             say(f"task {t.task_id} ({t.label()}): refused, needs {need / 1e9:.2f} GB > {limit / 1e9:.2f} GB")
+            if on_task is not None:
+                on_task(t, "failed")
         else:
             runnable.append(t)
 
@@ -236,19 +270,11 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     if progress and runnable:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=len(tasks), initial=len(reused) + len(todo) - len(runnable), desc=spec.name, unit="task")
+        bar = tqdm(total=len(tasks), initial=len(tasks) - len(runnable), desc=spec.name, unit="task")
+    pending = {t.task_id: set(runs[t.task_id].todo) for t in runnable}
+    gone = set()  # tasks finished or failed
 
-    def finish(task, ds=None, error=None, wall=float("nan")):
-        nonlocal sim_hours
-        if error is None:
-            write_results(ds, path[task.task_id])
-            hours = task.scene.simulated_hours()
-            sim_hours += hours
-            finished.append(task)
-            record(task, "done", wall_s=round(wall, 3), sim_hours=hours, result=os.path.relpath(path[task.task_id], out_dir))
-        else:
-            record(task, "failed", error=f"{type(error).__name__}: {error}")
-            say(f"task {task.task_id} ({task.label()}) failed: {type(error).__name__}: {error}")
+    def report(task, error=None):
         elapsed = time.perf_counter() - t0
         rate = sim_hours / (elapsed / 3600.0) if elapsed > 0 else 0.0
         if bar is not None:
@@ -260,35 +286,73 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
             eta = elapsed / max(1, len(finished) + len(failed)) * left
             say(f"[{n_done}/{len(tasks)}] {task.task_id} {'done' if error is None else 'failed'}; "
                 f"{rate:.1f} sim-h/wall-h; ETA {eta:.0f} s")
+        if on_task is not None:
+            on_task(task, "done" if error is None else "failed")
+
+    def task_failed(task, error):
+        gone.add(task.task_id)
+        record(task, "failed", error=f"{type(error).__name__}: {error}")
+        say(f"task {task.task_id} ({task.label()}) failed: {type(error).__name__}: {error}")
+        report(task, error)
+
+    def task_done(task, started):
+        nonlocal sim_hours
+        gone.add(task.task_id)
+        run = runs[task.task_id]
+        write_results(run.assemble(started), path[task.task_id])
+        hours = task.scene.simulated_hours()
+        sim_hours += hours
+        finished.append(task)
+        record(task, "done", key=run.key(), wall_s=round(time.perf_counter() - started, 3), sim_hours=hours,
+               result=os.path.relpath(path[task.task_id], out_dir))
+        shutil.rmtree(units_dir[task.task_id], ignore_errors=True)  # the task's file holds every unit now
+        report(task)
+
+    def unit_done(task, i, ds, started):
+        runs[task.task_id].finish(i, ds)  # stored at once, even for a task that failed meanwhile
+        if on_unit is not None:
+            on_unit(task, i)
+        pending[task.task_id].discard(i)
+        if not pending[task.task_id] and task.task_id not in gone:
+            task_done(task, started)
 
     try:
-        if client is not None and runnable:
+        for t in runnable:  # interrupted after its last unit: only the assembly is left
+            if not pending[t.task_id]:
+                task_done(t, time.perf_counter())
+        if client is not None and n_units:
             from dask.distributed import as_completed
 
-            futures = {client.submit(_run_task, t.scene, threads, pure=False, key=f"task-{t.task_id}"): t
-                       for t in runnable}
+            futures = {}
+            for t in runnable:
+                run = runs[t.task_id]
+                for i in run.todo:
+                    futures[client.submit(_run_unit, run.scene, i, run.params, threads, pure=False,
+                                          key=f"unit-{t.task_id}-{i}")] = (t, i)
             started = time.perf_counter()
             try:
                 for fut in as_completed(futures):
-                    t = futures[fut]
+                    t, i = futures[fut]
                     try:
                         ds = fut.result()
-                    except Exception as e:  # a task's own failure is recorded; the campaign goes on
-                        finish(t, error=e)
-                    else:
-                        finish(t, ds, wall=time.perf_counter() - started)
+                    except Exception as e:  # a unit's own failure fails its task; the campaign goes on
+                        if t.task_id not in gone:
+                            task_failed(t, e)
+                        continue
+                    unit_done(t, i, ds, started)
             finally:
                 for fut in futures:
                     fut.cancel()
         else:
             for t in runnable:
-                s = time.perf_counter()
-                try:
-                    ds = _run_task(t.scene, threads)
-                except Exception as e:  # a task's own failure is recorded; the campaign goes on
-                    finish(t, error=e)
-                else:
-                    finish(t, ds, wall=time.perf_counter() - s)
+                run, started = runs[t.task_id], time.perf_counter()
+                for i in run.todo:
+                    try:
+                        ds = _run_unit(run.scene, i, run.params, threads)
+                    except Exception as e:  # a unit's own failure fails its task; the campaign goes on
+                        task_failed(t, e)
+                        break
+                    unit_done(t, i, ds, started)
     finally:
         if bar is not None:
             bar.close()
@@ -298,8 +362,8 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
             cluster.close()
     wall = time.perf_counter() - t0
     summary = {"campaign": spec.name, "out": out_dir, "tasks": len(tasks), "done": len(finished) + len(reused),
-               "computed": len(finished), "reused": len(reused), "failed": failed, "wall_s": round(wall, 2),
-               "sim_hours_computed": round(sim_hours, 3),
+               "computed": len(finished), "reused": len(reused), "units_reused": units_reused, "failed": failed,
+               "wall_s": round(wall, 2), "sim_hours_computed": round(sim_hours, 3),
                "throughput_sim_h_per_wall_h": round(sim_hours / (wall / 3600.0), 1) if wall > 0 else None}
     _write_json(os.path.join(out_dir, "summary.json"), summary)
     return summary
@@ -327,8 +391,6 @@ def merge_campaign(out_dir, *, keep_series=False, band=(0.02, 0.6)):
     """
     import numpy as np
     import xarray as xr
-
-    from .store import read_results
 
     out_dir = os.fspath(out_dir)
     try:
@@ -377,8 +439,6 @@ def merge_campaign(out_dir, *, keep_series=False, band=(0.02, 0.6)):
     else:  # replicas only
         merged = merged.swap_dims(task="replica").drop_vars("task")
     # a zipped partner key is a function of its group's first key: one value along that dimension
-    from .sweep import _expand_values
-
     for dim, group in zip(dims, sweep):
         keys = list(group)
         vals = {k: _expand_values(k, v) for k, v in group.items()}

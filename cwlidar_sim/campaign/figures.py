@@ -13,6 +13,8 @@ import os
 
 import numpy as np
 
+from .figures_cs import make_cs_figures
+
 __all__ = [
     "plot_spectra",
     "plot_transfer",
@@ -230,8 +232,6 @@ def plot_estimator_theory(ds, i=None):
 def make_figures(ds, out_dir) -> list:
     """Write every figure as PNG into ``out_dir``; returns the paths (conical scenes: :mod:`.figures_cs`)."""
     if ds.attrs.get("sensor") == "conical":
-        from .figures_cs import make_cs_figures
-
         return make_cs_figures(ds, out_dir)
     plt = _plt()
     os.makedirs(out_dir, exist_ok=True)

@@ -1,15 +1,20 @@
-"""Run a scene: plan each period's field, run its sensors and analyses, keep every finished period.
+"""Run a scene: dispatch its units by scene kind, keep every finished unit, assemble the results.
 
-The runner is sensor-agnostic: a period task (today the staring lidar
-against a sonic, :mod:`cwlidar_sim.campaign.staring`) turns one period of a
-scene into a one-period xarray.Dataset; the runner checks before computing
-that the results can be written (:func:`cwlidar_sim.campaign.store.preflight`),
-reuses the periods an earlier run finished, runs the others here or on a Dask
-cluster, writes each as it finishes (:class:`~cwlidar_sim.campaign.store.PeriodStore`)
-and assembles the scene's file from the period files.
+The runner is the top of the campaign layer and sensor-agnostic: a scene's
+kind names its unit task -- one period of a staring scene
+(:func:`cwlidar_sim.campaign.staring.run_period`), one (period, height) or
+one cycling period of a conical scene (:func:`cwlidar_sim.campaign.conical.run_unit`)
+-- which turns one unit into an xarray.Dataset on ``period``.  The runner
+resolves the scene's automatic settings, checks before computing that the
+results can be written (:func:`cwlidar_sim.campaign.store.preflight`), reuses
+the units an earlier run finished, runs the others here or on a Dask cluster,
+writes each as it finishes (:class:`~cwlidar_sim.campaign.store.PeriodStore`)
+and assembles the scene's file from the unit files.  :func:`prepare_scene` and
+:class:`SceneRun` are those steps one by one, for drivers that schedule the
+units themselves (the campaign's :mod:`cwlidar_sim.campaign.batch`).
 
-Each period is independent and seeded from the scene (see
-:meth:`Scene.period_seed`), so a scene gives the same bits whether its periods
+Each unit is independent and seeded from the scene (see
+:meth:`Scene.period_seed`), so a scene gives the same bits whether its units
 run one after the other here, on the workers of a Dask cluster, or across an
 interrupted run and its resumption.
 """
@@ -18,191 +23,19 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import os
 import time
 
-import numpy as np
-
+from . import conical, staring, store
+from .auto import resolve
+from .conical_scene import ConicalScene
+from .planning import FieldPlan, choose_field, generate_field, plan_field, scene_params
 from .scene import Scene
+from .spec import RESULTS_VERSION
+from .store import PeriodStore, combine_periods, preflight, scene_digest, write_results
 
 __all__ = ["FieldPlan", "choose_field", "plan_field", "generate_field", "run_scene", "scene_params",
-           "RESULTS_VERSION"]
-
-#: Version of the results layout (part of a stored period's identity).
-RESULTS_VERSION = 2
-
-
-@dataclasses.dataclass(frozen=True)
-class FieldPlan:
-    """Geometry and field of one period.
-
-    Attributes
-    ----------
-    kind : str
-        'line', 'plane' or 'box'.
-    reason : str
-        Why this kind (printed by the runner).
-    shape : tuple of int
-        Field points (Nx[, Ny[, Nz]]).
-    spacing : tuple of float
-        Field spacing [m].
-    lidar_position : ndarray, shape (3,)
-        Telescope position [m] in the field's frame.
-    direction : ndarray, shape (3,)
-        Unit beam direction [-] (upwind, rotated by the misalignment).
-    sonic_position : ndarray, shape (3,)
-        Sonic position [m].
-    wrap : bool
-        Whether y and z are periodic for the sampling (planes and boxes).
-    """
-
-    kind: str
-    reason: str
-    shape: tuple
-    spacing: tuple
-    lidar_position: np.ndarray
-    direction: np.ndarray
-    sonic_position: np.ndarray
-    wrap: bool
-
-
-def scene_params(scene: Scene):
-    """Mann parameters of a scene: given, or fitted to its sonic record.
-
-    Returns
-    -------
-    (MannParameters, dict or None)
-        The parameters and, for ``fit_to``, the fit's summary.
-    """
-    p = scene.turbulence.params()
-    if p is not None:
-        return p, None
-    return _fit_record(scene.resolve(scene.turbulence.fit_to), scene)
-
-
-def _fit_record(path, scene):
-    import xarray as xr
-
-    if not os.path.isfile(path):
-        raise ValueError(f"turbulence.fit_to: no such file {path!r}")
-
-    from ..analysis import component_spectra, fit_mann, log_bins
-
-    try:
-        rec = xr.open_dataset(path, engine="h5netcdf")
-    except (OSError, ValueError) as e:
-        raise ValueError(f"turbulence.fit_to: cannot read {path!r} as NetCDF: {e}") from None
-    with rec:
-        missing = [c for c in ("u", "v", "w") if c not in rec]
-        if missing or "time" not in rec.coords:
-            raise ValueError(f"turbulence.fit_to: {path!r} needs variables u, v, w on a 'time' coordinate [s]; "
-                             f"missing: {missing or ['time']}")
-        t = np.asarray(rec["time"].values, dtype=np.float64)
-        u, v, w = (np.asarray(rec[c].values, dtype=np.float64) for c in ("u", "v", "w"))
-    dt = np.diff(t)
-    if t.size < 64 or not np.allclose(dt, dt[0], rtol=1e-6):
-        raise ValueError(f"turbulence.fit_to: {path!r} needs >= 64 uniformly spaced samples")
-    fs = 1.0 / dt[0]
-    U = float(np.nanmean(u))
-    if not U > 0.5:
-        raise ValueError(f"turbulence.fit_to: mean u of {path!r} is {U:.3g} m/s; the fit needs u along a "
-                         f"mean wind > 0.5 m/s (Taylor's hypothesis)")
-    a = scene.analysis
-    seg = min(a.segment_duration, t.size / fs)
-    k_edges = log_bins(max(a.k_min, 2 * math.pi / (seg * U)), min(a.k_max, math.pi * fs / U), a.per_decade)
-    k, F11, F22, F33, F13, nk = component_spectra(u, v, w, fs=fs, U=U, k_edges=k_edges, segment_duration=seg)
-    fit = fit_mann(k, F11, F22, F33, F13, n_k=nk)
-    return fit.params, {"path": os.path.abspath(path), "mean_speed": U, "std": dict(fit.std),
-                        "residual_rms": float(fit.residual_rms)}
-
-
-def choose_field(scene: Scene, period) -> tuple[str, str]:
-    """The cheapest field kind holding the scene's sensors during ``period``, and why.
-
-    * line: beam horizontal and aligned with the wind (misalignment 0) and the
-      sonic on the beam's line (offset y = z = 0): every sensor point lies on
-      one line along x;
-    * plane: beam horizontal and the sonic at the beam's height;
-    * box: otherwise.
-
-    A forced ``field.kind`` is checked against the same conditions.
-    """
-    el = scene.lidar.elevation_deg
-    off = scene.sonic.offset
-    line_ok = el == 0.0 and period.misalignment_deg == 0.0 and off[1] == 0.0 and off[2] == 0.0
-    plane_ok = el == 0.0 and off[2] == 0.0
-    forced = scene.field.kind
-    if forced == "line" and not line_ok:
-        raise ValueError(f"field.kind = 'line' cannot hold period {period.name!r}: a line needs a horizontal beam "
-                         f"aligned with the wind (misalignment {period.misalignment_deg} deg, elevation {el} deg) "
-                         f"and the sonic on it (offset {off})")
-    if forced == "plane" and not plane_ok:
-        raise ValueError(f"field.kind = 'plane' cannot hold period {period.name!r}: a plane needs a horizontal beam "
-                         f"(elevation {el} deg) and the sonic at its height (offset z = {off[2]} m)")
-    if forced != "auto":
-        return forced, f"forced by field.kind = {forced!r}"
-    if line_ok:
-        return "line", "beam aligned with the wind and sonic on the beam: one line along x holds every sensor"
-    if plane_ok:
-        return "plane", (f"horizontal beam misaligned by {period.misalignment_deg} deg: one horizontal plane holds "
-                         f"every sensor")
-    return "box", "beam or sonic off a horizontal plane: a 3-D box is needed"
-
-
-def _pow2_at_least(n, lo=32):
-    return 1 << max(int(math.ceil(math.log2(max(n, lo)))), int(math.log2(lo)))
-
-
-def plan_field(scene: Scene, index: int, params) -> FieldPlan:
-    """Field kind, size and sensor geometry of period ``index``."""
-    from scipy.fft import next_fast_len
-
-    from ..beam.sampling import direction_from_angles
-
-    period = scene.periods[index]
-    kind, reason = choose_field(scene, period)
-    inst = scene.lidar.build_instrument()
-    r = inst.focus
-    zR = inst.rayleigh_length
-    reach = scene.lidar.span * zR
-    n = np.asarray(direction_from_angles(180.0 + period.misalignment_deg, scene.lidar.elevation_deg), dtype=np.float64)
-    r_lo, r_hi = max(0.0, r - reach), r + reach
-    off = np.asarray(scene.sonic.offset)
-    # Points relative to the telescope: the beam's ends and the sonic.
-    rel = np.stack([r_lo * n, r_hi * n, r * n + off, np.zeros(3)])
-    lo, hi = rel.min(axis=0), rel.max(axis=0)
-    f = scene.field
-    U = period.mean_speed
-    T = scene.period_duration(period)
-    L = params.length_scale
-    nx = next_fast_len(int(math.ceil((U * T + (hi[0] - lo[0]) + 4 * f.dx) / f.dx)), real=True)
-    shape, spacing = [nx], [f.dx]
-    pos = np.zeros(3)
-    pos[0] = -lo[0] + 2 * f.dx
-    if kind in ("plane", "box"):
-        ny = f.ny or _pow2_at_least((hi[1] - lo[1] + 4 * L) / f.dy)
-        shape.append(ny)
-        spacing.append(f.dy)
-        pos[1] = 0.5 * (ny - 1) * f.dy - 0.5 * (hi[1] + lo[1])
-    if kind == "box":
-        nz = f.nz or _pow2_at_least((hi[2] - lo[2] + 4 * L) / f.dz)
-        shape.append(nz)
-        spacing.append(f.dz)
-        pos[2] = 0.5 * (nz - 1) * f.dz - 0.5 * (hi[2] + lo[2])
-    return FieldPlan(kind, reason, tuple(int(s) for s in shape), tuple(spacing), pos, n, pos + r * n + off,
-                     kind != "line")
-
-
-def generate_field(plan: FieldPlan, params, seed):
-    """The turbulence field of ``plan`` (line, plane or box), seeded."""
-    from ..turbulence import generate_box, generate_line, generate_plane
-
-    if plan.kind == "line":
-        return generate_line(params, plan.shape[0], plan.spacing[0], seed)
-    if plan.kind == "plane":
-        return generate_plane(params, plan.shape, plan.spacing, seed, z=float(plan.lidar_position[2]))
-    return generate_box(params, plan.shape, plan.spacing, seed)
+           "RESULTS_VERSION", "SceneRun", "prepare_scene"]
 
 
 def _sensor(scene):
@@ -210,20 +43,126 @@ def _sensor(scene):
 
     The unit task maps (scene, index, params, status=...) to a one-unit
     Dataset (dimension ``period``); the finishing step, if any, turns the
-    joined units into the scene's results.
+    joined units into the scene's results.  Looked up at call time, so a
+    replaced task (a test's counter) is the one that runs.
     """
-    from .conical import ConicalScene
-
     if isinstance(scene, ConicalScene):
-        from .conical import estimate_bytes, run_unit, summarise
-
-        return run_unit, estimate_bytes, summarise
+        return conical.run_unit, conical.estimate_bytes, conical.summarise
     if isinstance(scene, Scene):
-        from .staring import run_period
-        from .store import estimate_bytes
-
-        return run_period, estimate_bytes, None
+        return staring.run_period, store.estimate_bytes, None
     raise TypeError(f"scene must be a Scene or a ConicalScene, got {type(scene).__name__}")
+
+
+@dataclasses.dataclass
+class SceneRun:
+    """A scene ready to compute (:func:`prepare_scene`): what is reused, what is left, where it goes.
+
+    Attributes
+    ----------
+    scene : Scene or ConicalScene
+        The scene with its automatic settings resolved.
+    params : MannParameters or None
+        The staring scene's tensor (given or fitted); None for a conical scene.
+    fit_info : dict or None
+        The fit's summary for ``turbulence.fit_to``.
+    auto_why : dict
+        Each automatic setting's choice and why.
+    store : PeriodStore or None
+        The unit files (None: nothing is written).
+    names : list of str
+        The units' names.
+    done : dict
+        Unit index -> its Dataset (reused, or finished by this run).
+    reused : list of str
+        Names of the units taken from disk.
+    task, finalise : callable
+        The unit task and the scene kind's finishing step (or None).
+    """
+
+    scene: object
+    params: object
+    fit_info: dict | None
+    auto_why: dict
+    store: PeriodStore | None
+    names: list
+    done: dict
+    reused: list
+    task: object
+    finalise: object
+
+    @property
+    def todo(self) -> list:
+        """Indices of the units still to compute, in run order."""
+        return [i for i in range(len(self.names)) if i not in self.done]
+
+    def key(self) -> str:
+        """Identity of the whole scene's results (:func:`cwlidar_sim.campaign.store.scene_digest`)."""
+        return scene_digest(self.scene, self.params)
+
+    def finish(self, index: int, ds, log=None):
+        """Keep unit ``index``'s Dataset: written to the store (and read back) first, if there is one."""
+        if self.store is not None:
+            ds = self.store.save(index, ds)
+            if log is not None:
+                log(f"period {self.names[index]}: written to {self.store.path(index)}")
+        self.done[index] = ds
+        return ds
+
+    def assemble(self, t0: float):
+        """The scene's results from every unit (all must be done), with the run's attributes."""
+        ds = combine_periods([self.done[i] for i in range(len(self.names))])
+        if self.finalise is not None:
+            ds = self.finalise(ds)
+        ds.attrs["wall_time"] = float(time.perf_counter() - t0)
+        ds.attrs["periods_reused"] = json.dumps(self.reused)
+        ds.attrs["auto_choice"] = json.dumps(self.auto_why)
+        if self.fit_info is not None:
+            ds.attrs["turbulence_fit"] = json.dumps(self.fit_info)
+        return ds
+
+
+def prepare_scene(scene, out_dir=None, *, log=None, check: bool = True) -> SceneRun:
+    """Resolve a scene's automatic settings and tensor, check the output, load the finished units.
+
+    Parameters
+    ----------
+    scene : Scene or ConicalScene
+    out_dir : str or path, optional
+        Folder of the unit files ``<scene.name>.periods/`` (None: none).
+    log : callable, optional
+        Receives one line per decision.
+    check : bool
+        Run :func:`~cwlidar_sim.campaign.store.preflight` on ``out_dir``
+        (a caller that checked the whole output already passes False).
+    """
+    say = log or (lambda s: None)
+    task, estimate_bytes, finalise = _sensor(scene)
+    auto_why = {}
+    if scene.kind == "staring":  # "auto" tier / field.dx / cell_length: the cheapest sufficient setting
+        scene, auto_why = resolve(scene)
+    for key, why in auto_why.items():
+        say(f"{key} = {why}")
+    if check:
+        preflight(out_dir, estimate_bytes(scene))
+    params = fit_info = None
+    if scene.kind == "staring":
+        params, fit_info = scene_params(scene)
+        if fit_info is not None:
+            say(f"turbulence fitted to {fit_info['path']}: {params}")
+        for p in scene.periods:
+            kind, why = choose_field(scene, p)
+            say(f"period {p.name}: {kind} field ({why})")
+    names = scene.unit_names()
+    st = PeriodStore(out_dir, scene, params) if out_dir is not None else None
+    done = {}
+    if st is not None:
+        for i, name in enumerate(names):
+            ds = st.load(i)
+            if ds is not None:
+                done[i] = ds
+                say(f"period {name}: reused {st.path(i)}")
+    return SceneRun(scene=scene, params=params, fit_info=fit_info, auto_why=auto_why, store=st, names=names,
+                    done=done, reused=[names[i] for i in sorted(done)], task=task, finalise=finalise)
 
 
 def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True, log=None, on_period=None):
@@ -264,51 +203,20 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
     ResultsWriteError
         When writing a finished period fails (the periods written before stay).
     """
-    from .store import PeriodStore, combine_periods, preflight, write_results
-
-    task, estimate_bytes, finalise = _sensor(scene)
-    from .auto import resolve
-
     say = log or (lambda s: None)
     t0 = time.perf_counter()
-    auto_why = {}
-    if scene.kind == "staring":  # "auto" tier / field.dx / cell_length: the cheapest sufficient setting
-        scene, auto_why = resolve(scene)
-    for key, why in auto_why.items():
-        say(f"{key} = {why}")
-    preflight(out_dir, estimate_bytes(scene))
-    params = fit_info = None
-    if scene.kind == "staring":
-        params, fit_info = scene_params(scene)
-        if fit_info is not None:
-            say(f"turbulence fitted to {fit_info['path']}: {params}")
-        for p in scene.periods:
-            kind, why = choose_field(scene, p)
-            say(f"period {p.name}: {kind} field ({why})")
-    names = scene.unit_names()
-    store = PeriodStore(out_dir, scene, params) if out_dir is not None else None
-    done = {}
-    if store is not None:
-        for i, name in enumerate(names):
-            ds = store.load(i)
-            if ds is not None:
-                done[i] = ds
-                say(f"period {name}: reused {store.path(i)}")
-    reused = [names[i] for i in sorted(done)]
-    todo = [i for i in range(len(names)) if i not in done]
+    run = prepare_scene(scene, out_dir, log=say)
+    scene, names, todo = run.scene, run.names, run.todo
 
     def finish(i, ds):
-        if store is not None:
-            ds = store.save(i, ds)
-            say(f"period {names[i]}: written to {store.path(i)}")
-        done[i] = ds
+        ds = run.finish(i, ds, say)
         if on_period is not None:
             on_period(i, ds)
 
     if client is not None and todo:
         from dask.distributed import as_completed
 
-        futures = {client.submit(task, scene, i, params, pure=False): i for i in todo}
+        futures = {client.submit(run.task, scene, i, run.params, pure=False): i for i in todo}
         try:
             for fut in as_completed(futures):
                 finish(futures[fut], fut.result())
@@ -320,25 +228,18 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         if progress:
             from tqdm.auto import tqdm
 
-            bar = tqdm(total=len(names), initial=len(done), desc=scene.name, unit="period")
+            bar = tqdm(total=len(names), initial=len(run.done), desc=scene.name, unit="period")
         try:
             for i in todo:
                 status = (lambda s, b=bar: b.set_postfix_str(s, refresh=True)) if bar is not None else None
-                finish(i, task(scene, i, params, status=status))
+                finish(i, run.task(scene, i, run.params, status=status))
                 if bar is not None:
                     bar.update(1)
         finally:
             if bar is not None:
                 bar.close()
-    ds = combine_periods([done[i] for i in range(len(names))])
-    if finalise is not None:
-        ds = finalise(ds)
-    ds.attrs["wall_time"] = float(time.perf_counter() - t0)
-    ds.attrs["periods_reused"] = json.dumps(reused)
-    ds.attrs["auto_choice"] = json.dumps(auto_why)
-    if fit_info is not None:
-        ds.attrs["turbulence_fit"] = json.dumps(fit_info)
-    if store is not None:
+    ds = run.assemble(t0)
+    if run.store is not None:
         path = os.path.join(os.fspath(out_dir), f"{scene.name}.nc")
         write_results(ds, path)
         say(f"results written to {path}")

@@ -50,11 +50,16 @@ from __future__ import annotations
 import dataclasses
 import os
 
-from .._validation import check_choice, check_int, check_keys, check_real, check_seed
+from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
+from .conical_scene import ConicalScene
+from .lidar_spec import CHAIN_TIERS, LidarSpecBase
+from .spec import (SCENE_KINDS, Spec, check_periods, check_scene_keys, check_scene_name, parse_toml,
+                   periods_from_dict, read_text_file, set_field)
 
 __all__ = [
     "FIELD_KINDS",
     "TIERS",
+    "SCENE_KINDS",
     "TurbulenceSpec",
     "LidarSpec",
     "SonicSpec",
@@ -64,58 +69,16 @@ __all__ = [
     "Scene",
     "load_scene",
     "loads_scene",
+    "scene_from_dict",
 ]
 
 FIELD_KINDS = ("auto", "line", "plane", "box")
-TIERS = ("los", "spectral", "signal")
-
-
-def _set(obj, name, value):
-    object.__setattr__(obj, name, value)
-
-
-def _asdict(obj) -> dict:
-    """Plain dict of a spec, dropping None values (TOML has no null)."""
-    out = {}
-    for f in dataclasses.fields(obj):
-        v = getattr(obj, f.name)
-        if v is None:
-            continue
-        if dataclasses.is_dataclass(v):
-            v = v.as_dict()
-        elif isinstance(v, tuple) and v and dataclasses.is_dataclass(v[0]):
-            v = [x.as_dict() for x in v]
-        elif isinstance(v, tuple):
-            v = list(v)
-            v = [dict(x) if isinstance(x, dict) else x for x in v]
-        elif isinstance(v, dict):
-            v = dict(v)
-        out[f.name] = v
-    return out
-
-
-def _check_bool(name, value):
-    if not isinstance(value, bool):
-        raise TypeError(f"{name} must be true or false, got {value!r}")
-    return value
-
-
-def _check_str(name, value, *, allow_empty=False):
-    if not isinstance(value, str):
-        raise TypeError(f"{name} must be a string, got {type(value).__name__}")
-    if not allow_empty and not value:
-        raise ValueError(f"{name} must not be empty")
-    return value
-
-
-def _check_vec3(name, value):
-    if not isinstance(value, (list, tuple)) or len(value) != 3:
-        raise ValueError(f"{name} must be a list of 3 numbers [m], got {value!r}")
-    return tuple(check_real(f"{name}[{i}]", v, lo=-1e6, hi=1e6) for i, v in enumerate(value))
+TIERS = CHAIN_TIERS
+_set = set_field
 
 
 @dataclasses.dataclass(frozen=True)
-class TurbulenceSpec:
+class TurbulenceSpec(Spec):
     """Turbulence of the scene: Mann parameters, or a sonic record to fit them to.
 
     Parameters
@@ -141,7 +104,7 @@ class TurbulenceSpec:
     def __post_init__(self):
         given = [x is not None for x in (self.alpha_eps, self.length_scale, self.gamma)]
         if self.fit_to is not None:
-            _check_str("turbulence.fit_to", self.fit_to)
+            check_str("turbulence.fit_to", self.fit_to)
             if any(given):
                 raise ValueError("turbulence: give either fit_to or alpha_eps/length_scale/gamma, not both")
             return
@@ -162,138 +125,36 @@ class TurbulenceSpec:
 
         return MannParameters(self.alpha_eps, self.length_scale, self.gamma)
 
-    def as_dict(self) -> dict:
-        return _asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "TurbulenceSpec":
-        check_keys(cls, d)
-        return cls(**d)
-
 
 @dataclasses.dataclass(frozen=True)
-class LidarSpec:
-    """The staring lidar.
+class LidarSpec(LidarSpecBase):
+    """The staring lidar: the ``[lidar]`` keys of every scene kind and the beam's elevation.
+
+    Every key of :class:`cwlidar_sim.campaign.lidar_spec.LidarSpecBase` (the
+    instrument, the signal chain, the probe volume and its tail, a cloud,
+    processing variants), with ``tier`` also ``'auto'`` (the cheapest tier
+    sufficient for what the scene asks, :mod:`cwlidar_sim.campaign.auto`) and
+    ``cell_length`` also ``'auto'``; ``cell_length`` None is the field's x
+    spacing; ``transverse_speed`` None is ``sqrt(sigma_v^2 + sigma_w^2 + (U sin theta)^2)``
+    from the turbulence and the period's misalignment.
 
     Parameters
     ----------
-    preset : {'prototype', 'cs'}
-        Instrument preset (:func:`cwlidar_sim.signal.instrument.preset`).
-    instrument : dict
-        Field-by-field overrides of the preset (e.g. ``focus``,
-        ``estimator``, ``threshold_raise_percent``); validated by
-        :class:`~cwlidar_sim.signal.Instrument`.
-    tier : {'los', 'spectral', 'signal', 'auto'}
-        Fidelity tier (tier 'signal' only for short records); 'auto': the
-        cheapest one sufficient for what the scene asks
-        (:mod:`cwlidar_sim.campaign.auto`).
-    cnr_db : float
-        Carrier-to-noise ratio [dB]; in [-40, 60]: total signal power over
-        the noise power in 0 .. f_s/2 (see :mod:`cwlidar_sim.signal.spectral`).
-        A shot-noise-limited 1 W lidar at 1.55 um gives about -13 to -3 dB.
-    weighting : {'exact', 'lorentzian'}
-        Beam weighting along the line of sight.
-    span : float
-        Half-width of the modelled probe volume in Rayleigh lengths [-]; in (0, 200].
-    cell_length : float or 'auto', optional
-        Range-cell length [m]; default the field's x spacing; 'auto': see
-        :mod:`cwlidar_sim.campaign.auto`.
-    transverse_speed : float, optional
-        Aerosol speed across the beam [m/s] that sets the speckle
-        correlation time; default ``sqrt(sigma_v^2 + sigma_w^2 + (U sin theta)^2)``
-        from the turbulence and the period's misalignment.
     elevation_deg : float
         Beam elevation [deg]; in [-89, 89].  Non-zero needs a box field.
-    speckle : {'continuum', 'independent', 'coherent'}
-        Speckle model (:class:`cwlidar_sim.sensors.StaringLidar`): cells as
-        continua of scatterers with the sub-cell speed spread of the field's
-        tensor (default; converges with the cell count, tiers 2 and 3
-        agree), or tier 2's gain of point cells per bin or per estimate.
-    exact_background : bool
-        Use the exact noise floor instead of a measured background.
-    background_pause : bool
-        Pause 10 min every 3 h to measure the background (A2012: duty cycle
-        94.5 %); the paused estimates are NaN and flagged.
-    line_broadening : float
-        Instrument broadening of the Doppler line (laser line width and phase
-        noise) as the standard deviation of a Gaussian in frequency [Hz]; in
-        [0, 5e6] (0: none).  It acts exactly like a sub-cell speed spread of
-        ``lambda / 2`` times it, added in quadrature to the tensor's
-        (continuum speckle, tiers 2 and 3).
-    variants : list of dict
-        Extra processings of the same spectra, each with a ``name`` and
-        instrument overrides (e.g. ``{name = "raise10",
-        threshold_raise_percent = 10}``, ``{name = "peak", estimator = "peak"}``).
     """
 
-    preset: str = "prototype"
-    instrument: dict = dataclasses.field(default_factory=dict)
-    tier: str = "spectral"
-    cnr_db: float = -10.0
-    weighting: str = "exact"
-    span: float = 20.0
-    cell_length: float | None = None
-    transverse_speed: float | None = None
     elevation_deg: float = 0.0
-    speckle: str = "continuum"
-    exact_background: bool = False
-    background_pause: bool = False
-    variants: tuple = ()
-    line_broadening: float = 0.0
+
+    _tiers = CHAIN_TIERS + ("auto",)
 
     def __post_init__(self):
-        from ..sensors.lidar import _variant_instruments
-        from ..signal.instrument import PRESETS
-
-        check_choice("lidar.preset", self.preset, tuple(PRESETS))
-        if not isinstance(self.instrument, dict):
-            raise TypeError(f"lidar.instrument must be a table of overrides, got {type(self.instrument).__name__}")
-        self.build_instrument()
-        check_choice("lidar.tier", self.tier, TIERS + ("auto",))
-        _set(self, "cnr_db", check_real("lidar.cnr_db", self.cnr_db, lo=-40.0, hi=60.0))
-        check_choice("lidar.weighting", self.weighting, ("exact", "lorentzian"))
-        _set(self, "span", check_real("lidar.span", self.span, lo=0.0, hi=200.0, lo_open=True))
-        if self.cell_length is not None and self.cell_length != "auto":
-            _set(self, "cell_length", check_real("lidar.cell_length", self.cell_length, lo=0.01, hi=100.0))
-        if self.transverse_speed is not None:
-            _set(self, "transverse_speed", check_real("lidar.transverse_speed", self.transverse_speed, lo=0.0, hi=100.0))
+        super().__post_init__()
         _set(self, "elevation_deg", check_real("lidar.elevation_deg", self.elevation_deg, lo=-89.0, hi=89.0))
-        check_choice("lidar.speckle", self.speckle, ("continuum", "independent", "coherent"))
-        _check_bool("lidar.exact_background", self.exact_background)
-        _check_bool("lidar.background_pause", self.background_pause)
-        _set(self, "line_broadening", check_real("lidar.line_broadening", self.line_broadening, lo=0.0, hi=5e6))
-        variants = tuple(self.variants)
-        for i, v in enumerate(variants):
-            if isinstance(v, dict) and v.get("name") == "main":
-                raise ValueError(f"lidar.variants[{i}].name 'main' is reserved for the lidar's own processing")
-        # the sensor's own check: names, and only the processing fields (the spectra stay the same)
-        _variant_instruments(self.build_instrument(), [dict(v) if isinstance(v, dict) else v for v in variants])
-        _set(self, "variants", tuple(dict(v) for v in variants))
-
-    def build_instrument(self, extra=None):
-        """The Instrument: the preset with ``instrument`` and then ``extra`` overrides applied."""
-        from ..signal.instrument import Instrument, preset
-
-        d = dict(self.instrument)
-        d.update(extra or {})
-        return Instrument.from_dict(d, base=preset(self.preset))
-
-    def as_dict(self) -> dict:
-        return _asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "LidarSpec":
-        check_keys(cls, d)
-        d = dict(d)
-        if "variants" in d:
-            if not isinstance(d["variants"], (list, tuple)):
-                raise TypeError("lidar.variants must be a list of tables")
-            d["variants"] = tuple(d["variants"])
-        return cls(**d)
 
 
 @dataclasses.dataclass(frozen=True)
-class SonicSpec:
+class SonicSpec(Spec):
     """The sonic anemometer.
 
     Parameters
@@ -314,26 +175,18 @@ class SonicSpec:
     def __post_init__(self):
         _set(self, "rate", check_real("sonic.rate", self.rate, lo=32.0, hi=32.0))
         _set(self, "noise_std", check_real("sonic.noise_std", self.noise_std, lo=0.0, hi=10.0))
-        _set(self, "offset", _check_vec3("sonic.offset", self.offset))
-
-    def as_dict(self) -> dict:
-        return _asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "SonicSpec":
-        check_keys(cls, d)
-        return cls(**d)
+        _set(self, "offset", check_vec3("sonic.offset", self.offset))
 
 
 @dataclasses.dataclass(frozen=True)
-class FieldSpec:
+class FieldSpec(Spec):
     """Which turbulence field to generate and its resolution.
 
     Parameters
     ----------
     kind : {'auto', 'line', 'plane', 'box'}
         'auto' picks the cheapest field the sensors need (see
-        :func:`cwlidar_sim.campaign.runner.choose_field`); the others force it
+        :func:`cwlidar_sim.campaign.planning.choose_field`); the others force it
         (a forced field that cannot hold the sensors is an error).
     dx : float or 'auto'
         Spacing along the wind [m]; in [0.05, 10]; 'auto': see
@@ -367,17 +220,9 @@ class FieldSpec:
         if self.nz is not None:
             _set(self, "nz", check_int("field.nz", self.nz, lo=2, hi=4096))
 
-    def as_dict(self) -> dict:
-        return _asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "FieldSpec":
-        check_keys(cls, d)
-        return cls(**d)
-
 
 @dataclasses.dataclass(frozen=True)
-class AnalysisSpec:
+class AnalysisSpec(Spec):
     """Spectral analysis settings (A2012 section V).
 
     Parameters
@@ -421,23 +266,15 @@ class AnalysisSpec:
         _set(self, "k_min", check_real("analysis.k_min", self.k_min, lo=0.0, hi=100.0, lo_open=True))
         _set(self, "k_max", check_real("analysis.k_max", self.k_max, lo=self.k_min, hi=1000.0, lo_open=True))
         _set(self, "per_decade", check_int("analysis.per_decade", self.per_decade, lo=2, hi=100))
-        _check_bool("analysis.fit", self.fit)
+        _set(self, "fit", check_bool("analysis.fit", self.fit))
         check_choice("analysis.window", self.window, ("hann", "none"))
         check_choice("analysis.detrend", self.detrend, ("mean", "linear"))
         _set(self, "estimator_theory_lines",
              check_int("analysis.estimator_theory_lines", self.estimator_theory_lines, lo=0, hi=1000))
 
-    def as_dict(self) -> dict:
-        return _asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "AnalysisSpec":
-        check_keys(cls, d)
-        return cls(**d)
-
 
 @dataclasses.dataclass(frozen=True)
-class PeriodSpec:
+class PeriodSpec(Spec):
     """One averaging period (A2012: four 1-h periods A-D).
 
     Parameters
@@ -464,8 +301,10 @@ class PeriodSpec:
     start: float = 0.0
     seed: int | None = None
 
+    _required = ("name", "mean_speed")
+
     def __post_init__(self):
-        _check_str("period.name", self.name)
+        check_str("period.name", self.name)
         _set(self, "mean_speed", check_real(f"period[{self.name}].mean_speed", self.mean_speed, lo=1.0, hi=30.0))
         _set(self, "misalignment_deg",
              check_real(f"period[{self.name}].misalignment_deg", self.misalignment_deg, lo=-45.0, hi=45.0))
@@ -474,14 +313,6 @@ class PeriodSpec:
         _set(self, "start", check_real(f"period[{self.name}].start", self.start, lo=0.0, hi=1e7))
         if self.seed is not None:
             _set(self, "seed", check_seed(f"period[{self.name}].seed", self.seed))
-
-    def as_dict(self) -> dict:
-        return _asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "PeriodSpec":
-        check_keys(cls, d, required=("name", "mean_speed"))
-        return cls(**d)
 
 
 _TABLES = {
@@ -494,7 +325,7 @@ _TABLES = {
 
 
 @dataclasses.dataclass(frozen=True)
-class Scene:
+class Scene(Spec):
     """A virtual campaign: turbulence, instruments, field, analysis and periods.
 
     Parameters
@@ -529,24 +360,15 @@ class Scene:
     base_dir: str = dataclasses.field(default=".", compare=False)
 
     def __post_init__(self):
-        _check_str("name", self.name)
-        if not all(c.isalnum() or c in "-_" for c in self.name):
-            raise ValueError(f"name {self.name!r} may hold only letters, digits, '-' and '_'")
+        check_scene_name(self.name)
         for key, cls in _TABLES.items():
             if not isinstance(getattr(self, key), cls):
                 raise TypeError(f"{key} must be a {cls.__name__}")
-        periods = tuple(self.periods)
-        if not periods:
-            raise ValueError("a scene needs at least one [[period]]")
-        if not all(isinstance(p, PeriodSpec) for p in periods):
-            raise TypeError("periods must be PeriodSpec instances")
-        names = [p.name for p in periods]
-        if len(set(names)) != len(names):
-            raise ValueError(f"period names must be unique, got {names}")
+        periods = check_periods(self.periods, PeriodSpec, "scene")
         _set(self, "periods", periods)
         _set(self, "duration", check_real("duration", self.duration, lo=10.0, hi=86400.0))
         _set(self, "seed", check_seed("seed", self.seed))
-        _check_str("description", self.description, allow_empty=True)
+        check_str("description", self.description, allow_empty=True)
         for p in periods:
             dur = self.period_duration(p)
             if dur < self.analysis.segment_duration:
@@ -580,7 +402,7 @@ class Scene:
 
     def as_dict(self) -> dict:
         """Plain dict (TOML-shaped; round-trips through :meth:`from_dict`)."""
-        d = _asdict(self)
+        d = super().as_dict()
         d.pop("base_dir", None)
         d["period"] = d.pop("periods")
         return d
@@ -588,25 +410,15 @@ class Scene:
     @classmethod
     def from_dict(cls, d: dict, *, base_dir: str = ".") -> "Scene":
         """Build from a TOML-shaped mapping; unknown keys are rejected by name."""
-        if not isinstance(d, dict):
-            raise TypeError(f"a scene must be a table, got {type(d).__name__}")
-        allowed = {"name", "kind", "description", "seed", "duration", "period", *_TABLES}
-        unknown = sorted(set(d) - allowed)
-        if unknown:
-            raise ValueError(f"unknown key(s) in scene: {unknown}; allowed: {sorted(allowed)}")
+        check_scene_keys(d, {"name", "kind", "description", "seed", "duration", "period", *_TABLES},
+                         ("name", "turbulence", "period"), "scene")
         if d.get("kind", "staring") != "staring":
             raise ValueError(f"kind = {d['kind']!r} is not a staring scene; allowed: {list(SCENE_KINDS)}")
-        for key in ("name", "turbulence", "period"):
-            if key not in d:
-                raise ValueError(f"scene is missing the required key {key!r}")
         kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
         for key, spec in _TABLES.items():
             if key in d:
                 kw[key] = spec.from_dict(d[key])
-        periods = d["period"]
-        if not isinstance(periods, (list, tuple)):
-            raise TypeError("period must be an array of tables ([[period]])")
-        kw["periods"] = tuple(PeriodSpec.from_dict(p) for p in periods)
+        kw["periods"] = periods_from_dict(d["period"], PeriodSpec)
         return cls(base_dir=base_dir, **kw)
 
     def replace(self, **changes) -> "Scene":
@@ -618,44 +430,21 @@ class Scene:
         return path if os.path.isabs(path) else os.path.join(self.base_dir, path)
 
 
-def loads_scene(text: str, *, base_dir: str = ".") -> Scene:
-    """Parse a scene from TOML text."""
-    import tomllib
-
-    try:
-        d = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"scene is not valid TOML: {e}") from None
-    return scene_from_dict(d, base_dir=base_dir)
-
-
-#: Scene kinds: ``kind`` in a scene file (default 'staring').
-SCENE_KINDS = ("staring", "conical")
+def loads_scene(text: str, *, base_dir: str = "."):
+    """Parse a scene from TOML text (a staring :class:`Scene` or a conical one, by ``kind``)."""
+    return scene_from_dict(parse_toml(text, "scene"), base_dir=base_dir)
 
 
 def scene_from_dict(d: dict, *, base_dir: str = "."):
-    """A staring :class:`Scene` or a :class:`~cwlidar_sim.campaign.conical.ConicalScene`, by ``d['kind']``."""
+    """A staring :class:`Scene` or a :class:`~cwlidar_sim.campaign.conical_scene.ConicalScene`, by ``d['kind']``."""
     if isinstance(d, dict) and d.get("kind", "staring") == "conical":
-        from .conical import ConicalScene
-
         return ConicalScene.from_dict(d, base_dir=base_dir)
     if isinstance(d, dict) and "kind" in d:
         check_choice("kind", d["kind"], SCENE_KINDS)
     return Scene.from_dict(d, base_dir=base_dir)
 
 
-def read_text_file(path, what: str) -> tuple[str, str]:
-    """(text, folder) of a TOML file; an unreadable file is a ValueError naming ``what`` and the path."""
-    path = os.fspath(path)
-    try:
-        with open(path, encoding="utf-8") as fh:
-            text = fh.read()
-    except OSError as e:
-        raise ValueError(f"cannot read {what} file {path!r}: {e.strerror}") from None
-    return text, os.path.dirname(os.path.abspath(path))
-
-
-def load_scene(path) -> Scene:
-    """Read a scene TOML file."""
+def load_scene(path):
+    """Read a scene TOML file (staring or conical)."""
     text, folder = read_text_file(path, "scene")
     return loads_scene(text, base_dir=folder)

@@ -2,7 +2,7 @@
 
 Pipeline of one period
 ----------------------
-1. Field: the cheapest one the sensors need (:func:`cwlidar_sim.campaign.runner.choose_field`):
+1. Field: the cheapest one the sensors need (:func:`cwlidar_sim.campaign.planning.choose_field`):
    a line along x when the beam is aligned with the wind and the sonic sits on
    it, a horizontal plane when the beam is horizontal, a box otherwise.  Its
    length covers ``U * duration`` plus the sensors' extent along x, so no
@@ -28,10 +28,12 @@ import time
 
 import numpy as np
 
-from .runner import RESULTS_VERSION, plan_field, generate_field
+from .planning import generate_field, plan_field
 from .scene import Scene
+from .spec import RESULTS_VERSION
 
-__all__ = ["run_period", "period_dataset", "LIDAR_BLOCK", "SONIC_DELAY"]
+__all__ = ["run_period", "period_dataset", "estimator_theory", "fit_probe_length_results", "LIDAR_BLOCK",
+           "SONIC_DELAY"]
 
 #: The lidar's 50 Hz estimates are block-averaged by this to 10 Hz (A2012).
 LIDAR_BLOCK = 5
@@ -52,25 +54,27 @@ def _lidar(scene, plan, params, period, extra=None):
     from ..sensors import StaringLidar
 
     spec = scene.lidar
-    inst = spec.build_instrument(extra)
-    az = 180.0 + period.misalignment_deg
-    return StaringLidar(
-        instrument=inst, position=tuple(float(x) for x in plan.lidar_position), azimuth_deg=az,
-        elevation_deg=spec.elevation_deg, tier=spec.tier, weighting=spec.weighting, span=spec.span,
-        cell_length=spec.cell_length or plan.spacing[0], cnr_db=spec.cnr_db,
-        transverse_speed=_transverse_speed(scene, period, params), speckle=spec.speckle,
-        exact_background=spec.exact_background, subcell_spread=_subcell_spread(scene, params),
-    )
+    kw = spec.sensor_kwargs(plan.spacing[0])
+    kw["transverse_speed"] = _transverse_speed(scene, period, params)
+    return StaringLidar(instrument=spec.build_instrument(extra), position=tuple(float(x) for x in plan.lidar_position),
+                        azimuth_deg=180.0 + period.misalignment_deg, elevation_deg=spec.elevation_deg, **kw)
 
 
 def _subcell_spread(scene, params):
-    """None (the sensor's default, from the field's tensor) unless ``lidar.line_broadening`` adds to it [m/s]."""
-    if scene.lidar.line_broadening == 0.0:
-        return None
+    """The estimator theory's speed spread [m/s]: the tensor's below the field spacing and the line broadening.
+
+    The same quadrature sum the signal chain forms for the run
+    (:class:`cwlidar_sim.signal.chain.ChainSettings`, ``line_broadening``).
+    """
     from ..turbulence import subcell_variance
 
+    spread = scene.lidar.subcell_spread
+    if spread is None:
+        spread = math.sqrt(subcell_variance(params, scene.field.dx))
+    if scene.lidar.line_broadening == 0.0:
+        return spread
     dv = 0.5 * scene.lidar.build_instrument().wavelength * scene.lidar.line_broadening
-    return math.sqrt(subcell_variance(params, scene.field.dx) + dv * dv)
+    return math.sqrt(spread * spread + dv * dv)
 
 
 def run_period(scene: Scene, index: int, params, *, status=None):
@@ -94,7 +98,6 @@ def run_period(scene: Scene, index: int, params, *, status=None):
     """
     from ..analysis import log_bins, transfer_functions
     from ..sensors import Sonic, block_average, measure_staring, resample_a2012, sample_sonic
-    from ..signal.processing import Flag
 
     say = status or (lambda s: None)
     period = scene.periods[index]
@@ -138,17 +141,11 @@ def run_period(scene: Scene, index: int, params, *, status=None):
                           calibration_time=period.start)
     t_lidar = time.perf_counter() - t1
     del field
-    paused = np.zeros(n50, dtype=bool)
-    if scene.lidar.background_pause:
-        # the instrument's calibration schedule (A2012: 10 min every 3 h), the one its background drifts on
-        inst = lidar.instrument
-        paused = np.mod(period.start + t50, inst.background_interval) < inst.background_duration
+    # the background's pauses (lidar.background_pause) are the signal chain's: NaN flagged PAUSED
 
     def lidar_series(speed_e, flags_e):
         speed = np.array(speed_e, dtype=np.float64)
         flags = np.array(flags_e, dtype=np.uint8)
-        speed[paused] = np.nan
-        flags[paused] |= np.uint8(Flag.PAUSED)
         mean10, nvalid10, flags10 = block_average(speed, LIDAR_BLOCK, flags)
         return speed, flags, mean10, nvalid10, flags10
 
@@ -427,8 +424,8 @@ def estimator_theory(scene: Scene, params):
             spec.build_instrument(), params, U, estimators=THEORY_ESTIMATORS, k_edges=log_bins(a.k_min, a.k_max,
                                                                                               a.per_decade),
             cnr_db=spec.cnr_db, weighting=spec.weighting, span=spec.span, dx=scene.field.dx,
-            cell_length=spec.cell_length or scene.field.dx, transverse_speed=spec.transverse_speed,
-            subcell_spread=_subcell_spread(scene, params),
+            cell_length=spec.cell_length or scene.field.dx, cell_growth=spec.cell_growth, tail=spec.tail,
+            transverse_speed=spec.transverse_speed, subcell_spread=_subcell_spread(scene, params),
             n_lines=a.estimator_theory_lines, n_points=4096)
     return _THEORY_CACHE[key]
 
@@ -438,6 +435,55 @@ def _cells(scene):
 
     spec = scene.lidar
     return StaringLidar(instrument=spec.build_instrument(), weighting=spec.weighting, span=spec.span,
-                        cell_length=spec.cell_length or scene.field.dx).cells()
+                        cell_length=spec.cell_length or scene.field.dx, cell_growth=spec.cell_growth,
+                        tail=spec.tail).cells()
 
 
+def fit_probe_length_results(ds, *, estimator=None, **kw):
+    """:func:`cwlidar_sim.analysis.fit_probe_length` on a staring scene's results file.
+
+    The periods' method 2 is inverse-variance averaged.
+
+    ``estimator``: the lidar's own (default) or one of its estimator
+    variants.  The instrument, turbulence and cells come from the stored
+    scene; U is the mean of the periods' mean speeds.  The theory is for the
+    beam along the wind: misaligned periods lower method 2 further (A2012
+    Eqs. 12-14), which this fit would read as a longer probe.
+
+    Returns
+    -------
+    cwlidar_sim.analysis.ProbeLengthFit
+    """
+    from ..analysis.estimator_theory import ProbeLengthError, fit_probe_length
+
+    scene = Scene.from_dict(json.loads(ds.attrs["scene"]))
+    main = scene.lidar.build_instrument().estimator
+    est = main if estimator is None else estimator
+    if est == main:
+        T, S = ds.transfer_cross.values, ds.transfer_cross_sigma.values
+    else:
+        variants = json.loads(ds.attrs.get("variants", "[]"))
+        names = [v["name"] for v in variants if v.get("estimator") == est and len(v) == 2]
+        if not names:
+            have = [main] + [v["estimator"] for v in variants if "estimator" in v]
+            raise ProbeLengthError(f"estimator {est!r} is not in these results; available: {have}")
+        vi = list(ds.variant.values).index(names[0])
+        T, S = ds.transfer_cross_variant.values[vi], ds.transfer_cross_sigma.values
+    T, S = np.atleast_2d(T), np.atleast_2d(S)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where(np.isfinite(T) & np.isfinite(S) & (S > 0), 1.0 / S**2, 0.0)
+        Tm = np.sum(np.where(w > 0, T, 0.0) * w, axis=0) / np.sum(w, axis=0)
+        Sm = 1.0 / np.sqrt(np.sum(w, axis=0))
+    params = scene.turbulence.params()
+    if params is None:
+        from ..turbulence import MannParameters
+
+        params = MannParameters(ds.attrs["alpha_eps"], ds.attrs["length_scale"], ds.attrs["gamma"])
+    spec = scene.lidar
+    kw.setdefault("cnr_db", spec.cnr_db)
+    kw.setdefault("weighting", spec.weighting)
+    kw.setdefault("span", spec.span)
+    kw.setdefault("dx", scene.field.dx)
+    kw.setdefault("transverse_speed", spec.transverse_speed)
+    return fit_probe_length(ds.k.values, Tm, Sm, instrument=spec.build_instrument(), params=params,
+                            U=float(np.mean(ds.mean_speed.values)), estimator=est, **kw)

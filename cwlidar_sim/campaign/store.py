@@ -25,9 +25,11 @@ import json
 import os
 import tempfile
 
+from .. import __version__
 from .._preflight import PreflightError, ResultsWriteError, check_scheduler, preflight
+from .spec import RESULTS_VERSION
 
-__all__ = ["PreflightError", "ResultsWriteError", "preflight", "check_scheduler", "scene_key",
+__all__ = ["PreflightError", "ResultsWriteError", "preflight", "check_scheduler", "scene_key", "scene_digest",
            "estimate_bytes", "PeriodStore", "combine_periods", "write_results", "read_results"]
 
 #: The one NetCDF engine the package writes and reads with.
@@ -47,14 +49,23 @@ def estimate_bytes(scene) -> float:
 
 def scene_key(scene, params, index: int) -> str:
     """Identity of period ``index`` of ``scene`` with turbulence ``params`` (hex digest)."""
-    from .. import __version__
-    from .runner import RESULTS_VERSION
-
     tensor = None if params is None else [params.alpha_eps, params.length_scale, params.gamma]
     blob = json.dumps({"scene": scene.as_dict(), "params": tensor,
                        "index": int(index), "version": __version__, "results_version": RESULTS_VERSION},
                       sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
+
+
+def scene_digest(scene, params) -> str:
+    """Identity of a whole scene's results: a digest of every unit's :func:`scene_key` (hex).
+
+    It changes with anything a unit's key holds: the scene (its seed and
+    every setting), the turbulence parameters (given, or fitted to a record:
+    a record whose contents changed behind the same path gives other
+    parameters), the package and the results version.
+    """
+    keys = [scene_key(scene, params, i) for i in range(len(scene.unit_names()))]
+    return hashlib.sha256(json.dumps(keys).encode()).hexdigest()[:32]
 
 
 def _atomic_write(ds, path) -> None:
@@ -147,7 +158,7 @@ class PeriodStore:
 
 
 #: Attributes that belong to one period; :func:`combine_periods` gathers them into JSON maps.
-PERIOD_ATTRS = ("period_index", "scene_key", "field_reason", "timing")
+PERIOD_ATTRS = ("period_index", "scene_key", "field_reason", "timing", "unit_name")
 
 
 def combine_periods(datasets, *, fill=None):
@@ -156,7 +167,8 @@ def combine_periods(datasets, *, fill=None):
     Variables without a ``period`` dimension (theory on ``k``) are taken from
     the first; series of shorter periods are padded (floats with NaN,
     integers with 0, or ``fill[name]``).  Per-period attributes become JSON
-    maps keyed by period name (``field_reasons``, ``timing``).
+    maps keyed by period name (``field_reasons``, ``timing``; a unit of
+    several rows, a cycling conical period, by its ``unit_name``).
     """
     import numpy as np
     import xarray as xr
@@ -178,7 +190,7 @@ def combine_periods(datasets, *, fill=None):
         if var.dtype.kind in "iub" and out[name].dtype != var.dtype:
             out[name] = out[name].astype(var.dtype, keep_attrs=True)
     attrs = {k: v for k, v in datasets[0].attrs.items() if k not in PERIOD_ATTRS}
-    names = [str(d.period.values[0]) for d in datasets]
+    names = [str(d.attrs.get("unit_name", d.period.values[0])) for d in datasets]
     attrs["field_reasons"] = json.dumps({n: d.attrs.get("field_reason", "") for n, d in zip(names, datasets)})
     attrs["timing"] = json.dumps({n: json.loads(d.attrs.get("timing", "{}")) for n, d in zip(names, datasets)})
     out.attrs = attrs

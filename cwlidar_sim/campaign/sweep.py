@@ -49,8 +49,14 @@ import json
 import math
 import os
 
-from .._validation import check_int, check_keys, check_seed
-from .scene import Scene, read_text_file, scene_from_dict
+from .._validation import check_bool, check_int, check_keys, check_seed
+from . import conical
+from .auto import resolve
+from .planning import plan_field, scene_params
+from .reproduce import BUNDLED, bundled_scene
+from .scene import Scene, load_scene, scene_from_dict
+from .spec import parse_toml, read_text_file
+from .store import estimate_bytes
 
 __all__ = ["CampaignSpec", "Task", "load_campaign", "loads_campaign", "expand", "estimate_task", "COST_S_PER_SIM_HOUR"]
 
@@ -202,8 +208,7 @@ class CampaignSpec:
             raise ValueError(f"campaign base must name a bundled scene or a scene file, got {self.base!r}")
         object.__setattr__(self, "seed", check_seed("seed", self.seed))
         object.__setattr__(self, "replicas", check_int("replicas", self.replicas, lo=1, hi=10000))
-        if not isinstance(self.paired, bool):
-            raise TypeError(f"paired must be true or false, got {self.paired!r}")
+        check_bool("paired", self.paired)
         if not isinstance(self.set, dict):
             raise TypeError("set must be a table of dotted scene keys")
         periods = tuple(self.periods)
@@ -242,9 +247,6 @@ class CampaignSpec:
 
     def base_scene(self) -> Scene:
         """The base scene with ``periods`` selected (not yet ``set``)."""
-        from .reproduce import BUNDLED, bundled_scene
-        from .scene import load_scene
-
         if self.base in BUNDLED:
             scene = bundled_scene(self.base)
         else:
@@ -264,13 +266,7 @@ class CampaignSpec:
 
 def loads_campaign(text: str, *, base_dir: str = ".") -> CampaignSpec:
     """Parse a campaign from TOML text."""
-    import tomllib
-
-    try:
-        d = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"campaign is not valid TOML: {e}") from None
-    return CampaignSpec.from_dict(d, base_dir=base_dir)
+    return CampaignSpec.from_dict(parse_toml(text, "campaign"), base_dir=base_dir)
 
 
 def load_campaign(path) -> CampaignSpec:
@@ -335,14 +331,8 @@ def estimate_task(scene: Scene) -> dict:
     box's transform), its raw series in float64 (results and analysis
     copies) and 250 MB of interpreter and libraries.
     """
-    from .auto import resolve
-    from .runner import plan_field, scene_params
-    from .store import estimate_bytes
-
     if scene.kind == "conical":
-        from .conical import estimate_unit
-
-        per = [estimate_unit(scene, i) for i in range(len(scene.unit_names()))]
+        per = [conical.estimate_unit(scene, i) for i in range(len(scene.unit_names()))]
         return {"seconds": TASK_OVERHEAD_S + sum(e["seconds"] for e in per),
                 "memory_bytes": max(e["memory_bytes"] for e in per) + 250e6}
     scene = resolve(scene)[0]

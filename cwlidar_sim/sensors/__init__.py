@@ -5,26 +5,30 @@
     wind at a point, Taylor advection), A2012's 32 Hz -> 10 Hz resampling
     (:func:`resample_a2012`, Eqs. 5-7, with its time stamps) and the lidar's
     50 Hz -> 10 Hz :func:`block_average`.
+``base``
+    :class:`LidarBase`, the fields every lidar shares (instrument, signal
+    chain, probe volume and tail rule, cloud layer), and :class:`BeamSampler`,
+    which samples a field along a lidar's looks for the one signal chain
+    (:mod:`cwlidar_sim.signal.chain`).  A lidar sensor is geometry only.
 ``lidar``
-    :class:`StaringLidar` and :func:`measure_staring`: a record of speed
-    estimates through tier 1 (weighted line-of-sight average), tier 2 (exact
-    expected Doppler spectra from every range cell, speckle, noise,
-    processing) or tier 3 (the heterodyne signal), with processing variants
-    applied to the same spectra.
+    :class:`StaringLidar` and :func:`measure_staring`: a fixed beam, one look
+    per estimate.
 ``conical``
     :class:`ConicalLidar` and :func:`measure_conical`: the conically scanning
-    ZephIR of CS (sweep within each 20 ms dwell, scanning speckle, homodyne
-    zero crossing, dwell or height cycle), :func:`conical_field` (a Mann box
-    holding the cone, optionally laterally doubled) and
-    :func:`surface_layer_parameters`.
+    ZephIR of CS (sweep within each 20 ms dwell as looks, the spot's speed
+    for the speckle, dwell or height cycle as focus groups),
+    :func:`conical_field` (a Mann box holding the cone, optionally laterally
+    doubled) and :func:`surface_layer_parameters`.
 ``cup``
     :class:`Cup`: horizontal speed through a first-order response (distance constant).
-``conical_period``
-    :func:`simulate_conical_period`: one CS period (box, lidar, cup, sonic) as a dict of numbers.
+
+A whole period (field, sensors and their analysis) is the campaign layer's:
+:mod:`cwlidar_sim.campaign.staring` and :mod:`cwlidar_sim.campaign.conical_period`.
 
 Importing this package does not import numba; kernels compile on first use.
 """
 
+from .base import BeamSampler, LidarBase
 from .lidar import (
     DRAW_BLOCK,
     SIGNAL_MAX_ESTIMATES,
@@ -37,7 +41,6 @@ from .lidar import (
     measure_staring,
 )
 from .conical import ConicalLidar, ConicalRecord, conical_field, measure_conical, surface_layer_parameters
-from .conical_period import simulate_conical_period
 from .cup import Cup, cup_response, cup_transfer, sample_cup
 from .sonic import (
     A2012_OUTPUTS,
@@ -53,8 +56,9 @@ from .sonic import (
 __all__ = [
     "Sonic", "sample_sonic", "project", "resample_a2012", "resample_a2012_times", "block_average",
     "A2012_PARTITION", "A2012_OUTPUTS",
+    "LidarBase", "BeamSampler",
     "StaringLidar", "LidarRecord", "measure_staring", "expected_spectrum_exact", "instrument_from_spec",
     "TIERS", "VARIANT_KEYS", "SIGNAL_MAX_ESTIMATES", "DRAW_BLOCK",
     "ConicalLidar", "ConicalRecord", "measure_conical", "conical_field", "surface_layer_parameters",
-    "simulate_conical_period", "Cup", "sample_cup", "cup_response", "cup_transfer",
+    "Cup", "sample_cup", "cup_response", "cup_transfer",
 ]

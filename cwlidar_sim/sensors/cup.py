@@ -31,18 +31,12 @@ import dataclasses
 
 import numpy as np
 
-from .._validation import check_keys, check_real, check_tuple
+from .._validation import check_bool, check_keys, check_real, check_tuple
 
 __all__ = ["Cup", "sample_cup", "cup_response", "cup_transfer"]
 
 #: Default distance constant [m] (module notes).
 DISTANCE_CONSTANT = 2.3
-
-
-def _check_bool(name, value):
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a bool, got {type(value).__name__} {value!r}")
-    return bool(value)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,7 +65,7 @@ class Cup:
         object.__setattr__(self, "distance_constant",
                            check_real("distance_constant", self.distance_constant, lo=0.0, hi=100.0, lo_open=True))
         object.__setattr__(self, "rate", check_real("rate", self.rate, lo=0.0, hi=1e4, lo_open=True))
-        object.__setattr__(self, "speed_dependent", _check_bool("speed_dependent", self.speed_dependent))
+        object.__setattr__(self, "speed_dependent", check_bool("speed_dependent", self.speed_dependent))
 
     def as_dict(self) -> dict:
         """Plain dict of the fields (round-trips through :meth:`from_dict`)."""
@@ -129,7 +123,7 @@ def cup_response(speed_t, dt: float, distance_constant: float = DISTANCE_CONSTAN
         raise ValueError(f"speed_t must be a finite 1-D series, got shape {V.shape}")
     h = check_real("dt", dt, lo=0.0, lo_open=True)
     l0 = check_real("distance_constant", distance_constant, lo=0.0, lo_open=True)
-    speed_dependent = _check_bool("speed_dependent", speed_dependent)
+    speed_dependent = check_bool("speed_dependent", speed_dependent)
     if mean_speed is None:
         mean_speed = float(np.mean(V))
     Um = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)

@@ -169,7 +169,7 @@ def sample_sonic(field, sonic: Sonic, times_t, U: float, seed=None, *, wrap: boo
 
 
 def project(vel_tc, direction) -> np.ndarray:
-    """Projection ``n . vel`` of velocity samples on a unit direction [m/s] (A2012: sonic on the beam).
+    """Projection ``dot(n, vel)`` of velocity samples on a unit direction [m/s] (A2012: sonic on the beam).
 
     Parameters
     ----------

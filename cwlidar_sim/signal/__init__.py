@@ -1,4 +1,11 @@
-"""Doppler signal chain of a cw coherent lidar, in two stochastic tiers that must agree.
+"""Doppler signal chain of a cw coherent lidar: one chain that every sensor feeds, in three tiers.
+
+``chain``
+    :func:`run_chain`, the one entry point: a sensor's line-of-sight speeds
+    of every estimate's looks and cells (plus a cloud) in, speeds, flags,
+    processing variants and diagnostics out, through any tier, with every
+    instrument effect (speckle models, noise, background, CNR variation,
+    clouds, thresholds, estimators).
 
 ``instrument``
     :class:`Instrument` presets (:data:`PROTOTYPE_2003` of A2012,
@@ -11,15 +18,33 @@
     the reference for tier 2.
 ``processing``
     Background, thresholds, the estimator registry, quality flags.
+``exact``
+    Tier 2's expected spectrum by the exact lag sum.
+``noise``
+    The noise floor: shot noise, relative-intensity noise, the 0 Hz reflection.
 ``doppler``
-    Uniform-target runs through any tier (the ``doppler`` CLI command).
+    Uniform-target runs through the chain (the ``doppler`` CLI command).
 
 The ideal tier 1 (``los``, the weighted line-of-sight average of A2012 Eq. 2)
 lives in :mod:`cwlidar_sim.beam`.  Importing this package does not import
 numba; kernels compile on first use.
 """
 
-from .doppler import TIERS, simulate_uniform, uniform_report
+from .chain import (
+    CNR_DB_RANGE,
+    SIGNAL_MAX_ESTIMATES,
+    SPECKLE_MODELS,
+    TIERS,
+    VARIANT_KEYS,
+    ChainRecord,
+    ChainSettings,
+    FocusGroup,
+    homodyne_flags,
+    run_chain,
+)
+from .doppler import simulate_uniform, uniform_report
+from .exact import expected_spectrum_exact
+from .noise import noise_correlation, noise_floor
 from .heterodyne import simulate_signal_spectra, synthesize_samples
 from .instrument import CS_SERIES, PRESETS, PROTOTYPE_2003, Instrument, preset
 from .processing import (
@@ -29,7 +54,6 @@ from .processing import (
     Flag,
     background_spectrum,
     estimate,
-    noise_floor,
     threshold_levels,
 )
 from .spectral import (
@@ -51,4 +75,6 @@ __all__ = [
     "ESTIMATORS", "Flag", "FAIL_FLAGS", "DopplerEstimates", "estimate", "background_spectrum", "noise_floor",
     "threshold_levels",
     "TIERS", "simulate_uniform", "uniform_report",
+    "run_chain", "ChainSettings", "FocusGroup", "ChainRecord", "homodyne_flags", "SPECKLE_MODELS", "VARIANT_KEYS",
+    "SIGNAL_MAX_ESTIMATES", "CNR_DB_RANGE", "expected_spectrum_exact", "noise_correlation",
 ]

@@ -22,19 +22,13 @@ import math
 import numpy as np
 
 from .._validation import check_choice, check_int, check_real, check_seed
+from ..beam.optics import weight_exact, weight_truncated
+from .chain import TIERS, ChainSettings, FocusGroup, run_chain
 from .instrument import PROTOTYPE_2003, Instrument
-from .processing import DopplerEstimates, background_spectrum, estimate
+from .processing import DopplerEstimates, check_estimator
+from .spectral import speckle_looks
 
 __all__ = ["TIERS", "simulate_uniform", "uniform_report"]
-
-TIERS = ("los", "spectral", "signal")
-
-
-def _cells(instrument, n_cells):
-    from ..beam.optics import weight_truncated
-
-    rc = weight_truncated(instrument.optics(), "exact", span=20.0, n_cells=n_cells, renormalise=True)
-    return rc.weight_s
 
 
 def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PROTOTYPE_2003, tier: str = "spectral",
@@ -44,13 +38,18 @@ def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PR
                      cloud_weight: float = 0.0, cloud_speed: float = 0.0) -> tuple[DopplerEstimates, dict]:
     """Simulate ``n`` consecutive estimates of a uniform target moving at ``speed`` along the beam.
 
+    The target is a sensor like any other: one focus, ``n_cells`` range cells
+    over +/- 20 z_R (exact weighting, renormalised), every cell at ``speed``,
+    one look per estimate, handed to :func:`cwlidar_sim.signal.chain.run_chain`.
+
     Parameters
     ----------
     speed : float
         Radial speed V [m/s] (positive away from the lidar); |V| <= 1000.
     cnr_db : float
         Carrier-to-noise ratio [dB]: total signal power over noise power in
-        the detection bandwidth 0..f_s/2 (see :mod:`cwlidar_sim.signal.spectral`).
+        the detection bandwidth 0..f_s/2 (see :mod:`cwlidar_sim.signal.spectral`);
+        in :data:`cwlidar_sim.signal.chain.CNR_DB_RANGE`.
     instrument : Instrument
         Preset (possibly overridden).
     tier : {'los', 'spectral', 'signal'}
@@ -91,54 +90,44 @@ def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PR
     (DopplerEstimates, dict)
         The estimates and run information (correlation time [s], M_eff [-],
         cloud fraction, ...).  ``cnr_db`` is the aerosol's CNR; the cloud
-        adds its own power on top.  Tier 'los' returns the weighted mean of
-        target and cloud.
+        adds its own power on top.  Tier 'los' returns the ideal: the signed
+        weighted mean of target and cloud, no instrument.
     """
     if not isinstance(instrument, Instrument):
         raise TypeError(f"instrument must be an Instrument, got {type(instrument).__name__}")
     v = check_real("speed", speed, lo=-1000.0, hi=1000.0)
-    cnr_db = check_real("cnr_db", cnr_db, lo=-200.0, hi=200.0)
     check_choice("tier", tier, TIERS)
     n = check_int("n", n, lo=1, hi=10**4 if tier == "signal" else 10**7)
     seed = check_seed("seed", seed)
     n_cells = check_int("n_cells", n_cells, lo=1, hi=256)
+    check_choice("speckle", speckle, ("coherent", "independent"))
     name = instrument.estimator if estimator is None else estimator
-    from .processing import check_estimator
-
     check_estimator(name)
-    tau = instrument.speckle_time(transverse_speed)
-    from .spectral import speckle_looks
-
-    m_eff = speckle_looks(instrument.blocks_per_estimate, instrument.block_duration, tau)
+    inst = instrument if name == instrument.estimator else instrument.replace(estimator=name)
+    settings = ChainSettings(tier=tier, cnr_db=cnr_db, speckle=speckle, exact_background=exact_background)
+    tau = inst.speckle_time(transverse_speed)
+    m_eff = speckle_looks(inst.blocks_per_estimate, inst.block_duration, tau)
     info = {"correlation_time": tau, "m_eff": m_eff, "n_cells": n_cells}
-    w_c, v_c = _cloud(instrument, cloud_range, cloud_weight, cloud_speed)
+    w_c, v_c = _cloud(inst, cloud_range, cloud_weight, cloud_speed)
     info["cloud_fraction"] = w_c / (1.0 + w_c)
+    w = weight_truncated(inst.optics(), "exact", span=20.0, n_cells=n_cells, renormalise=True).weight_s
+
+    def sample(lo, hi):
+        return np.full((hi - lo, 1, n_cells), v), np.full(hi - lo, v), np.full((hi - lo, 1), v_c)
+
+    group = FocusGroup(instrument=inst, index_e=np.arange(n), time_e=np.arange(n) / inst.estimate_rate, weight_c=w,
+                       n_looks=1, sample=sample, seed=np.random.SeedSequence(seed), transverse_speed=transverse_speed,
+                       cloud_weight=w_c)
+    rec = run_chain(settings, [group], n)
     if tier == "los":
         sp = np.full(n, (v + w_c * v_c) / (1.0 + w_c))
-        est = DopplerEstimates(speed_e=sp, frequency_e=sp / instrument.speed_per_hz,
-                               flags_e=np.zeros(n, dtype=np.uint8), estimator="los")
+        est = DopplerEstimates(speed_e=sp, frequency_e=sp / inst.speed_per_hz, flags_e=np.zeros(n, dtype=np.uint8),
+                               estimator="los")
         info["note"] = "tier 'los' is the ideal weighted line-of-sight average: V exactly, signed"
         return est, info
-    ss = np.random.SeedSequence(seed)
-    s_bg, s_sim = ss.spawn(2)
-    bg = None if exact_background else background_spectrum(instrument, np.random.default_rng(s_bg))
-    w = _cells(instrument, n_cells)
-    vl = np.full(n_cells, v)
-    if w_c > 0.0:
-        # the cloud is one more cell; weights renormalised to 1, its power added to the CNR
-        w = np.append(w, w_c) / (1.0 + w_c)
-        vl = np.append(vl, v_c)
-        cnr_db = cnr_db + 10.0 * math.log10(1.0 + w_c)
-        n_cells += 1
-    if tier == "spectral":
-        return _spectral_chunked(instrument, vl, w, cnr_db, tau, m_eff, n, np.random.default_rng(s_sim), speckle,
-                                 bg, name), info
-    else:
-        from .heterodyne import simulate_signal_spectra
-
-        spectra = simulate_signal_spectra(instrument, np.broadcast_to(vl, (n, n_cells)), w, cnr_db,
-                                          np.random.default_rng(s_sim), correlation_time=tau)
-    return estimate(spectra, instrument, bg, estimator=name), info
+    est = DopplerEstimates(speed_e=rec.speed_e, frequency_e=rec.speed_e / inst.speed_per_hz, flags_e=rec.flags_e,
+                           estimator=name)
+    return est, info
 
 
 def _cloud(instrument, cloud_range, cloud_weight, cloud_speed):
@@ -150,35 +139,9 @@ def _cloud(instrument, cloud_range, cloud_weight, cloud_speed):
             raise ValueError("cloud_weight > 0 needs cloud_range [m]")
         return 0.0, 0.0
     cloud_range = check_real("cloud_range", cloud_range, lo=0.0, hi=1e6, lo_open=True)
-    from ..beam.optics import weight_exact
-
     phi = float(weight_exact(cloud_range - instrument.focus, instrument.focus, instrument.wavelength,
                              instrument.telescope_radius))
     return phi * cloud_weight, cloud_speed
-
-
-def _spectral_chunked(instrument, vl, w, cnr_db, tau, m_eff, n, rng, speckle, bg, name, chunk=4096):
-    """Tier 2 drawn and processed in chunks of estimates, so the spectra stay in cache.
-
-    Identical to ``estimate(sample_spectra(...))`` with the same generator.
-    """
-    from .spectral import _draw_rows, _speckle_draws, expected_spectrum, line_shape_table
-
-    check_choice("speckle", speckle, ("coherent", "independent"))
-    sig, noise = expected_spectrum(instrument, vl, w, cnr_db, correlation_time=tau)
-    key, gain = _speckle_draws(rng, n, instrument.n_bins, m_eff, speckle)
-    table = line_shape_table(instrument.n_fft, instrument.window)
-    speed = np.empty(n)
-    freq = np.empty(n)
-    flags = np.empty(n, dtype=np.uint8)
-    buf = np.empty((min(n, chunk), instrument.n_bins))
-    for e0 in range(0, n, chunk):
-        e1 = min(n, e0 + chunk)
-        out = buf[: e1 - e0]
-        _draw_rows(sig, noise, instrument.blocks_per_estimate, gain[e0:e1], key, e0, out)
-        est = estimate(out, instrument, bg, estimator=name, line_table=table)
-        speed[e0:e1], freq[e0:e1], flags[e0:e1] = est.speed_e, est.frequency_e, est.flags_e
-    return DopplerEstimates(speed_e=speed, frequency_e=freq, flags_e=flags, estimator=name)
 
 
 def uniform_report(est: DopplerEstimates, info: dict, *, speed, cnr_db, tier, instrument) -> dict:

@@ -43,21 +43,43 @@ Implementation notes
   Marsaglia's polar method (same seed, different noise samples; same law).
 * The speed of a cell is held constant over an estimate (the Doppler phase
   is continuous across estimates).
+* The noise above shot noise (RIN, the 0 Hz reflection: real AR(1)
+  processes of variance ``var_c`` and coefficient ``rho_c``,
+  :func:`cwlidar_sim.signal.noise.noise_correlation`) is not drawn from
+  normals of its own: shot noise plus the components is a stationary
+  Gaussian process of spectrum ``1 + sum_c var_c (1 - rho_c^2) / |1 - rho_c
+  e^{-i w}|^2``, which is exactly that of ``y = a0 z + sum_c u_c``,
+  ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``, driven by the shot-noise normals
+  ``z`` themselves (:func:`noise_filter`: the innovations form of the
+  process, from the steady-state Kalman filter).  The filter runs inside
+  the fused synthesis (:func:`_kernels.colour_noise_block`, a blocked scan),
+  its state carried from block to block through an estimate and drawn from
+  its stationary law at the estimate's first block, so that each estimate
+  is an exact stationary sample, as before.  The law of every sample is that
+  of independent shot noise, RIN and reflection; the draws are not those of
+  the separate AR(1) streams of earlier versions (same seed, other
+  samples; tests/signal/test_noise_colour.py checks the spectrum and the
+  estimates statistically).  Because the state runs through an estimate,
+  the tasks of one estimate synthesise in order (:class:`_InOrder`; their
+  FFTs and sums still overlap), which does not change any bit.
 * Continuum cells (``speed_spread > 0``: the sub-cell spread of
-  docs/signal_chain.md) and the noise above shot noise (RIN, the 0 Hz
-  reflection) are one Gaussian process given the speeds; it is synthesised
-  per estimate from its spectrum (:class:`_Continuum`: the DFT of its
-  correlation on a circular length ``P >= M N + t_max``, random phases,
-  one inverse FFT of length P) and its real part is added to the samples
-  before the window.  Its cost does not grow with the number of cells; its
-  randomness is a third stream of the seed, drawn only when needed (runs
-  without it keep their earlier bits).
+  docs/signal_chain.md) and the noise above shot noise are one Gaussian
+  process given the speeds; it is synthesised per estimate from its
+  spectrum (:class:`_Continuum`: the DFT of its correlation on a circular
+  length ``P >= M N + t_max``, random phases, one inverse FFT of length P)
+  and its real part is added to the samples before the window.  Its cost
+  does not grow with the number of cells; its randomness is a third stream
+  of the seed, drawn only when needed (runs without it keep their earlier
+  bits).
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import math
 import queue
+import threading
 
 import numpy as np
 
@@ -66,7 +88,7 @@ from ._tasks import _rng, _run_tasks
 from .noise import _noise_components, _noise_lag_count, noise_correlation, window_samples
 from .spectral import _as_2d, _weights, cnr_linear
 
-__all__ = ["simulate_signal_spectra", "synthesize_samples", "substep_length"]
+__all__ = ["simulate_signal_spectra", "synthesize_samples", "substep_length", "noise_filter"]
 
 
 def substep_length(n_fft: int, sample_rate: float, correlation_time: float) -> int:
@@ -77,6 +99,133 @@ def substep_length(n_fft: int, sample_rate: float, correlation_time: float) -> i
         if n_fft % L == 0 and L / sample_rate <= correlation_time / 32.0:
             return L
     return 1
+
+
+def noise_filter(instrument):
+    """Coefficients that colour unit white noise into shot noise plus RIN plus reflection (exact law).
+
+    With ``rho_c = exp(-2 pi f_c / f_s)`` and ``var_c = P0_c (1 - rho_c) /
+    (1 + rho_c)`` for each component of
+    :func:`cwlidar_sim.signal.noise.noise_correlation` (corners that give the
+    same ``rho`` are one component), the process ``y = a0 z + sum_c u_c``,
+    ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``, ``z`` unit white noise, has the
+    correlation ``delta(tau) + sum_c var_c rho_c^|tau|`` of independent shot
+    noise and components.  ``(a0, b)`` are the innovations form of that
+    process: ``b = k sqrt(S)``, ``a0 = (1 - sum k) sqrt(S)``, with ``k = P 1
+    / S`` and ``S = 1 + 1' P 1`` from the steady-state Kalman filter of the
+    components observed in shot noise (``P`` the solution of the discrete
+    Riccati equation), polished by Newton's method on the correlation
+    equations ``a0 (a0 + sum_c b_c) = 1``, ``b_i (a0 + sum_j b_j / (1 - rho_i
+    rho_j)) = var_i`` to a relative residual below 1e-12.
+
+    Parameters
+    ----------
+    instrument : Instrument
+
+    Returns
+    -------
+    cf_8 : ndarray, shape (8,)
+        ``(a0, b_1, b_2, rho_1, rho_2, L00, L10, L11)`` [-]: a single
+        component has ``b_2 = rho_2 = 0``; ``L`` is the Cholesky factor of the
+        states' stationary covariance ``b_i b_j / (1 - rho_i rho_j)``.
+        Empty (shape (0,)) without RIN and reflection.
+    """
+    comps = tuple(_noise_components(instrument))
+    if not comps:
+        return np.zeros(0)
+    return _filter_coefficients(comps, float(instrument.sample_rate)).copy()
+
+
+@functools.lru_cache(maxsize=32)
+def _filter_coefficients(comps, fs):
+    from scipy.linalg import solve_discrete_are
+
+    merged = {}
+    for p0, fc in comps:
+        r = math.exp(-2.0 * math.pi * fc / fs)
+        merged[r] = merged.get(r, 0.0) + p0 * (1.0 - r) / (1.0 + r)
+    rho = np.array(sorted(merged, reverse=True))
+    var = np.array([merged[r] for r in rho])
+    c = rho.size
+    kmat = 1.0 / (1.0 - np.outer(rho, rho))
+    one = np.ones((c, 1))
+    p = solve_discrete_are(np.diag(rho), one, np.diag(var * (1.0 - rho) * (1.0 + rho)), np.ones((1, 1)))
+    s = 1.0 + float((one.T @ p @ one)[0, 0])
+    k = (p @ one)[:, 0] / s
+    x = np.concatenate([[(1.0 - k.sum()) * math.sqrt(s)], k * math.sqrt(s)])
+
+    def residual(x):
+        a0, b = x[0], x[1:]
+        g = a0 + kmat @ b
+        return np.concatenate([[a0 * (a0 + b.sum()) - 1.0], b * g - var]), g
+
+    for _ in range(4):
+        f, g = residual(x)
+        a0, b = x[0], x[1:]
+        jac = np.zeros((c + 1, c + 1))
+        jac[0, 0] = 2.0 * a0 + b.sum()
+        jac[0, 1:] = a0
+        jac[1:, 0] = b
+        jac[1:, 1:] = np.diag(g) + b[:, None] * kmat
+        x = x - np.linalg.solve(jac, f)
+    f, _ = residual(x)
+    if not (np.all(np.isfinite(x)) and np.max(np.abs(f)) <= 1e-12 * (1.0 + var.sum())):
+        raise ValueError(f"rin_*/reflection_* = {comps!r} at sample_rate={fs!r}: the noise filter did not converge "
+                         f"(residual {np.max(np.abs(f))!r}); allowed: levels and corners whose processes differ")
+    a0, b = float(x[0]), np.concatenate([x[1:], np.zeros(2 - c)])
+    r2 = np.concatenate([rho, np.zeros(2 - c)])
+    cov = np.outer(b, b) / (1.0 - np.outer(r2, r2))
+    l00 = math.sqrt(cov[0, 0])
+    l10 = cov[1, 0] / l00 if l00 > 0.0 else 0.0
+    l11 = math.sqrt(max(0.0, cov[1, 1] - l10 * l10))
+    out = np.array([a0, b[0], b[1], r2[0], r2[1], l00, l10, l11])
+    out.setflags(write=False)
+    return out
+
+
+def _filter_powers(cf_8, n_fft):
+    """``pw[c, k] = rho_c^(k + 1)``, k < N, by repeated multiplication (the powers colour_noise_block uses)."""
+    pw = np.empty((2, n_fft))
+    for c in range(2):
+        pw[c] = np.cumprod(np.full(n_fft, cf_8[3 + c]))
+    return pw
+
+
+class _InOrder:
+    """Lets task (e, r) synthesise only after task (e, r - 1) has: the coloured noise's state runs through an estimate.
+
+    Tasks are numbered r-major (all estimates' first tasks, then their
+    second ones, ...), so a task waits only for one numbered before it,
+    which a running thread already holds: no deadlock, and a single thread
+    runs them in order without waiting.  A task that fails wakes the waiting
+    ones, which then fail too.
+    """
+
+    def __init__(self, n_estimates, ordered):
+        self.ordered = ordered
+        self.next_r = [0] * n_estimates
+        self.cond = threading.Condition()
+        self.failed = False
+
+    @contextlib.contextmanager
+    def turn(self, e, r):
+        if not self.ordered:
+            yield
+            return
+        with self.cond:
+            self.cond.wait_for(lambda: self.failed or self.next_r[e] == r)
+            if self.failed:
+                raise RuntimeError("an earlier task of the same estimate failed")
+        try:
+            yield
+        except BaseException:
+            with self.cond:
+                self.failed = True
+                self.cond.notify_all()
+            raise
+        with self.cond:
+            self.next_r[e] = r + 1
+            self.cond.notify_all()
 
 
 class _Continuum:
@@ -100,29 +249,19 @@ class _Continuum:
 
         self.inst = instrument
         self.key = key
-        self.with_cells = spread > 0.0
-        t = int(math.ceil(_noise_lag_count(instrument))) + 1
-        if self.with_cells:
-            t = max(t, continuum_lags(instrument, spread, tau)[0])
+        t = max(int(math.ceil(_noise_lag_count(instrument))) + 1, continuum_lags(instrument, spread, tau)[0])
         self.t_max = t
-        self.g = line_correlation(instrument, spread, tau, t) if self.with_cells else np.zeros(t)
+        self.g = line_correlation(instrument, spread, tau, t)
         self.rn = noise_correlation(instrument, t)
         self.x_es = np.ascontiguousarray(v_es / instrument.bin_speed)
-        self.amp2_s = np.ascontiguousarray(2.0 * cnr * w_s) if self.with_cells else np.zeros(w_s.size)
+        self.amp2_s = np.ascontiguousarray(2.0 * cnr * w_s)
         self.n_samples = instrument.blocks_per_estimate * instrument.n_fft
         self.P = int(next_fast_len(self.n_samples + t))
-        comps = _noise_components(instrument)
-        self.rho_c = np.array([math.exp(-2.0 * math.pi * fc / instrument.sample_rate) for _, fc in comps])
-        self.var_c = np.array([p0 * (1.0 - r) / (1.0 + r) for (p0, _), r in zip(comps, self.rho_c)])
 
     def fill(self, w, e, out_t):
         """The real samples of estimate e into ``out_t`` (``w`` a :class:`_Scratch`)."""
         from . import _kernels as K
 
-        if not self.with_cells:
-            # noise processes alone: their exact AR(1) recursions, far cheaper than the FFT route
-            K.ar1_noise_kernel(np.uint64(self.key), e, self.var_c, self.rho_c, w.cwords, w.ctails, w.ctmp, out_t)
-            return
         line = w.line(self.P)
         K.continuum_correlation_fill(self.x_es[e], self.amp2_s, self.g, self.rn, self.inst.n_fft, self.t_max, line.x)
         line.forward()
@@ -149,9 +288,17 @@ class _Synth:
         self.key_noise, self.key_amp = (int(k) for k in rng.integers(0, 2**63, size=2, dtype=np.int64))
 
         self.cont = None
+        self.key_c = 0
+        self.cf = np.zeros(0)
         if spread > 0.0 or _noise_components(instrument):
-            key_c = int(rng.integers(0, 2**63, dtype=np.int64))
-            self.cont = _Continuum(instrument, self.v, self.w, self.cnr, spread, tau, key_c)
+            # the third key: the continuum's random phases, or the coloured noise's stationary starts
+            self.key_c = int(rng.integers(0, 2**63, dtype=np.int64))
+            if spread > 0.0:
+                self.cont = _Continuum(instrument, self.v, self.w, self.cnr, spread, tau, self.key_c)
+            else:
+                self.cf = noise_filter(instrument)
+        self.pw = _filter_powers(self.cf, instrument.n_fft) if self.cf.size else np.zeros((2, 0))
+        self.coloured = self.cf.size > 0
         # cells with a sub-cell spread are in the continuum: no tones
         self.v_tones = self.v[:, :0] if spread > 0.0 else self.v
         n, fs = instrument.n_fft, instrument.sample_rate
@@ -214,7 +361,7 @@ class _Synth:
             run(ne, lambda w, i: self.cont.fill(w, e0 + i, extra[i]))
         return (np.uint64(self.key_noise), e0 * m, m, self.n_sub, are, aim,
                 np.ascontiguousarray(self.phase_es[e0:e1]), dth, rot_re, rot_im, step, 1.0, self.win, self.use_window,
-                extra)
+                extra, np.uint64(self.key_c), e0, self.cf, self.pw)
 
 
 def _task_blocks(n_fft: int) -> int:
@@ -310,16 +457,21 @@ def synthesize_samples(instrument, vlos_es, weight_s, cnr_db: float, seed, *, co
     ne = st.v.shape[0]
     out = np.empty((ne * m, n), dtype=np.float32)
     rows = _task_blocks(n)
+    n_r = (m + rows - 1) // rows
     pool = _Runner(n)
     args = st.chunk(0, ne, pool.run)
-    nb = ne * m
+    order = _InOrder(ne, st.coloured)
+    state = np.zeros((ne, 2))
 
     def task(w, t):
-        b_lo = t * rows
-        b_hi = min(nb, b_lo + rows)
-        K.synth_blocks_kernel(*args[:2], b_lo, b_hi, *args[2:], w.acc, w.words, w.tails, out[b_lo:b_hi])
+        r, e = divmod(t, ne)
+        b_lo = e * m + r * rows
+        b_hi = min((e + 1) * m, b_lo + rows)
+        with order.turn(e, r):
+            K.synth_blocks_kernel(*args[:2], b_lo, b_hi, *args[2:], state[e], w.acc, w.words, w.tails,
+                                  out[b_lo:b_hi])
 
-    pool.run((nb + rows - 1) // rows, task)
+    pool.run(ne * n_r, task)
     return out
 
 
@@ -368,13 +520,16 @@ def simulate_signal_spectra(instrument, vlos_es, weight_s, cnr_db: float, seed, 
         e1 = min(ne, e0 + per)
         args = st.chunk(e0, e1, pool.run)
         partial = np.empty((e1 - e0, n_r, nf))
+        order = _InOrder(e1 - e0, st.coloured)
+        state = np.zeros((e1 - e0, 2))
 
-        def task(w, t, args=args, partial=partial):
-            e, r = divmod(t, n_r)
+        def task(w, t, args=args, partial=partial, order=order, state=state, ne_c=e1 - e0):
+            r, e = divmod(t, ne_c)
             b_lo = e * m + r * rows
             b_hi = min((e + 1) * m, b_lo + rows)
             x = w.fft.x[:b_hi - b_lo]
-            K.synth_blocks_kernel(*args[:2], b_lo, b_hi, *args[2:], w.acc, w.words, w.tails, x)
+            with order.turn(e, r):
+                K.synth_blocks_kernel(*args[:2], b_lo, b_hi, *args[2:], state[e], w.acc, w.words, w.tails, x)
             K.power_sum_kernel(w.fft.execute(b_hi - b_lo), b_hi - b_lo, partial[e, r])
 
         pool.run((e1 - e0) * n_r, task)

@@ -98,7 +98,8 @@ class Instrument:
         'sigma' (the instrument rule): ``t = value * sigma_y``, with
         ``sigma_y = sqrt(1/M + 1/M_bg)`` the standard deviation of ``y`` in a
         signal-free bin; 'snr': ``t = value`` (a per-bin signal-to-noise
-        ratio, linear); 'peak_fraction': ``t = value * max(y)``.
+        ratio, linear); 'peak_fraction': ``t = value * max(y)`` once the peak
+        passes the detection test ``max(y) > peak_detection_sigma * sigma_y``.
     threshold_value : float
         The factor of the rule; >= 0 (<= 1 for 'peak_fraction').
     threshold_raise_percent : float
@@ -118,6 +119,11 @@ class Instrument:
     second_peak_fraction : float
         A separate group of thresholded bins carrying at least this fraction of
         the main group's power raises the second-peak (cloud) flag; in (0, 1].
+    peak_detection_sigma : float
+        Detection test of the 'peak_fraction' threshold: a spectrum whose
+        largest excess ``max(y)`` is not above this many ``sigma_y`` has no
+        signal (NaN, ``NO_SIGNAL``); in [0, 1000].  Default 4, the 'sigma'
+        rule's default level; unused by the other kinds.
     rin_level : float
         Relative-intensity-noise density at 0 Hz relative to the shot-noise
         floor [-]; >= 0 (0: none).
@@ -171,6 +177,7 @@ class Instrument:
     blind_zone_speed: float = 0.5
     edge_guard_speed: float = 0.5
     second_peak_fraction: float = 0.2
+    peak_detection_sigma: float = 4.0
     rin_level: float = 0.0
     rin_corner: float = 1e6
     reflection_level: float = 0.0
@@ -219,6 +226,7 @@ class Instrument:
         put("edge_guard_speed", check_real("edge_guard_speed", self.edge_guard_speed, lo=0.0, hi=nyq))
         put("second_peak_fraction",
             check_real("second_peak_fraction", self.second_peak_fraction, lo=0.0, hi=1.0, lo_open=True))
+        put("peak_detection_sigma", check_real("peak_detection_sigma", self.peak_detection_sigma, lo=0.0, hi=1000.0))
         put("rin_level", check_real("rin_level", self.rin_level, lo=0.0, hi=1e12))
         put("rin_corner", check_real("rin_corner", self.rin_corner, lo=0.0, hi=self.sample_rate, lo_open=True))
         put("reflection_level", check_real("reflection_level", self.reflection_level, lo=0.0, hi=1e12))

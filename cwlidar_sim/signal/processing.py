@@ -255,7 +255,9 @@ def threshold_levels(instrument, *, n_background=None) -> dict:
     Every kind sets a level ``t`` on ``y = S/B - 1``, the spectrum's excess
     over the background in units of the background: 'sigma'
     ``t = value * sigma_y``, 'snr' ``t = value``, 'peak_fraction'
-    ``t = value * max(y)`` (computed per spectrum).  A2012's raise of the
+    ``t = value * max(y)`` (computed per spectrum, once the peak passes the
+    detection test ``max(y) > peak_detection_sigma * sigma_y``: without it a
+    noise-only spectrum always yields its highest bin).  A2012's raise of the
     threshold "by x % of its original value" is then applied to that level
     in one of two readings (``threshold_raise_reading``), the same for every
     kind:
@@ -281,7 +283,8 @@ def threshold_levels(instrument, *, n_background=None) -> dict:
         ``sigma_y``: standard deviation of ``y`` in a signal-free bin,
         ``sqrt(1/M + 1/M_bg)`` (M blocks per estimate, M_bg background
         blocks); ``t``: the level before the raise (for 'peak_fraction', the
-        factor of ``max(y)``); ``raise_factor`` ``1 + x/100`` and
+        factor of ``max(y)``); ``detect``: the detection level of 'peak_fraction'
+        in units of ``sigma_y`` (0 for the other kinds); ``raise_factor`` ``1 + x/100`` and
         ``raise_offset`` (``x/100`` for 'level', 0 for 'excess'); ``reading``.
     """
     m_bg = instrument.background_blocks if n_background is None else n_background
@@ -294,7 +297,8 @@ def threshold_levels(instrument, *, n_background=None) -> dict:
     x = instrument.threshold_raise_percent / 100.0
     reading = instrument.threshold_raise_reading
     return {"kind": kind, "sigma_y": sigma_y, "t": t, "raise_factor": 1.0 + x,
-            "raise_offset": x if reading == "level" else 0.0, "reading": reading}
+            "raise_offset": x if reading == "level" else 0.0, "reading": reading,
+            "detect": instrument.peak_detection_sigma if kind == "peak_fraction" else 0.0}
 
 
 def raised_level(t: float, instrument) -> float:
@@ -364,7 +368,7 @@ def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_bac
     flags = np.empty(ne, dtype=np.uint8)
     inv_bg = 1.0 / bg
     args = (instrument.first_bin, nf - 1, _THR_IDS[instrument.threshold_kind], float(instrument.threshold_value),
-            thr["raise_factor"], thr["raise_offset"], thr["sigma_y"], est_id, _WIN_IDS[instrument.window],
+            thr["raise_factor"], thr["raise_offset"], thr["sigma_y"], thr["detect"], est_id, _WIN_IDS[instrument.window],
             instrument.second_peak_fraction, guard, table, over, instrument.n_fft, _ML_HALF_WIDTH)
 
     def run(t):

@@ -431,8 +431,102 @@ def continuum_lags(instrument, speed_spread: float, correlation_time: float = ma
     return t_max, int(math.ceil(t_max / n))
 
 
+#: Half-width (grid points) of the Gaussian of the gridded cosine sums: error ~1e-13 of C(0)
+#: with a grid of twice the needed lags (benchmarks/bench_subbin.py measures it).
+GRID_HALF_WIDTH = 14
+
+
+def _gridding(t_used: int):
+    """Grid length M, Gaussian width tau_g, weights e_j and the deconvolution for t < t_used lags."""
+    from scipy.fft import next_fast_len
+
+    k = 2 * t_used
+    m = int(next_fast_len(2 * k, real=True))
+    r = m / k
+    w = GRID_HALF_WIDTH
+    tau = math.pi * w / (k * k * r * (r - 0.5))
+    h = 2.0 * math.pi / m
+    e_j = np.exp(-((np.arange(-w, w + 1) * h) ** 2) / (4.0 * tau))
+    deconv = math.sqrt(math.pi / tau) * np.exp(np.arange(t_used) ** 2 * tau) / m
+    return m, tau, e_j, deconv
+
+
+def _gridded_lags(x, amp, g, r_d, n, t_used, lags):
+    """lags[e] of continuum_moments from Gaussian-gridded cosine sums (method 'gridded')."""
+    from . import _kernels as K
+    from .._fft import rfft_rows
+
+    m, tau, e_j, deconv = _gridding(t_used)
+    ne = x.shape[0]
+    rows = 64
+    block = 4 * rows
+    for b0 in range(0, ne, block):
+        b1 = min(ne, b0 + block)
+        grid = np.empty((b1 - b0, m))
+
+        def dep(t, b0=b0, b1=b1, grid=grid):
+            lo = b0 + t * rows
+            hi = min(b1, lo + rows)
+            K.gaussian_deposit_rows(x, amp, n, tau, e_j, lo, hi, grid[lo - b0:hi - b0])
+
+        _run_tasks(-(-(b1 - b0) // rows), dep)
+        f = rfft_rows(grid)
+
+        def fold(t, b0=b0, b1=b1, f=f):
+            lo = b0 + t * rows
+            hi = min(b1, lo + rows)
+            K.gridded_lag_rows(f[lo - b0:hi - b0], deconv, g, r_d, n, t_used, lo, hi, np.empty(g.size), lags)
+
+        _run_tasks(-(-(b1 - b0) // rows), fold)
+
+
+def _signal_lag_rows(instrument, vlos_es, amp_s, a_d, method: str = "exact"):
+    """Folded lag sequences of the exact expected signal spectrum (:func:`cwlidar_sim.signal.exact.signal_rows`).
+
+    ``out[e, 0] = a_0 C(0)``, ``out[e, d] = a_d C(d) + a_{N-d} C(N-d)`` with ``C(d) = 2 sum_s amp_s
+    cos(2 pi x_s d / N)``, ``x_s`` the cells' speeds in bins: the real DFT of a row is ``S_k =
+    sum_{|d|<N} a_|d| C(d) exp(-i 2 pi k d / N)``.  'exact' gives the bits of
+    ``_kernels.lag_sequence_kernel`` (the same recurrence, sums and fold); 'gridded'
+    the cosine sums of :func:`continuum_moments`'s gridded method (within ~1e-13 of ``C(0)``).
+
+    Parameters
+    ----------
+    instrument : Instrument
+    vlos_es : ndarray, shape (n_estimates, n_cells)
+        Cell speeds [m/s].
+    amp_s : ndarray, shape (n_cells,)
+        ``CNR w_s / 2`` [-].
+    a_d : ndarray, shape (N,)
+        Lag coefficients (:func:`lag_coefficients`).
+    method : {'exact', 'gridded'}
+
+    Returns
+    -------
+    ndarray, shape (n_estimates, N)
+    """
+    from . import _kernels as K
+
+    check_choice("method", method, ("exact", "gridded"))
+    n = instrument.n_fft
+    x = np.ascontiguousarray(np.asarray(vlos_es, dtype=np.float64) / instrument.bin_speed)
+    amp = np.ascontiguousarray(amp_s, dtype=np.float64)
+    a_d = np.ascontiguousarray(a_d, dtype=np.float64)
+    ne = x.shape[0]
+    lags = np.empty((ne, 1, n))
+    ones = np.ones(2 * n)
+    if method == "exact":
+        def fold(t):
+            K.continuum_lag_rows(x, amp, ones, a_d, n, n, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK),
+                                 np.empty(2 * n), lags)
+
+        _run_tasks(-(-ne // _ROWS_PER_TASK), fold)
+    else:
+        _gridded_lags(x, amp, ones, a_d, n, n, lags)
+    return lags.reshape(ne, n)
+
+
 def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread: float, *,
-                      correlation_time: float = math.inf, cnr_gain_e=None):
+                      correlation_time: float = math.inf, cnr_gain_e=None, method: str = "exact"):
     """Mean and variance of every bin of every estimate's M-block average, and the signal's looks (tier 2).
 
     Model (the cells of :mod:`cwlidar_sim.signal.spectral`, each a continuum
@@ -478,6 +572,16 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
     cnr_gain_e : array_like, shape (n_estimates,), optional
         Per-estimate factor on the signal power (aerosol load varying over
         a record); > 0.
+    method : {'exact', 'gridded'}
+        How the cells' cosine sums ``C(tau)`` are computed: 'exact', the
+        Chebyshev recurrence per cell, ``O(cells x t_max)`` per estimate (the
+        reference, and the default); 'gridded', the cells spread on a grid
+        of ``M >= 4 t_max`` angles by a Gaussian of :data:`GRID_HALF_WIDTH`
+        points, one real FFT of length M and the Gaussian divided out
+        (type-1 non-uniform FFT, Greengard & Lee 2004), ``O(cells + M log
+        M)``: ``C`` within about 1e-13 of ``C(0)`` (the exact method's own
+        rounding is about 3e-14), so the moments agree to rounding but not
+        bit for bit (benchmarks/bench_subbin.py).
 
     Returns
     -------
@@ -487,17 +591,13 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
         is no signal).
     """
     from . import _kernels as K
-    from .._fft import rfft_rows
 
     v = _as_2d("vlos_es", vlos_es)
     w = _weights(weight_s, v.shape[1])
     cnr = cnr_linear(cnr_db)
-    t_max, n_j = continuum_lags(instrument, speed_spread, correlation_time)
+    check_choice("method", method, ("exact", "gridded"))
+    t_max, n_j, g, r_d = _continuum_setup(instrument, speed_spread, correlation_time)
     n = instrument.n_fft
-    g = line_correlation(instrument, speed_spread, correlation_time, (n_j + 2) * n)
-    g[t_max:] = 0.0
-    r_d = _window_lags(instrument)
-    fn = _fold_noise(instrument)
     x = np.ascontiguousarray(v / instrument.bin_speed)
     amp = np.ascontiguousarray(0.5 * cnr * w)
     ne = x.shape[0]
@@ -508,7 +608,31 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
         K.continuum_lag_rows(x, amp, g, r_d, n, min(t_max, (n_j + 1) * n), t * _ROWS_PER_TASK,
                              min(ne, (t + 1) * _ROWS_PER_TASK), np.empty((n_j + 2) * n), lags)
 
-    _run_tasks(nt, fold)
+    if method == "exact":
+        _run_tasks(nt, fold)
+    else:
+        _gridded_lags(x, amp, g, r_d, n, min(t_max, (n_j + 1) * n), lags)
+    return _lag_moments(instrument, lags, cnr_gain_e)
+
+
+def _continuum_setup(instrument, speed_spread, correlation_time):
+    """``(t_max, J, g, r_d)`` of continuum_moments: lags, the line's correlation (0 from t_max on), window lags."""
+    t_max, n_j = continuum_lags(instrument, speed_spread, correlation_time)
+    n = instrument.n_fft
+    g = line_correlation(instrument, speed_spread, correlation_time, (n_j + 2) * n)
+    g[t_max:] = 0.0
+    return t_max, n_j, g, _window_lags(instrument)
+
+
+def _lag_moments(instrument, lags, cnr_gain_e=None):
+    """Mean, variance and looks of continuum_moments from the folded lag sequences ``lags[e, j, :]``."""
+    from . import _kernels as K
+    from .._fft import rfft_rows
+
+    ne, nj1, n = lags.shape
+    n_j = nj1 - 1
+    nt = -(-ne // _ROWS_PER_TASK)
+    fn = _fold_noise(instrument)
     if cnr_gain_e is not None:
         c = np.asarray(cnr_gain_e, dtype=np.float64)
         if c.shape != (ne,) or not np.all(np.isfinite(c)) or np.any(c <= 0):

@@ -3,6 +3,7 @@
 from .io import hawc2_paths, read_hawc2, read_netcdf, write_hawc2, write_netcdf
 from .box import BoxExpectation, BoxGenerator, expected_box_covariance, generate_box
 from .fields import generate_line, generate_plane, line_spectra, plane_spectra
+from .grids import common_extent, grid_for_extent
 from .parameters import MannParameters
 from .spectra import Covariances, covariances, isotropic_spectra, one_point_spectra, subcell_variance
 from .tensor import amplitude_matrix, eddy_lifetime, energy_spectrum, spectral_tensor
@@ -20,6 +21,8 @@ __all__ = [
     "generate_box",
     "generate_line",
     "generate_plane",
+    "grid_for_extent",
+    "common_extent",
     "line_spectra",
     "plane_spectra",
     "isotropic_spectra",

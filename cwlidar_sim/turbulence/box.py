@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from .. import _config
-from .._validation import check_choice, check_int, check_memory, check_real, check_seed, check_tuple
+from .._validation import check_bool, check_choice, check_int, check_memory, check_real, check_seed, check_tuple
 from .parameters import MannParameters
 from .tensor import _check_params, _prefactor, lifetime_table
 
@@ -182,10 +182,27 @@ def _setup(params, shape, spacing, correction, hf_compensation) -> _Setup:
     return _Setup(corr_33=corr_33, r=r, gain_x3=gain, ftab=ftab, fbase=fbase)
 
 
-def _noise_keys(seed):
-    """The two 64-bit keys of the box's counter-based noise (see _kernels)."""
-    key, key_b = np.random.SeedSequence(seed).generate_state(2, dtype=np.uint64)
+#: Field kinds of the noise keys: a box, a line and a plane of one seed draw
+#: independent noise.
+NOISE_BOX, NOISE_LINE, NOISE_PLANE = 0, 1, 2
+
+
+def _noise_keys(seed, kind=NOISE_BOX):
+    """The two 64-bit keys of a field's counter-based noise (see _kernels.rng).
+
+    Boxes: the first two words of ``SeedSequence(seed)``; lines and planes:
+    of ``SeedSequence(seed, spawn_key=(kind,))``.
+    """
+    ss = np.random.SeedSequence(seed) if kind == NOISE_BOX else np.random.SeedSequence(seed, spawn_key=(kind,))
+    key, key_b = ss.generate_state(2, dtype=np.uint64)
     return np.uint64(key), np.uint64(key_b)
+
+
+def _check_noise_shape(what, shape, max_shape):
+    # The noise counters pack the signed wavenumber indices into 61 bits.
+    for i, (n, m) in enumerate(zip(shape, max_shape)):
+        if n > m:
+            raise ValueError(f"shape[{i}] of {what} must be at most {m} (the noise keys' range), got {n}")
 
 
 def _chunk_rows(shape):
@@ -198,12 +215,6 @@ def box_nbytes(shape, dtype=np.float32) -> int:
     """Bytes held by a box of this shape: three padded real arrays."""
     N1, N2, N3 = shape
     return 3 * N1 * N2 * 2 * (N3 // 2 + 1) * np.dtype(dtype).itemsize
-
-
-def _check_flag(name, flag):
-    if not isinstance(flag, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a bool, got {flag!r}")
-    return bool(flag)
 
 
 class BoxGenerator:
@@ -233,8 +244,11 @@ class BoxGenerator:
         self.params = params
         self.shape, self.spacing = _check_grid(shape, spacing)
         self.correction = check_choice("correction", correction, CORRECTIONS)
-        self.hf_compensation = _check_flag("hf_compensation", hf_compensation)
-        self.cache_stencil = _check_flag("cache_stencil", cache_stencil)
+        self.hf_compensation = check_bool("hf_compensation", hf_compensation)
+        self.cache_stencil = check_bool("cache_stencil", cache_stencil)
+        from ._kernels import BOX_MAX_SHAPE
+
+        _check_noise_shape("a box", self.shape, BOX_MAX_SHAPE)
         check_memory(f"a box of shape {self.shape}", box_nbytes(self.shape) + self.stencil_nbytes)
         self._setup = _setup(params, self.shape, self.spacing, self.correction, self.hf_compensation)
         self._stencil = self._build_stencil() if self.cache_stencil else None
@@ -267,7 +281,7 @@ class BoxGenerator:
                  dtype=np.float32, progress: bool = False):
         """Generate one box; see :func:`generate_box` for the arguments and result."""
         seed = check_seed("seed", seed)
-        keep_mean = _check_flag("keep_mean", keep_mean)
+        keep_mean = check_bool("keep_mean", keep_mean)
         if sigma_u is not None:
             sigma_u = check_real("sigma_u", sigma_u, lo=0.0, lo_open=True)
         dt = np.dtype(dtype)
@@ -360,8 +374,11 @@ def generate_box(
     seed : int
         Seed, 0 <= seed < 2**63.  The same seed gives the same box bit for bit
         whatever the thread count; float32 and float64 boxes of one seed agree
-        to float32 precision.  (Boxes of a given seed differ from those of
-        cwlidar_sim versions before the counter-based noise.)
+        to float32 precision; boxes of one seed and one physical size
+        ``shape * spacing`` on other grids hold the same Fourier coefficients
+        at the wavenumbers they share (see Notes).  (Boxes of a given seed
+        differ from those of cwlidar_sim versions before the wavenumber-keyed
+        noise.)
     correction : {"cell", "none"}
         How the modes near k = 0 are weighted (see Notes).  Default "cell".
     hf_compensation : bool
@@ -430,13 +447,34 @@ def generate_box(
     coherence at high k1 is that of the few resolved modes).
 
     The normals are drawn inside the kernel that computes M, from counters:
-    normal c (six per mode of the half spectrum, numbered by the mode's
-    index) is a 256-layer ziggurat (Marsaglia & Tsang 2000) on output c of
-    SplitMix64 keyed by ``SeedSequence(seed)``, so they depend on the seed
-    and the mode only, not on how modes are shared among threads.  The
-    planes k3 = 0 and (even Nz) k3 = Nyquist are made Hermitian in (k1, k2)
-    (mode -k the conjugate of mode k, self-conjugate modes real with the
-    full variance).  The Nyquist plane stands for both k3 = +pi/dz and
+    normal c (six per mode of the half spectrum) is a 256-layer ziggurat
+    (Marsaglia & Tsang 2000) on output c of SplitMix64 keyed by
+    ``SeedSequence(seed)``, and a mode's six counters are keyed by its
+    signed wavenumber indices (s1, s2, s3), k_i = 2 pi s_i / (N_i d_i), not
+    by its position in the arrays: they depend on the seed and the
+    wavenumber only, not on how modes are shared among threads nor on the
+    grid.  The planes k3 = 0 and (even Nz) k3 = Nyquist are made Hermitian
+    in (k1, k2) (mode -k the conjugate of mode k, self-conjugate modes real
+    with the full variance); of each pair the mode with s1 > 0, or s1 = 0
+    and s2 > 0, is drawn, a rule of the wavenumbers too.
+
+    Grid consistency: two boxes of one physical size (N_i d_i equal), one
+    seed, one ``correction`` and no ``hf_compensation`` (whose gains depend
+    on the grid by design) have the same coefficient, to round-off, at
+    every wavenumber with |s_i| < N_i / 2 on both grids, so the finer box
+    low-pass filtered to the coarser one's band is the coarser box (tested,
+    float64: 5e-15 of the rms coefficient).  The cell-corrected region
+    depends on the wavenumber spacing only (up to grids under 8 points
+    across an axis).  Nyquist modes (index N_i / 2 of an even axis) are not
+    shared: on the coarse grid the index stands for both +-pi/d_i.  They are
+    evaluated and keyed at s_i = -N_i / 2 (numpy's fftfreq sign), so off the
+    Hermitian planes they equal the finer grid's mode at -N_i / 2 (unless
+    that mode is cell-corrected there); in the planes k3 = 0 and Nyquist
+    they are the coarse grid's own (a mode made Hermitian with its mirror,
+    or the z-Nyquist's averaged tensor below).  A comparison of two grids
+    is therefore paired only in the band both resolve, which is what a
+    refinement study wants; :mod:`cwlidar_sim.turbulence.grids` builds
+    grids of one physical size.  The Nyquist plane stands for both k3 = +pi/dz and
     -pi/dz, which with shear carry different spectra; since the Hermitian
     constraint gives a mode and its mirror one variance, each gets the
     average of the tensor at the two, as ``expected_box_covariance`` does.

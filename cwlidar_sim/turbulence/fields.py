@@ -25,16 +25,17 @@ import numpy as np
 
 from .. import _config
 from .._validation import check_int, check_memory, check_real, check_seed, check_tuple
-from .box import _REGION, _as_dataset
+from .box import _REGION, NOISE_LINE, NOISE_PLANE, _as_dataset, _check_noise_shape, _noise_keys
 from .parameters import MannParameters
 from .spectra import half_line_nodes, one_point_spectra
 from .tensor import _check_params, _prefactor, lifetime_table
 
 #: k1 cells nearest 0 whose spectra are cell-averaged (F33 rises steeply there).
 _LINE_AVERAGED_CELLS = 16
-#: Knots per decade of k1 of the line's spline in log-log.  Measured relative
-#: error at the modes: <= 8e-6 at 20 per decade (L = 10 .. 60 m, Gamma = 0 ..
-#: 5); it falls like h^4.
+#: Knots per decade of k1 of the line's local cubics in log-log.  Measured
+#: relative error at the modes: <= 2.1e-5 at 20 per decade (L = 10 .. 60 m,
+#: Gamma = 0 .. 5; a global spline gave 8e-6 but moves with the grid); it
+#: falls like h^4.
 _LINE_KNOTS_PER_DECADE = 20
 
 
@@ -53,11 +54,14 @@ def line_spectra(params: MannParameters, n: int, dx: float):
     F_k33 : ndarray
         Two-sided one-point cross-spectral matrices [m^3 s^-2]: interpolated
         from :func:`one_point_spectra` at 20 knots per decade of k1 (on a
-        lattice in log k1 shared by all n and dx of the same parameters; cubic
-        spline in log k1 of log F_ii and of the correlation coefficient
-        F13 / sqrt(F11 F33); relative error < 1e-4, about 1e-5 at worst),
-        and averaged over each k1 cell for the 16 cells nearest 0 (8-point
-        Gauss-Legendre on the spline); F_k33[0] = 0 (zero mean).  Cached:
+        lattice in log k1 shared by all n and dx of the same parameters;
+        local cubics, :func:`lattice_pieces`, in log k1 of log F_ii and of
+        the correlation coefficient F13 / sqrt(F11 F33); relative error
+        < 1e-4, measured <= 2.1e-5), and averaged over each k1 cell for the
+        16 cells nearest 0 (8-point Gauss-Legendre on the cubics);
+        F_k33[0] = 0 (zero mean).  A mode's value depends on its wavenumber
+        and the parameters only, not on n or dx, so lines of one length
+        n dx share their spectra where their wavenumbers coincide.  Cached:
         read-only arrays, shared between calls.
     """
     _check_params(params)
@@ -87,15 +91,18 @@ def _line_knot_store(params):
 
 
 def _line_knots(params, x_lo, x_hi):
-    """Knots j h covering [x_lo, x_hi] (log k1) and (F11, F22, F33, F13) there.
+    """Knots j h around [x_lo, x_hi] (log k1) and (F11, F22, F33, F13) there.
 
-    The knots lie on one lattice in log k1 whatever n and dx, so the
-    periods of a campaign (same parameters, new dx) reuse each other's
-    integrals; a knot's value does not depend on which call computed it.
+    The knots lie on one lattice in log k1 whatever n and dx, from one below
+    the piece holding x_lo to two above the piece holding x_hi (the local
+    cubics use four knots), so the periods of a campaign (same parameters,
+    new dx) reuse each other's integrals; a knot's value does not depend on
+    which call computed it.  Returns (j0, h, F): the first knot's index, the
+    lattice step and the values.
     """
     h = math.log(10.0) / _LINE_KNOTS_PER_DECADE
-    j0 = math.floor(x_lo / h)
-    j1 = max(math.ceil(x_hi / h), j0 + 7)
+    j0 = math.floor(x_lo / h) - 1
+    j1 = math.floor(x_hi / h) + 2
     j = np.arange(j0, j1 + 1)
     store = _line_knot_store(params)
     with _line_knots_lock:
@@ -106,29 +113,56 @@ def _line_knots(params, x_lo, x_hi):
             store.update(zip(missing, vals))
     with _line_knots_lock:
         F = np.array([store[int(i)] for i in j])
-    return j * h, F
+    return j0, h, F
+
+
+def lattice_pieces(v_j, h):
+    """Local cubic pieces through the values v_j at the knots x_j = j h.
+
+    Piece i spans [x_(i+1), x_(i+2)] and is the cubic through the four knots
+    i .. i + 3 (Lagrange).  Returns the coefficients in scipy's PPoly layout,
+    shape (4, len(v_j) - 3, ...), in t = x - x_(i+1): ``coef[0]`` multiplies
+    t^3.  Each piece depends on its four knots only, so two tables on the
+    same lattice agree wherever they overlap (a global spline's pieces move
+    with the table's ends); interpolation error (9/384) h^4 max|f^(4)|, about
+    twice a not-a-knot spline's.
+    """
+    fm, f0, f1, f2 = v_j[:-3], v_j[1:-2], v_j[2:-1], v_j[3:]
+    a1 = -fm / 3.0 - f0 / 2.0 + f1 - f2 / 6.0
+    a2 = fm / 2.0 - f0 + f1 / 2.0
+    a3 = -fm / 6.0 + f0 / 2.0 - f1 / 2.0 + f2 / 6.0
+    return np.stack([a3 / h**3, a2 / h**2, a1 / h, f0])
+
+
+def _eval_pieces(coef, j0, h, x):
+    # lattice_pieces of knots j0 .. evaluated at x: piece and t = x - j h come
+    # from x and h alone, so any table holding x gives the same bits.
+    j = np.floor(x / h).astype(np.int64)
+    i = np.clip(j - (j0 + 1), 0, coef.shape[1] - 1)
+    t = x - (i + j0 + 1) * h
+    c = coef[:, i]
+    tt = t.reshape(t.shape + (1,) * (c.ndim - 2))
+    return ((c[0] * tt + c[1]) * tt + c[2]) * tt + c[3]
 
 
 @functools.lru_cache(maxsize=8)
 def _line_spectra(params, n, dx):
-    from scipy.interpolate import CubicSpline
-
     dk = 2 * math.pi / (n * dx)
     nh = n // 2 + 1
     k = dk * np.arange(nh)
     F = np.zeros((nh, 3, 3))
     # Knots from the lower edge of the first cell to past the last mode.
-    xt, Ft = _line_knots(params, math.log(0.5 * dk), math.log(k[-1]))  # 11, 22, 33, 13
+    j0, h, Ft = _line_knots(params, math.log(0.5 * dk), math.log(k[-1]))  # 11, 22, 33, 13
     rho = Ft[:, 3] / np.sqrt(Ft[:, 0] * Ft[:, 2])
-    spl = CubicSpline(xt, np.column_stack([np.log(Ft[:, :3]), rho]), axis=0)
+    coef = lattice_pieces(np.column_stack([np.log(Ft[:, :3]), rho]), h)
 
     def ev(kk):
-        v = spl(np.log(kk))
+        v = _eval_pieces(coef, j0, h, np.log(kk))
         d = np.exp(v[:, :3])
         return np.column_stack([d, v[:, 3] * np.sqrt(d[:, 0] * d[:, 2])])
 
     Fk = ev(k[1:])
-    # Cell averages where the spectra change within a cell; the spline is as
+    # Cell averages where the spectra change within a cell; the pieces are as
     # good inside the cells as at the modes (F is smooth in log-log).
     m = min(_LINE_AVERAGED_CELLS, nh - 1)
     if m > 0:
@@ -162,6 +196,15 @@ def generate_line(params: MannParameters, n: int, dx: float, seed: int, *, dtype
         u, v, w [m/s] on dim "x" (x = i dx [m]), periodic, zero mean; their
         expected two-sided one-point spectra are the tensor's F_ij(k1) at
         every k1 the line holds (no lateral truncation at all).
+
+    Notes
+    -----
+    Grid-consistent: the Fourier coefficient of wavenumber 2 pi s / (n dx)
+    depends on the seed, the parameters and that wavenumber only, so two
+    lines of one length n dx and one seed agree at every wavenumber they
+    share but the Nyquist one (|s| < n / 2 of the shorter; the Nyquist
+    mode of an even line holds sqrt(2) times the real part of the draw
+    the finer line uses there, see :func:`generate_box`).
     """
     _check_params(params)
     n = check_int("n", n, lo=2)
@@ -169,11 +212,16 @@ def generate_line(params: MannParameters, n: int, dx: float, seed: int, *, dtype
     seed = check_seed("seed", seed)
     dt = _check_dtype(dtype)
     check_memory(f"a line of {n} points", 3 * (n + 2) * 16)
+    from ._kernels import normals_kernel
+
     k, F = line_spectra(params, n, dx)
     M = _sym_sqrt(F)
     dk = 2 * math.pi / (n * dx)
-    rng = np.random.Generator(np.random.SFC64(np.random.SeedSequence(seed)))
-    z = rng.standard_normal((len(k), 3, 2))
+    # Mode s >= 0 takes the normals 6 s .. 6 s + 5 of the line's stream: keyed
+    # by the wavenumber s dk, the same on every line of length n dx.
+    z = np.empty(6 * len(k))
+    normals_kernel(*_noise_keys(seed, NOISE_LINE), np.uint64(0), z)
+    z = z.reshape(len(k), 3, 2)
     c = (z[..., 0] + 1j * z[..., 1]) / math.sqrt(2.0)
     spec = math.sqrt(dk) * np.einsum("kij,kj->ki", M, c)
     spec[0] = 0.0
@@ -203,14 +251,16 @@ def plane_spectra(params: MannParameters, shape, spacing):
     Notes
     -----
     Phi2 is computed directly (Phi integrated over k3 on geometric panels;
-    cell averages by adaptive 6-point Gauss-Legendre) for |k1| <= 16 dk1,
-    or for every k1 of a short grid.  Elsewhere it is interpolated,
-    separately for each k2 column, by a cubic spline in log|k1| on 32 knots
-    per decade of log Phi2_ii and of the correlation coefficients
+    cell averages by adaptive 6-point Gauss-Legendre) for |k1| <= 16 dk1.
+    Beyond, it is interpolated, separately for each k2 column, by local
+    cubics (:func:`lattice_pieces`) in log|k1| on a fixed lattice of 32
+    knots per decade of log Phi2_ii and of the correlation coefficients
     Phi2_ij / sqrt(Phi2_ii Phi2_jj): relative error below 1e-4 (measured
-    < 1e-5) per component, off-diagonals relative to sqrt(Phi2_ii Phi2_jj).
+    < 5e-6) per component, off-diagonals relative to sqrt(Phi2_ii Phi2_jj).
     The cell averages of the region beyond |k1| = 16 dk1 are interpolated
-    the same way along each k2 strip.  Only k1 >= 0 is tabulated:
+    the same way along each k2 strip.  Which way a mode is computed, and
+    the lattice, depend on the wavenumber spacing only, so planes of one
+    physical size get the same matrices at the modes they share.  Only k1 >= 0 is tabulated:
     Phi2(-k1, k2) = S Phi2(k1, k2) S with S = diag(1, -1, 1) (mirror
     symmetry in y of the sheared flow and k -> -k symmetry).
     """
@@ -228,16 +278,17 @@ def plane_spectra(params: MannParameters, shape, spacing):
 
     def work(_w, task):
         lo, hi = task
-        plane_phi_kernel(lo, N1, t.dk1, t.near, t.r1, t.r2, t.x0, t.h, t.coef, t.rx0, t.rh, t.rcoef,
+        plane_phi_kernel(lo, N1, t.dk1, t.near, t.r1, t.r2, t.j0, t.h, t.coef, t.rj0, t.rh, t.rcoef,
                          scale, phi[lo:hi])
 
     _config.run_static(tasks, work)
     return phi
 
 
-#: Knots per decade of |k1| of the plane's spline tables.  Measured error of
-#: the spline (L = 20 m, Gamma = 3.9, k2 = 0 .. 3 rad/m, k1 over 4.5
-#: decades): 2e-5 at 20 per decade, 4e-6 at 30; it falls like h^4.
+#: Knots per decade of |k1| of the plane's tables.  Measured error of a
+#: global spline (L = 20 m, Gamma = 3.9, k2 = 0 .. 3 rad/m, k1 over 4.5
+#: decades): 2e-5 at 20 per decade, 4e-6 at 30; the local cubics used now,
+#: 4.6e-6 at 32 (tests' cases); it falls like h^4.
 _PLANE_KNOTS_PER_DECADE = 32
 #: Modes with |s1| <= this (k1 = s1 dk1) are computed directly, cells of the
 #: averaged region included (the spectra of the thin k1 cells nearest
@@ -248,8 +299,7 @@ _PLANE_NEAR = 16
 #: subdivision changes from one cell to the next; with 6 they agree with 8
 #: points to 2e-7.
 _PLANE_GAUSS_POINTS = 6
-#: Modes per task of the plane generator: fixes the chunking, hence the
-#: random streams, independently of the thread count.
+#: Modes per task of the plane generator (any value gives the same plane).
 _PLANE_MODES_PER_CHUNK = 1 << 15
 
 
@@ -262,12 +312,12 @@ class _PlaneTable:
     r1: int
     r2: int
     near: np.ndarray  # (A + 1, Ny//2 + 1, 6), |s1| <= A, direct
-    x0: float
+    j0: int  # lattice index of the first piece's left knot (x_j = j h, x = log|k1|)
     h: float
-    coef: np.ndarray  # (4, knots - 1, Ny//2 + 1, 6), point values
-    rx0: float
+    coef: np.ndarray  # (4, pieces, Ny//2 + 1, 6), point values
+    rj0: int
     rh: float
-    rcoef: np.ndarray  # (4, knots - 1, r2 + 1, 6), cell averages of the region
+    rcoef: np.ndarray  # (4, pieces, r2 + 1, 6), cell averages of the region
 
 
 def _row_chunks(n_rows, per_row):
@@ -291,20 +341,6 @@ def _to_spline_values(v_n6):
     out[..., 4] = v_n6[..., 4] / np.sqrt(d[..., 0] * d[..., 1])
     out[..., 5] = v_n6[..., 5] / np.sqrt(d[..., 1] * d[..., 2])
     return out
-
-
-def _log_knots(a_lo, a_hi, dk1):
-    """Uniform knots in log k1 over [a_lo dk1, a_hi dk1], at least 4."""
-    x_lo, x_hi = math.log(a_lo * dk1), math.log(a_hi * dk1)
-    n = max(4, int(math.ceil((x_hi - x_lo) / math.log(10.0) * _PLANE_KNOTS_PER_DECADE)) + 1)
-    h = (x_hi - x_lo) / (n - 1)
-    return x_lo, h, x_lo + h * np.arange(n)
-
-
-def _spline_coef(x_j, v_jc6):
-    from scipy.interpolate import CubicSpline
-
-    return np.ascontiguousarray(CubicSpline(x_j, _to_spline_values(v_jc6), axis=0).c)
 
 
 def _direct_points(params, k1_n, k2_n):
@@ -350,29 +386,50 @@ def _plane_table(params, shape, spacing):
     n2h = N2 // 2 + 1
     a_max = N1 // 2  # largest |s1| of the grid
     r1, r2 = _region(shape, (dk1, dk2))
-    kz = 1e5 * max(1.0 / params.length_scale, math.pi / d1, math.pi / d2)
-    # Direct values up to |s1| = A; all of them where a spline would cost more.
-    x0, h, xk = _log_knots(_PLANE_NEAR, a_max, dk1) if a_max > _PLANE_NEAR else (0.0, 1.0, np.zeros(0))
-    A = a_max if a_max <= _PLANE_NEAR + xk.size else _PLANE_NEAR
+    kz = _plane_kz(params, dk1, dk2)
+    # Direct values up to |s1| = A, local cubics on the lattice beyond: which
+    # way a mode is computed depends on its wavenumber only (grid-consistent).
+    A = min(a_max, _PLANE_NEAR)
     s1_g, s2_g = np.meshgrid(np.arange(A + 1), np.arange(n2h), indexing="ij")
     cell = (s1_g <= r1) & (s2_g <= r2)
     near = np.empty((A + 1, n2h, 6))
     near[cell] = _direct_cells(params, s1_g[cell] * dk1, s2_g[cell] * dk2, dk1, dk2, kz)
     near[~cell] = _direct_points(params, s1_g[~cell] * dk1, s2_g[~cell] * dk2)
     coef = rcoef = np.zeros((4, 1, 1, 6))
-    rx0, rh = 0.0, 1.0
+    j0 = rj0 = 0
+    h = math.log(10.0) / _PLANE_KNOTS_PER_DECADE
     if A < a_max:
+        jk, xk = _lattice_knots((A + 1) * dk1, a_max * dk1, h)
         kk1, kk2 = np.meshgrid(np.exp(xk), dk2 * np.arange(n2h), indexing="ij")
         v = _direct_points(params, kk1.ravel(), kk2.ravel()).reshape(xk.size, n2h, 6)
-        coef = _spline_coef(xk, v)
+        coef, j0 = _lattice_coef(v, h), jk + 1
         if r1 > A:
-            rx0, rh, rk = _log_knots(A, r1, dk1)
-            kk1, kk2 = np.meshgrid(np.exp(rk), dk2 * np.arange(r2 + 1), indexing="ij")
-            v = _direct_cells(params, kk1.ravel(), kk2.ravel(), dk1, dk2, kz).reshape(rk.size, r2 + 1, 6)
-            rcoef = _spline_coef(rk, v)
+            jk, xk = _lattice_knots((A + 1) * dk1, r1 * dk1, h)
+            kk1, kk2 = np.meshgrid(np.exp(xk), dk2 * np.arange(r2 + 1), indexing="ij")
+            v = _direct_cells(params, kk1.ravel(), kk2.ravel(), dk1, dk2, kz).reshape(xk.size, r2 + 1, 6)
+            rcoef, rj0 = _lattice_coef(v, h), jk + 1
     for a in (near, coef, rcoef):
         a.setflags(write=False)
-    return _PlaneTable(dk1, dk2, r1, r2, near, x0, h, coef, rx0, rh, rcoef)
+    return _PlaneTable(dk1, dk2, r1, r2, near, j0, h, coef, rj0, h, rcoef)
+
+
+def _plane_kz(params, dk1, dk2):
+    # |k3| limit of the cell averages: 1e5 times the largest scale of the
+    # averaged region (|k_i| <= 3 max(dk)), where Phi's k3 tail is below
+    # 1e-20 of the integral; from the wavenumber spacing only, so grids of
+    # one physical size average their cells alike.
+    return 1e5 * max(1.0 / params.length_scale, _REGION * max(dk1, dk2))
+
+
+def _lattice_knots(k_lo, k_hi, h):
+    """Lattice indices j0 .. j1 (x_j = j h) whose pieces cover log k in [log k_lo, log k_hi]."""
+    j0 = math.floor(math.log(k_lo) / h) - 1
+    j1 = math.floor(math.log(k_hi) / h) + 2
+    return j0, h * np.arange(j0, j1 + 1)
+
+
+def _lattice_coef(v_jc6, h):
+    return np.ascontiguousarray(lattice_pieces(_to_spline_values(v_jc6), h))
 
 
 def _plane_spectra_direct(params, shape, spacing):
@@ -411,7 +468,7 @@ def _plane_spectra_direct(params, shape, spacing):
     # Cell averages near the origin (Phi33 ~ 1/|k|^2 there).
     r1, r2 = _region(shape, (dk1, dk2))
     gx, gw = np.polynomial.legendre.leggauss(_PLANE_GAUSS_POINTS)
-    kz = 1e5 * max(1.0 / L, math.pi / d1, math.pi / d2)
+    kz = _plane_kz(params, dk1, dk2)
     for s1 in range(-r1, r1 + 1):
         for s2 in range(0, r2 + 1):
             acc = np.zeros(6)
@@ -455,8 +512,12 @@ def generate_plane(params: MannParameters, shape, spacing, seed: int, *, z: floa
     Notes
     -----
     Each mode gets the Cholesky factor of its spectral matrix times complex
-    Gaussian noise; the noise comes in chunks of rows, each from its own
-    stream of ``seed``, so the result is the same for any thread count.
+    Gaussian noise drawn from counters keyed by the mode's signed wavenumber
+    indices (see :func:`generate_box`), so the result is the same for any
+    thread count, and two planes of one physical size N dx x N dy and one
+    seed agree at every wavenumber they share (not at the Nyquist modes:
+    the columns k2 = 0 and Nyquist are made Hermitian in k1, the mode with
+    s1 > 0 drawn and its mirror its conjugate).
     """
     _check_params(params)
     shape = check_tuple("shape", shape, 2, lambda nm, v: check_int(nm, v, lo=2))
@@ -468,23 +529,26 @@ def generate_plane(params: MannParameters, shape, spacing, seed: int, *, z: floa
     n2h = N2 // 2 + 1
     check_memory(f"a plane of shape {shape}", 3 * N1 * n2h * 2 * dt.itemsize)
     from .. import _fft
-    from ._kernels import fill_plane_kernel, hermitian_plane_kernel
+    from ._kernels import PLANE_MAX_SHAPE, fill_plane_kernel, hermitian_plane_kernel, plane_noise_kernel
+
+    _check_noise_shape("a plane", shape, PLANE_MAX_SHAPE)
 
     t = _plane_table(params, shape, spacing)
     scale = _prefactor(params) * math.sqrt(t.dk1 * t.dk2 / 2.0)
     specs = [_fft.empty_halfspectrum(shape, dt) for _ in range(3)]
-    ss = np.random.SeedSequence(seed)
+    key, key_b = _noise_keys(seed, NOISE_PLANE)
 
     def fill(_w, task):
-        ci, (lo, hi) = task
-        # One stream per chunk of rows: a mode's noise depends on the seed
-        # and the mode only.
-        rng = np.random.Generator(np.random.SFC64(np.random.SeedSequence(ss.entropy, spawn_key=(ci,))))
-        noise = rng.standard_normal((hi - lo, n2h, 3, 2), dtype=np.float32)
-        fill_plane_kernel(specs[0], specs[1], specs[2], lo, noise, t.dk1, t.near, t.r1, t.r2, t.x0, t.h,
-                          t.coef, t.rx0, t.rh, t.rcoef, scale)
+        lo, hi = task
+        # Drawn from counters keyed by the signed wavenumber indices (see
+        # _kernels.rng): a mode's noise depends on the seed and its
+        # wavenumber only, not on the chunk or the grid.
+        noise = np.empty((hi - lo, n2h, 3, 2))
+        plane_noise_kernel(key, key_b, lo, N1, noise)
+        fill_plane_kernel(specs[0], specs[1], specs[2], lo, noise, t.dk1, t.near, t.r1, t.r2, t.j0, t.h,
+                          t.coef, t.rj0, t.rh, t.rcoef, scale)
 
-    _config.run_static(list(enumerate(_row_chunks(N1, n2h))), fill)
+    _config.run_static(_row_chunks(N1, n2h), fill)
     out = []
     for spec in specs:
         spec[0, 0] = 0.0

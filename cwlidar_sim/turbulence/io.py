@@ -113,7 +113,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import check_int, check_memory, check_real, check_tuple
+from .._validation import check_bool, check_int, check_memory, check_real, check_tuple
 
 __all__ = ["hawc2_paths", "read_hawc2", "read_netcdf", "write_hawc2", "write_netcdf"]
 
@@ -228,7 +228,7 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
     (dx, dy, dz) [m] from elsewhere (e.g. ``box.attrs``).  Each file is first
     written as ``NAME.part`` and renamed when complete.
     """
-    reverse_x = _check_bool("reverse_x", reverse_x)
+    reverse_x = check_bool("reverse_x", reverse_x)
     reverse_x, reverse_y = _convention_flips(convention, reverse_x)
     max_chunk_bytes = check_int("max_chunk_bytes", max_chunk_bytes, lo=1)
     arrays = _field_arrays(box, "box", allowed=(_FIELD_DIMS[0],))
@@ -327,10 +327,10 @@ def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, conven
     paths = hawc2_paths(base_or_paths)
     shape = check_tuple("shape", shape, 3, lambda n, v: check_int(n, v, lo=1))
     spacing = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
-    reverse_x = _check_bool("reverse_x", reverse_x)
+    reverse_x = check_bool("reverse_x", reverse_x)
     reverse_x, reverse_y = _convention_flips(convention, reverse_x)
-    remove_u_mean = _check_bool("remove_u_mean", remove_u_mean)
-    mmap = _check_bool("mmap", mmap)
+    remove_u_mean = check_bool("remove_u_mean", remove_u_mean)
+    mmap = check_bool("mmap", mmap)
     if mmap and remove_u_mean:
         raise ValueError("remove_u_mean=True changes the data and needs it in memory; allowed with mmap=False only")
     extra = _check_attrs(attrs)
@@ -459,7 +459,7 @@ def read_netcdf(path, *, lazy: bool = False):
     import xarray as xr
 
     path = _check_path("path", path)
-    lazy = _check_bool("lazy", lazy)
+    lazy = check_bool("lazy", lazy)
     if not path.is_file():
         raise FileNotFoundError(f"NetCDF file not found: {str(path)!r}")
     ds = xr.open_dataset(path, engine="h5netcdf", mask_and_scale=False, decode_times=False, cache=False)
@@ -479,12 +479,6 @@ def read_netcdf(path, *, lazy: bool = False):
 # ---------------------------------------------------------------------------
 # helpers
 # ---------------------------------------------------------------------------
-def _check_bool(name, value) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be True or False, got {type(value).__name__} {value!r}")
-    return bool(value)
-
-
 def _convention_flips(convention, reverse_x) -> tuple[bool, bool]:
     """(reverse x, reverse y) of a file convention."""
     if convention not in CONVENTIONS:

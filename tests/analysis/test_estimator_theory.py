@@ -59,3 +59,26 @@ def test_probe_length_recovers_zR_and_a0_of_an_unseen_realisation():
     assert fit.a0_sigma < 0.25 * abs(a0 - 0.020)
     # and a median's zR_eff is shorter than its zR (its filter is not exp(-2 k zR))
     assert fit.zR_eff < 0.8 * fit.zR
+
+
+@pytest.mark.parametrize("weighting, span, cell, focus, growth", [("exact", 20.0, 0.5, 67.5, 0.0),
+                                                                  ("lorentzian", 8.0, 1.3, 40.0, 0.0),
+                                                                  ("exact", 200.0, 2.0, 10.0, 0.0),
+                                                                  ("exact", 200.0, 0.5, 67.5, 0.1)])
+def test_the_theory_cells_are_the_staring_lidars(weighting, span, cell, focus, growth):
+    """The theory builds its cells itself (the analysis does not import the sensors): the lidar's own cells.
+
+    The last case is clipped at the telescope (span 200 z_R reaches behind a 10 m focus).
+    """
+    from cwlidar_sim.analysis.estimator_theory import _line_cells
+    from cwlidar_sim.sensors import StaringLidar
+
+    inst = PROTOTYPE_2003.replace(focus=focus)
+    ours = _line_cells(inst, weighting, span, cell, growth=growth)
+    theirs = StaringLidar(instrument=inst, weighting=weighting, span=span, cell_length=cell,
+                          cell_growth=growth).cells()
+    for a in ("s_s", "weight_s", "sub_p", "fraction_p", "ptr_s"):
+        np.testing.assert_array_equal(getattr(ours, a), getattr(theirs, a))
+    assert ours.truncated_fraction == theirs.truncated_fraction and ours.tail_weight == theirs.tail_weight
+    with pytest.raises(ValueError, match="weighting"):
+        _line_cells(inst, "gaussian", span, cell)

@@ -1,7 +1,6 @@
 """The displaced sonic's coherence with the beam's line (method 2 factor Re(rho)^2)."""
 
 import numpy as np
-import pytest
 
 from cwlidar_sim.analysis.offset import _cross_spectrum, offset_coherence
 from cwlidar_sim.turbulence import MannParameters, one_point_spectra

@@ -74,7 +74,7 @@ def test_identity_not_position(tmp_path):
 
 @pytest.mark.parametrize("sweep, match", [
     ('[[sweep]]\n"lidar.cnr" = [1.0]', "unknown key.*'cnr'"),
-    ('[[sweep]]\n"lidar.cnr_db" = [1.0, 100.0]', "lidar.cnr_db"),
+    ('[[sweep]]\n"lidar.cnr_db" = [1.0, 150.0]', "lidar.cnr_db"),
     ('[[sweep]]\n"lidar.cnr_db" = [1.0, 2.0]\n"lidar.span" = [1.0]', "equal lengths"),
     ('[[sweep]]\n"lidar.cnr_db" = { start = 0.0, stop = 1.0 }', "exactly one of num or step"),
     ('[[sweep]]\n"period.3.mean_speed" = [1.0]', "not an index"),
@@ -140,8 +140,9 @@ def test_stopped_campaign_resumes_without_recomputing(serial, tmp_path, monkeypa
         batch.run_campaign(spec, out, local=True, progress=False, on_task=stop)
     assert len(os.listdir(out / "tasks")) == 1
     calls = []
-    real = batch._run_task
-    monkeypatch.setattr(batch, "_run_task", lambda scene, threads: calls.append(1) or real(scene, threads))
+    real = batch._run_unit
+    monkeypatch.setattr(batch, "_run_unit", lambda scene, i, params, threads: calls.append(1) or real(scene, i, params,
+                                                                                                   threads))
     s = batch.run_campaign(spec, out, local=True, progress=False)
     assert len(calls) == 3 and s["reused"] == 1 and s["computed"] == 3
     merged_equal(batch.merge_campaign(out), merged)
@@ -157,14 +158,15 @@ def test_a_failing_task_is_recorded_and_the_rest_complete(tmp_path, monkeypatch)
     idx = json.loads((tmp_path / "out" / "index.json").read_text())["tasks"]
     assert sorted(e["status"] for e in idx.values()) == ["done", "failed"]
     calls = []
-    real = batch._run_task
-    monkeypatch.setattr(batch, "_run_task", lambda scene, threads: calls.append(scene.lidar.tier) or real(scene, threads))
+    real = batch._run_unit
+    monkeypatch.setattr(batch, "_run_unit", lambda scene, i, params, threads: calls.append(scene.lidar.tier)
+                        or real(scene, i, params, threads))
     s = batch.run_campaign(spec, tmp_path / "out", local=True, progress=False)
     assert calls == ["signal"] and s["reused"] == 1  # the failed one is retried, the done one is not
 
 
 def test_a_task_too_big_for_a_worker_is_refused_before_it_starts(tmp_path, monkeypatch):
-    monkeypatch.setattr(batch, "_run_task", lambda *a: pytest.fail("a refused task was started"))
+    monkeypatch.setattr(batch, "_run_unit", lambda *a: pytest.fail("a refused task was started"))
     spec = campaign(tmp_path, '[[sweep]]\n"lidar.cnr_db" = [-10.0, -11.0]')
     s = batch.run_campaign(spec, tmp_path / "out", local=True, progress=False, memory_limit=1e6)
     assert s["done"] == 0 and len(s["failed"]) == 2

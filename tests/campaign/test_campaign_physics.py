@@ -325,7 +325,8 @@ def test_estimator_theory_follows_each_estimators_method_2(aligned_spectral):
 
 def test_probe_length_of_the_run_is_its_telescope(aligned_spectral):
     """fit_probe_length on the run's own method 2 (which its theory never saw) recovers zR = 5.61 m, a0 = 20 mm."""
-    from cwlidar_sim.analysis import ProbeLengthError, fit_probe_length_results
+    from cwlidar_sim.analysis import ProbeLengthError
+    from cwlidar_sim.campaign import fit_probe_length_results
 
     ds = aligned_spectral
     fit = fit_probe_length_results(ds, n_lines=2, zR_factors=(0.71, 1.0, 1.41))

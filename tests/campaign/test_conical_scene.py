@@ -17,6 +17,7 @@ duration = 120.0
 [scan]
 heights = [40.0]
 scan_revs = [1, 3]
+[lidar]
 tier = "los"
 [[period]]
 name = "a"
@@ -34,11 +35,14 @@ def test_scene_validation_and_round_trip():
     assert loads_scene(TEXT.replace("heights = [40.0]", "heights = [40.0, 60.0]")).unit_names() == \
         ["a_z40", "a_z60", "b_z40", "b_z60"]
     for bad, match in [
-        (TEXT.replace("tier = \"los\"", "tier = \"los\"\nfoo = 1"), r"unknown key\(s\) for ScanSpec: \['foo'\]"),
+        (TEXT.replace("scan_revs = [1, 3]", "scan_revs = [1, 3]\nfoo = 1"), r"unknown key\(s\) for ScanSpec: \['foo'\]"),
+        (TEXT.replace("tier = \"los\"", "tier = \"los\"\nfoo = 1"), r"unknown key\(s\) for ConicalLidarSpec: \['foo'\]"),
+        (TEXT.replace("tier = \"los\"", "tier = \"los\"\ncnr_db = 500.0"), r"lidar.cnr_db=500.0 is out of range"),
+        (TEXT.replace("scan_revs = [1, 3]", "scan_revs = [1, 3]\ntier = \"los\""), r"scan.lidar and scan.tier moved"),
         (TEXT.replace("seed = 4", "seed = 4\ncolour = 1"), r"unknown key\(s\) in conical scene: \['colour'\]"),
         (TEXT.replace("heights = [40.0]", "heights = [5.0]"), r"heights\[0\]=5.0 m needs focus"),
         (TEXT.replace("scan_revs = [1, 3]", "scan_revs = [0]"), r"scan.scan_revs\[0\]"),
-        (TEXT.replace("[scan]", "[scan]\nlidar = { half_angle_deg = 80.0 }"), "half_angle_deg"),
+        (TEXT.replace("[scan]", "[scan]\nhalf_angle_deg = 80.0"), "half_angle_deg"),
         (TEXT.replace('kind = "conical"', 'kind = "orbital"'), "kind"),
         (TEXT.replace("duration = 120.0", "duration = 5.0"), "duration"),
     ]:

@@ -36,7 +36,8 @@ def test_line_broadening_adds_to_the_subcell_spread_in_quadrature():
     dv = 0.5 * s.lidar.build_instrument().wavelength * 1.0e6       # 0.774 m/s per MHz
     assert dv == pytest.approx(0.7738, rel=1e-3)
     assert _subcell_spread(s, p) == pytest.approx(math.sqrt(subcell_variance(p, s.field.dx) + dv**2), rel=1e-12)
-    assert _subcell_spread(scene(), p) is None                      # default: the sensor's own (from the field)
+    # default: the field's own, the tensor's variance below the grid, as the sensor takes it
+    assert _subcell_spread(scene(), p) == pytest.approx(math.sqrt(subcell_variance(p, s.field.dx)), rel=1e-12)
 
 
 @pytest.mark.parametrize("text, match", [

@@ -111,3 +111,36 @@ def test_period_seeds_distinct_and_stable():
     s2 = s.replace(periods=(dataclasses.replace(s.periods[0], seed=7),) + s.periods[1:])
     assert s2.period_seed(0) == 7 and s2.period_seed(1) == seeds[1]
     assert isinstance(s.periods[0], PeriodSpec)
+
+
+CONE = """
+name = "c"
+kind = "conical"
+[scan]
+heights = [40.0]
+[[period]]
+name = "A"
+mean_speed = 8.0
+"""
+
+
+@pytest.mark.parametrize("text, error, message", [
+    (MINIMAL + "[lidar]\nexact_background = 1\n", TypeError, "lidar.exact_background must be a bool (true or false), got int 1"),
+    (MINIMAL + "[analysis]\nfit = 'yes'\n", TypeError, "analysis.fit must be a bool (true or false), got str 'yes'"),
+    (CONE.replace("[scan]", "[scan]\ncycle = 1"), TypeError, "scan.cycle must be a bool (true or false), got int 1"),
+    (CONE.replace("[scan]", "[scan]\nlateral_doubling = 0"), TypeError, "scan.lateral_doubling must be a bool"),
+    (MINIMAL + "[sonic]\noffset = [1.0, 2.0]\n", ValueError, "sonic.offset must be a list of 3 numbers [m], got [1.0, 2.0]"),
+    (MINIMAL.replace('name = "A"', "name = 3"), TypeError, "period.name must be a string, got int 3"),
+    (CONE.replace('name = "A"', 'name = ""'), ValueError, "period.name must not be empty"),
+    (MINIMAL.replace('name = "t"', 'name = "a b"'), ValueError, "name 'a b' may hold only letters"),
+    (CONE.replace('name = "c"', 'name = "a/b"'), ValueError, "name 'a/b' may hold only letters"),
+    ("colour = 1\n" + MINIMAL, ValueError, "unknown key(s) in scene: ['colour']; allowed: "),
+    ("colour = 1\n" + CONE, ValueError, "unknown key(s) in conical scene: ['colour']; allowed: "),
+    (MINIMAL + '[[period]]\nname = "A"\nmean_speed = 7.0\n', ValueError, "period names must be unique, got ['A', 'A']"),
+    (CONE + '[[period]]\nname = "A"\nmean_speed = 7.0\n', ValueError, "period names must be unique, got ['A', 'A']"),
+])
+def test_staring_and_conical_scenes_share_their_checks_and_messages(text, error, message):
+    """One scene machinery (campaign/spec.py, _validation.py): the same mistake reads the same in both kinds."""
+    with pytest.raises(error) as e:
+        loads_scene(text)
+    assert message in str(e.value)

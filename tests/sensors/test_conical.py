@@ -14,7 +14,7 @@ from cwlidar_sim.sensors.conical import (
     measure_conical,
     surface_layer_parameters,
 )
-from cwlidar_sim.signal import CS_SERIES, Flag, speckle_looks
+from cwlidar_sim.signal import CS_SERIES, Flag
 from cwlidar_sim.turbulence import MannParameters
 
 PHI = math.radians(30.0)
@@ -128,29 +128,37 @@ def test_uniform_flow_sweep_average_and_zero_crossing(n_sub):
     assert np.all(fit.n_used_p == 50 - (low | near).reshape(2, 50).sum(axis=1))
 
 
-def test_scan_kernel_matches_reference():
+@pytest.mark.parametrize("growth", [0.0, 0.3])
+def test_scan_kernel_matches_reference(growth):
+    """The one line-of-sight kernel (BeamSampler) against plain-Python point sampling: cells, sub-points, tail."""
     from reference import beam_sample_points
 
-    from cwlidar_sim.beam.sampling import _prepare_field
-    from cwlidar_sim.sensors.conical import _sample_looks
+    from cwlidar_sim.sensors import BeamSampler
 
-    lid = ConicalLidar(heights=(40.0,), cell_length=3.0)
+    lid = ConicalLidar(heights=(40.0,), cell_length=3.0, span=8.0, cell_growth=growth)
     box = calm_box(lid, d=3.0, nx=40)
     rng = np.random.default_rng(3)
     for c in "uvw":
         box[c].values[...] = rng.standard_normal(box[c].shape)
-    fld = _prepare_field(box, np.zeros(3))
     cells = lid.cells(40.0)
-    range_s = np.maximum(lid.focus(40.0) + cells.s_s, 0.0)
+    assert (cells.sub_p.size > cells.n_cells) == (growth > 0)
+    sampler = BeamSampler(box, np.zeros(3), lid.focus(40.0), cells, 7.0, False)
+    range_p = np.maximum(lid.focus(40.0) + cells.sub_p, 0.0)
     t_l = np.linspace(0.0, 2.0, 17)
     n_lc = lid.direction(np.linspace(0.0, 400.0, 17))
-    vl_ls, vl_l = _sample_looks(fld, False, np.zeros(3), n_lc, range_s, cells.weight_s, cells.truncated_fraction,
-                                t_l, 7.0)
-    _, ref = beam_sample_points(fld.u, fld.v, fld.w, fld.grid, False, np.zeros(3), n_lc, range_s, t_l, 7.0, True)
+    vl_ls, vl_l = sampler.sample(t_l, n_lc)
+    _, ref_p = beam_sample_points(sampler.fld.u, sampler.fld.v, sampler.fld.w, sampler.fld.grid, False, np.zeros(3),
+                                  n_lc, range_p, t_l, 7.0, True)
+    # a cell's speed is its sub-points' weighting-weighted mean
+    ref = np.stack([ref_p[:, cells.ptr_s[s]:cells.ptr_s[s + 1]] @ cells.fraction_p[cells.ptr_s[s]:cells.ptr_s[s + 1]]
+                    for s in range(cells.n_cells)], axis=1)
     np.testing.assert_allclose(vl_ls[:, :-1], ref, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(vl_ls[:, -1], 7.0 * n_lc[:, 0], rtol=1e-15)
     np.testing.assert_allclose(vl_l, ref @ cells.weight_s + cells.truncated_fraction * 7.0 * n_lc[:, 0],
                                rtol=1e-12, atol=1e-12)
+    # tier 1 is the same sum as equal cells of the base length: growth regroups the sub-points, nothing else
+    w_p = cells.fraction_p * np.repeat(cells.weight_s, np.diff(cells.ptr_s))
+    np.testing.assert_allclose(vl_l, ref_p @ w_p + cells.truncated_fraction * 7.0 * n_lc[:, 0], rtol=1e-12, atol=1e-12)
 
 
 def test_field_must_hold_the_cone():
@@ -203,8 +211,13 @@ def test_conical_field_lateral_doubling_and_extent():
     assert su2 == pytest.approx(2.4 * us) and p2.length_scale == pytest.approx(0.56 * 40.0)
 
 
-@pytest.mark.parametrize("tier, duration", [("spectral", 20.0), ("signal", 1.0)])
-def test_tiers_2_and_3_follow_the_sweep_within_a_wide_dwell(tier, duration):
+# Scatter from 12 seeds (one revolution of tier 3, 20 s of tier 2): tier 3's estimates scatter by 0.0116 m/s
+# about the mean of the looks and its one-revolution fit by 0.0076 m/s about a bias of 0.009; tier 2's fit
+# has the centroid's bias 0.0106 +- 0.0006 and its estimates scatter by 0.0076 m/s.  The bounds are the
+# bias allowance plus 4 standard deviations (per estimate) and 3 (the fit).
+@pytest.mark.parametrize("tier, duration, est_atol, fit_scatter", [("spectral", 20.0, 0.03, 0.0),
+                                                                   ("signal", 1.0, 4 * 0.0116, 3 * 0.0076)])
+def test_tiers_2_and_3_follow_the_sweep_within_a_wide_dwell(tier, duration, est_atol, fit_scatter):
     # 10 estimates per revolution: each dwell sweeps 36 deg, and the averaged spectrum's centroid is the mean
     # of the looks' |v_r| where no look comes near the blind zone (dwells centred at |cos| > 0.5): A is cut by
     # the Dirichlet factor 0.984.  (Dwells reaching the
@@ -219,12 +232,12 @@ def test_tiers_2_and_3_follow_the_sweep_within_a_wide_dwell(tier, duration):
     far = np.abs(np.cos(np.radians(rec.azimuth_e))) > 0.5
     assert far.sum() == 6 * duration and np.all(rec.flags_e[far] == 0)
     mean_abs = U * math.sin(PHI) * np.abs(np.cos(np.radians(rec.azimuth_e))) * d8
-    np.testing.assert_allclose(rec.speed_e[far], mean_abs[far], rtol=0, atol=0.03)
+    np.testing.assert_allclose(rec.speed_e[far], mean_abs[far], rtol=0, atol=est_atol)
     az, sp, ok = (scan_arrays(a, rec.revolution_e, 1) for a in (rec.azimuth_e, rec.speed_e, far))
     fit = fit_rectified_cosine(az, sp, 30.0, valid=ok, reference_deg=0.0, min_points=5)
     # the sweep's 1.6 % dominates: the centroid's own bias (its threshold subtraction weighs the dense,
     # high-speed end of a swept line) is a tenth of it
-    assert abs(np.mean(fit.speed_p) - U * d8) < 0.1 * U * (1 - d8)
+    assert abs(np.mean(fit.speed_p) - U * d8) < 0.1 * U * (1 - d8) + fit_scatter
 
 
 def test_cycle_through_heights():

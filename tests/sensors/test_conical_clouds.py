@@ -70,7 +70,9 @@ def test_tier1_is_the_weighted_mean_of_aerosol_and_cloud():
 
 def test_low_cloud_biases_the_centroid_by_the_weights_and_raises_second_peak():
     # a uniform wind, a strong low cloud moving at twice its speed: two lines per look, of powers
-    # 1 / (1 + w_c) and w_c / (1 + w_c); the centroid is their power-weighted mean, look by look
+    # (1 - W) and w_c relative to the aerosol's total (W the weight beyond the span, a pedestal below
+    # the threshold and left out of the spectrum: cwlidar_sim.signal.chain); the centroid is their
+    # power-weighted mean, look by look
     # RIN and the 0 Hz reflection off: the two-line centroid is about the lines, not the floor near 0 Hz
     quiet = dataclasses.replace(CS_SERIES, rin_level=0.0, reflection_level=0.0)
     kw = dict(heights=(40.0,), tier="spectral", cell_length=2.0, cnr_db=-10.0, exact_background=True, instrument=quiet)
@@ -80,8 +82,9 @@ def test_low_cloud_biases_the_centroid_by_the_weights_and_raises_second_peak():
     ref = measure_conical(calm_box(clear), clear, 2.0, U, 1)
     w = lid.cloud_weight(40.0)
     assert 0.8 < w < 1.1
+    k = 1.0 - lid.cells(40.0).tail_weight
     va = np.abs(look_speeds(rec.azimuth_e, lid.sub_dwells, U))
-    want = ((va + w * 2 * va) / (1 + w)).mean(axis=1)
+    want = ((k * va + w * 2 * va) / (k + w)).mean(axis=1)
     a = np.abs(np.cos(np.radians(rec.azimuth_e)))
     sel = a > 0.4  # both lines clear of the blind zone
     d = rec.speed_e[sel] - want[sel]
@@ -89,7 +92,7 @@ def test_low_cloud_biases_the_centroid_by_the_weights_and_raises_second_peak():
     tol = 0.2 * CS_SERIES.bin_speed + 4 * d.std() / math.sqrt(d.size)
     assert abs(d.mean()) < tol
     shift = np.mean(rec.speed_e[sel] - ref.speed_e[sel])
-    assert shift > 1.5  # the bias itself: w / (1 + w) * |v_a|, about 1.9 m/s here
+    assert shift > 1.5  # the bias itself: w / (1 - W + w) * |v_a|, about 2 m/s here
     # lines 25-32 bins apart: every estimate flagged; none without the cloud
     assert np.all(rec.flags_e[a > 0.8] & Flag.SECOND_PEAK)
     assert not np.any(ref.flags_e & Flag.SECOND_PEAK)
@@ -98,13 +101,15 @@ def test_low_cloud_biases_the_centroid_by_the_weights_and_raises_second_peak():
 
 
 def test_cloud_moving_with_a_uniform_wind_is_clear_air_with_more_power():
-    # every cell and the cloud at n.(U, 0, 0): the cloud only adds its power, w_c of the aerosol's, so the
-    # spectrum is the clear-air one at CNR + 10 log10(1 + w_c) -- the same draws, the same estimates
+    # every cell and the cloud at n.(U, 0, 0): the cloud only adds its power, w_c of the aerosol's, to the
+    # lines' (1 - W) (W beyond the span, out of the spectrum), so the spectrum is the clear-air one at
+    # CNR + 10 log10((1 - W + w_c) / (1 - W)) -- the same draws, the same estimates
     kw = dict(heights=(40.0,), tier="spectral", cell_length=4.0, sub_dwells=4)
     lid = ConicalLidar(cloud_base=300.0, cloud_strength=3000.0, cnr_db=-33.0, **kw)
     w = lid.cloud_weight(40.0)
+    k = 1.0 - lid.cells(40.0).tail_weight
     rec = measure_conical(calm_box(lid), lid, 2.0, U, 4)
-    clear = ConicalLidar(cnr_db=-33.0 + 10 * math.log10(1 + w), **kw)
+    clear = ConicalLidar(cnr_db=-33.0 + 10 * math.log10((k + w) / k), **kw)
     ref = measure_conical(calm_box(clear), clear, 2.0, U, 4)
     np.testing.assert_array_equal(np.isfinite(rec.speed_e), np.isfinite(ref.speed_e))
     np.testing.assert_allclose(rec.speed_e, ref.speed_e, rtol=1e-9)
@@ -139,8 +144,9 @@ def test_tier3_sees_the_cloud_line():
     lid = ConicalLidar(cloud_base=300.0, cloud_strength=3000.0, cloud_speed=2 * U, **kw)
     rec = measure_conical(calm_box(lid), lid, 1.0, U, 3)
     w = lid.cloud_weight(40.0)
+    k = 1.0 - lid.cells(40.0).tail_weight
     va = np.abs(look_speeds(rec.azimuth_e, lid.sub_dwells, U))
-    want = ((va + w * 2 * va) / (1 + w)).mean(axis=1)
+    want = ((k * va + w * 2 * va) / (k + w)).mean(axis=1)
     sel = np.abs(np.cos(np.radians(rec.azimuth_e))) > 0.6
     d = rec.speed_e[sel] - want[sel]
     assert abs(d.mean()) < 0.2 * CS_SERIES.bin_speed + 4 * d.std() / math.sqrt(d.size)
@@ -182,7 +188,7 @@ def test_cloud_inputs_are_validated_by_name():
 
 
 def test_period_under_a_cloud_moving_with_the_wind():
-    from cwlidar_sim.sensors.conical_period import simulate_conical_period
+    from cwlidar_sim.campaign.conical_period import simulate_conical_period
 
     kw = dict(speed=8.0, duration=30.0, scan_revs=(1,), model=False)
     clear = simulate_conical_period(20.0, 3, **kw)

@@ -112,9 +112,11 @@ def test_tier1_is_the_weighted_line_of_sight_average_of_the_total_wind(field):
 
     A2012 Eq. 4: the Lorentzian weight (zR / pi) / (zR^2 + s^2) with zR = lambda r^2 / (pi a0^2)
     (Eq. 1) integrates to (arctan(b / zR) - arctan(a / zR)) / pi over a cell [a, b]; the cells
-    cut [max(-20 zR, -r), 20 zR] into equal lengths and the weights are renormalised to sum to 1.
-    Each cell's centre samples the total wind (U + u, v, w) of the frozen field advected by U
-    (reference.beam_sample_points, trilinear interpolation in plain Python), projected on the beam.
+    cut [max(-20 zR, -r), 20 zR] into equal lengths.  Each cell's centre samples the total wind
+    (U + u, v, w) of the frozen field advected by U (reference.beam_sample_points, trilinear
+    interpolation in plain Python), projected on the beam; the weight outside the span sees the
+    mean wind U along the beam (the tail rule of cwlidar_sim.beam.cells), or, with
+    tail = 'renormalise', the cells' weights are divided by their sum.
     """
     lid = StaringLidar(tier="los", weighting="lorentzian", position=(100.0, 0.0, 0.0), azimuth_deg=0.0)
     t = times(60, dt=0.5)  # 240 m of field
@@ -124,7 +126,6 @@ def test_tier1_is_the_weighted_line_of_sight_average_of_the_total_wind(field):
     n = lid.n_cells
     edges = np.linspace(max(-20 * zR, -P.focus), 20 * zR, n + 1)
     w = np.diff(np.arctan(edges / zR)) / math.pi
-    w /= w.sum()
     n3 = np.array([1.0, 0.0, 0.0])  # azimuth 0, elevation 0: along +x
     np.testing.assert_allclose(lid.direction, n3, atol=1e-15)
     x = field.x.values
@@ -132,9 +133,12 @@ def test_tier1_is_the_weighted_line_of_sight_average_of_the_total_wind(field):
     grid = np.array([x[0], 0.0, 0.0, x[1] - x[0], 1.0, 1.0])
     _, vlos_ts = reference.beam_sample_points(u, v, ww, grid, False, [100.0, 0.0, 0.0], np.tile(n3, (t.size, 1)),
                                               P.focus + 0.5 * (edges[:-1] + edges[1:]), t, U, add_mean=True)
-    ref = vlos_ts @ w
+    ref = vlos_ts @ w + (1.0 - w.sum()) * U
     np.testing.assert_allclose(rec.vlos_e, ref, rtol=0, atol=1e-12)
     assert rec.info["n_cells"] == n and rec.vlos_e.std() > 0.3  # the record does carry turbulence
+    assert 1.0 - w.sum() == pytest.approx(rec.info["truncated_fraction"], rel=1e-9)
+    rec = measure_staring(field, lid.replace(tail="renormalise"), t, U, None)
+    np.testing.assert_allclose(rec.vlos_e, vlos_ts @ (w / w.sum()), rtol=0, atol=1e-12)
 
 
 def test_spectral_tracks_tier1_in_turbulence(field):

@@ -173,7 +173,8 @@ def test_synth_blocks_against_reference(n, n_sub):
     acc, words, tails = np.empty(n), np.empty(n // 2, dtype=np.uint64), np.empty(n, dtype=np.int64)
     # blocks 2..6 of the chunk span three estimates
     K.synth_blocks_kernel(np.uint64(5), 7, 2, 7, m, n_sub, are, aim, phase, dth, rr, ri, st, 0.7, win, True,
-                          np.empty((0, 0)), acc, words, tails, out)
+                          np.empty((0, 0)), np.uint64(0), 0, np.zeros(0), np.zeros((2, 0)), np.zeros(2), acc, words,
+                          tails, out)
     ref = reference.signal_synth_blocks(5, 7, 2, 7, m, n_sub, are, aim, phase, dth, 0.7, win)
     # table normals (|dz| < 1e-4, times 0.7), float32 rounding of |x| < 10 (6e-7), rotations (1e-13)
     assert np.allclose(out, ref, rtol=0, atol=1e-4)

@@ -193,7 +193,8 @@ def test_draw_and_estimate_identical_over_threads_and_chunks():
     thr = threshold_levels(inst)
     table, over = line_shape_table(64, "rect")
     K.process_kernel(a, 1.0 / noise, inst.first_bin, inst.n_bins - 1, 0, float(inst.threshold_value),
-                     thr["raise_factor"], thr["raise_offset"], thr["sigma_y"], 0, 0, inst.second_peak_fraction,
+                     thr["raise_factor"], thr["raise_offset"], thr["sigma_y"], thr["detect"], 0, 0,
+                     inst.second_peak_fraction,
                      inst.edge_guard_speed / inst.bin_speed, table, over, 64, 8, x, fl)
     assert np.array_equal(x * inst.bin_width * inst.speed_per_hz, ests[0].speed_e, equal_nan=True)
     assert np.array_equal(fl, ests[0].flags_e)

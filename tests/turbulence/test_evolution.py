@@ -234,7 +234,12 @@ def test_box_coherence_converges_to_the_continuous_model():
 def test_every_plane_keeps_the_box_one_point_spectra(evolving_runs):
     exp = expected_box_covariance(P, SHAPE, SPACING)
     n_rows = SHAPE[0] // 2
-    rows = np.arange(1, n_rows)
+    # From k1 = 0.05 rad/m up (as in test_turbulence_box): below it the box's modes near
+    # k2 = k3 = 0 are cell averages, whose variances the point tensor used for the standard
+    # errors below misstates (it puts ~0 on the u mode at k2 = k3 = 0), so the scatter of the
+    # lowest band was underestimated 2-3 fold.
+    k_lo = 0.05
+    rows = np.arange(int(np.ceil(k_lo / exp.k1_k[1])), n_rows)
     k2 = 2 * math.pi * np.fft.fftfreq(SHAPE[1], SPACING[1])
     k3 = 2 * math.pi * np.fft.fftfreq(SHAPE[2], SPACING[2])
     K1, K2, K3 = np.meshgrid(rows * exp.k1_k[1], k2, k3, indexing="ij")

@@ -183,7 +183,7 @@ def test_plane_fill_kernel_against_reference():
     specs = [np.zeros((N1, n2h), complex) for _ in range(3)]
     for lo in (80, N1 - 110):
         noise = rng.standard_normal((32, n2h, 3, 2)).astype(np.float32)
-        fill_plane_kernel(*specs, lo, noise, t.dk1, t.near, t.r1, t.r2, t.x0, t.h, t.coef, t.rx0, t.rh,
+        fill_plane_kernel(*specs, lo, noise, t.dk1, t.near, t.r1, t.r2, t.j0, t.h, t.coef, t.rj0, t.rh,
                           t.rcoef, 0.7)
         ref = reference.turbulence_fill_plane(phi, noise, lo, 0.7)
         got = np.array([s[lo : lo + 32] for s in specs])

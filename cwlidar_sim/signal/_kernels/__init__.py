@@ -30,6 +30,7 @@ from .rng import (  # noqa: F401
 )
 from .spectral import (  # noqa: F401
     expected_signal_kernel,
+    lag_sequence_kernel,
     line_value,
     ncx2_wh,
     spectral_sample_kernel,
@@ -44,10 +45,12 @@ from .processing import (  # noqa: F401
 )
 from .heterodyne import (  # noqa: F401
     TONE_GROUP,
+    COLOUR_SEGMENTS,
     add_tones,
     ar1_amplitudes_kernel,
     ar1_cell,
-    ar1_noise_kernel,
+    colour_noise_block,
+    colour_start,
     combine_partials_kernel,
     continuum_correlation_fill,
     continuum_shape_noise,
@@ -64,4 +67,6 @@ from .continuum import (  # noqa: F401
     continuum_moment_rows,
     fold_block_lags,
     gamma_moment_rows,
+    gaussian_deposit_rows,
+    gridded_lag_rows,
 )

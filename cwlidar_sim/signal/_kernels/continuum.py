@@ -22,7 +22,7 @@ def cell_cosines_row(x_s, amp_s, n_fft, t_max, out_t):
     (``x_s`` reduced to [0, N) first, so an aliased speed is exactly
     periodic; rounding grows like ``t^2 eps``), the cells updated together
     (a loop the compiler vectorises) and summed in 8 fixed partial sums and
-    a fixed tree (``sensors._kernels.lag_sequence_kernel`` folds it per estimate).
+    a fixed tree (:func:`lag_sequence_kernel` folds it per estimate).
     """
     ns = x_s.shape[0]
     nt = out_t.shape[0]
@@ -158,3 +158,82 @@ def gamma_moment_rows(mean_ef, var_ef, key, e0, r_lo, r_hi, out_ef):
             out_ef[e, k] = mu * b * b * b
 
 
+
+
+# ---------------------------------------------------------------------------
+# continuum speckle, gridded: the cells' cosine sums by Gaussian gridding and one FFT
+# ---------------------------------------------------------------------------
+@numba.njit(**NJIT)
+def gaussian_deposit_rows(x_es, amp_s, n_fft, tau_g, e_j, r_lo, r_hi, out_em):
+    """Rows ``r_lo .. r_hi - 1``: each cell's amplitude spread on a periodic grid of M angles by a Gaussian.
+
+    ``out[e, m] = sum_s amp_s exp(-(m h - theta_s)^2 / (4 tau_g))`` over the
+    ``2 w + 1`` grid points nearest ``theta_s = 2 pi (x_s mod N) / N``
+    (``h = 2 pi / M``, ``w = (len(e_j) - 1) / 2``, indices mod M), cells in
+    order.  With ``d = m0 h - theta_s`` (``m0`` the nearest point) the weight
+    of point ``m0 + j`` is ``exp(-d^2 / 4 tau_g) E^j e_j[w + j]``, ``E =
+    exp(-d h / 2 tau_g)``, ``e_j = exp(-(j h)^2 / 4 tau_g)`` tabulated
+    (Greengard & Lee 2004, fast Gaussian gridding); ``E^j`` and ``E^-j`` are
+    two products of j factors from the centre out.
+    """
+    m = out_em.shape[1]
+    ns = x_es.shape[1]
+    nw = e_j.shape[0]
+    w = (nw - 1) // 2
+    h = 2.0 * math.pi / m
+    inv4t = 1.0 / (4.0 * tau_g)
+    for e in range(r_lo, r_hi):
+        row = out_em[e - r_lo]
+        for i in range(m):
+            row[i] = 0.0
+        for s in range(ns):
+            a = amp_s[s]
+            if a == 0.0:
+                continue
+            x = x_es[e, s] - n_fft * math.floor(x_es[e, s] / n_fft)
+            th = 2.0 * math.pi * x / n_fft
+            m0 = int(math.floor(th / h + 0.5))
+            d = m0 * h - th
+            up = math.exp(-2.0 * d * h * inv4t)
+            down = math.exp(2.0 * d * h * inv4t)
+            c0 = a * math.exp(-d * d * inv4t)
+            if m0 - w >= 0 and m0 + w < m:
+                seg = row[m0 - w:m0 + w + 1]
+                seg[w] += c0 * e_j[w]
+                cp = c0
+                cn = c0
+                for j in range(1, w + 1):
+                    cp *= up
+                    cn *= down
+                    seg[w + j] += cp * e_j[w + j]
+                    seg[w - j] += cn * e_j[w - j]
+            else:
+                # near the ends of the grid: the same sums, indices wrapped
+                row[m0 % m] += c0 * e_j[w]
+                cp = c0
+                cn = c0
+                for j in range(1, w + 1):
+                    cp *= up
+                    cn *= down
+                    row[(m0 + j) % m] += cp * e_j[w + j]
+                    row[(m0 - j) % m] += cn * e_j[w - j]
+
+
+@numba.njit(**NJIT)
+def gridded_lag_rows(f_em, deconv_t, g_t, r_d, n_fft, t_max, r_lo, r_hi, c_t, out_ejn):
+    """Rows ``r_lo .. r_hi - 1``: the cosine sums from the gridded FFT, then :func:`fold_block_lags`.
+
+    ``c(t) = 2 Re(f[e, t]) deconv[t]`` for t < t_max (the Gaussian's
+    transform divided out: ``deconv[t] = sqrt(pi / tau_g) exp(t^2 tau_g) /
+    M``), 0 beyond; ``f_em[e - r_lo]`` is the real FFT of the row's grid
+    (:func:`gaussian_deposit_rows`); ``c_t`` is scratch.
+    """
+    nt = c_t.shape[0]
+    tm = min(t_max, nt)
+    for e in range(r_lo, r_hi):
+        f = f_em[e - r_lo]
+        for t in range(tm):
+            c_t[t] = 2.0 * f[t].real * deconv_t[t]
+        for t in range(tm, nt):
+            c_t[t] = 0.0
+        fold_block_lags(c_t, g_t, r_d, n_fft, out_ejn[e])

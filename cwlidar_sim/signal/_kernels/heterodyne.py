@@ -209,8 +209,8 @@ def add_tones(n_sub, amp_re_j, amp_im_j, phase0, rot_re_q, rot_im_q, step_4, acc
 
 @numba.njit(**NJIT)
 def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp_im_st, phase_es, dtheta_es,
-                        rot_re_esq, rot_im_esq, step_es4, noise_std, window_n, use_window, extra_et, acc_n, words_w,
-                        tails_n, out_bn):
+                        rot_re_esq, rot_im_esq, step_es4, noise_std, window_n, use_window, extra_et, ckey, ce0, cf_8,
+                        pw_2n, state_2, acc_n, words_w, tails_n, out_bn):
     """Real heterodyne samples of blocks ``b_lo .. b_hi - 1`` of a chunk into rows 0.. of ``out_bn`` (float32).
 
     The signal of :func:`synth_kernel`, ``x[n] = noise_std * xi[n] + sum_s
@@ -227,16 +227,31 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     between calls or threads (serial and ``nogil``: worker threads call it
     on disjoint blocks).  ``extra_et`` (rows: the chunk's estimates, M N
     samples each; or 0 rows) is added to the samples before the window: the
-    continuum signal and the RIN (:func:`continuum_shape_noise`).
+    continuum signal and its noise processes (:func:`continuum_shape_noise`).
+
+    Coloured noise (``cf_8`` of length 8, else length 0): the shot-noise
+    normals of each block become the RIN and the reflection too
+    (:func:`colour_noise_block`, coefficients ``cf_8``, powers ``pw_2n``),
+    the filter's state carried from block to block in ``state_2`` (in and
+    out) and drawn afresh from its stationary law at the first block of
+    each estimate (global estimate ``ce0 + e``, key ``ckey``:
+    :func:`colour_start`).  A call that starts inside an estimate therefore
+    continues the state its previous blocks left (the caller runs the
+    blocks of an estimate in order).
     ``acc_n``, ``words_w``, ``tails_n`` are scratch (lengths N, ceil(N/2), N).
     """
     nn = acc_n.shape[0]
     ns = phase_es.shape[1]
+    coloured = cf_8.shape[0] > 0
     for b in range(b_lo, b_hi):
         block_normals(stream_start(key, block0 + b), noise_std, words_w, tails_n, acc_n)
         t0 = b * n_sub
         e = b // m_blocks
         i = b - e * m_blocks
+        if coloured:
+            if i == 0:
+                colour_start(ckey, ce0 + e, cf_8, state_2)
+            colour_noise_block(acc_n, cf_8, pw_2n, state_2)
         for s in range(ns):
             ph0 = (phase_es[e, s] + dtheta_es[e, s] * (nn * i)) % _TWOPI
             add_tones(n_sub, amp_re_st[s, t0:t0 + n_sub], amp_im_st[s, t0:t0 + n_sub], ph0, rot_re_esq[e, s],
@@ -350,39 +365,103 @@ def real_part_into(buf_p, n, out_n):
         out_n[i] = buf_p[i].real
 
 
+# ---------------------------------------------------------------------------
+# tier 3: RIN and the 0 Hz reflection as a colouring of the shot noise
+# ---------------------------------------------------------------------------
+#: Segments of a block whose local AR(1) scans run interleaved in :func:`colour_noise_block`.
+COLOUR_SEGMENTS = 4
+
+
 @numba.njit(**NJIT)
-def ar1_noise_kernel(key, stream, var_c, rho_c, words_w, tails_n, tmp_n, out_t):
-    """``out_t[:] = sum_c x_c``, each ``x_c`` a stationary real AR(1) process of variance ``var_c[c]``.
+def colour_start(key, estimate, cf_8, state_2):
+    """Stationary start of the colouring filter of one estimate: ``state = L (z0, z1)``.
 
-    ``x[0] = sqrt(var) z_0``, ``x[t] = rho x[t-1] + sqrt(var (1 - rho^2)) z_t``: correlation
-    ``var rho^|tau|`` exactly (the RIN and reflection of ``spectral.noise_correlation``).
-    Normals from the counter-based streams ``stream_start(mix64(key ^ stream), j)``, one per
-    chunk j of ``B = tmp_n.shape[0] // n_c`` samples (component c takes normals
-    ``c B .. (c + 1) B - 1`` of its chunk), the starting values from stream 2^62; the
-    components' recursions run side by side.
+    ``L = [[cf[5], 0], [cf[6], cf[7]]]`` is the Cholesky factor of the
+    states' stationary covariance; ``z0, z1`` the first :func:`normal_pair`
+    of stream ``stream_start(mix64(key ^ mix64(estimate + golden)), 2^62)``
+    (the stream the start of the earlier per-estimate AR(1) noise used).
     """
-    nt = out_t.shape[0]
-    nc = var_c.shape[0]
-    bl = tmp_n.shape[0] // nc
-    skey = mix64(np.uint64(key) ^ mix64(np.uint64(stream) + _GOLDEN))
-    x = np.zeros(nc)
-    sdi = np.empty(nc)
-    for c in range(nc):
-        sdi[c] = math.sqrt(var_c[c] * (1.0 - rho_c[c] * rho_c[c]))
-    # stationary start: x[-1] ~ N(0, var) (a stream of its own), so x[0] = rho x[-1] + innovation is too
+    skey = mix64(np.uint64(key) ^ mix64(np.uint64(estimate) + _GOLDEN))
     st = stream_start(skey, _START_STREAM)
-    for c in range(nc):
-        st, z0, _z1 = normal_pair(st)
-        x[c] = math.sqrt(var_c[c]) * z0
-    j = 0
-    for t0 in range(0, nt, bl):
-        block_normals(stream_start(skey, j), 1.0, words_w, tails_n, tmp_n)
-        j += 1
-        t1 = min(nt, t0 + bl)
-        for t in range(t0, t1):
-            acc = 0.0
-            for c in range(nc):
-                x[c] = rho_c[c] * x[c] + sdi[c] * tmp_n[c * bl + (t - t0)]
-                acc += x[c]
-            out_t[t] = acc
+    st, z0, z1 = normal_pair(st)
+    state_2[0] = cf_8[5] * z0
+    state_2[1] = cf_8[6] * z0 + cf_8[7] * z1
 
+
+@numba.njit(**NJIT)
+def colour_noise_block(acc_n, cf_8, pw_2n, state_2):
+    """In place, white normals ``z`` -> ``y = a0 z + u_1 + u_2``, ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``.
+
+    ``cf_8 = (a0, b_1, b_2, rho_1, rho_2, ...)``; ``state_2`` holds
+    ``u_c[-1]`` on entry and ``u_c[N-1]`` on return; ``pw_2n[c, k] =
+    rho_c^(k+1)``.  The recursion is computed as a blocked scan, so that its
+    serial latency is shared by :data:`COLOUR_SEGMENTS` = S segments: with
+    ``G = N // S``, segment s < S - 1 is samples ``[sG, (s+1)G)`` and the last
+    one ``[(S-1)G, N)``.  Pass 1 runs the S segments side by side from a zero
+    state, ``l_c[k] = rho_c l_c[k-1] + b_c z``, and stores ``(a0 z + l_1) +
+    l_2``; pass 2 adds ``pw_1[k] C_1 + pw_2[k] C_2``, ``C_c`` the state
+    before the segment, carried as ``C_c <- pw_c[len - 1] C_c + l_c[end]``.
+    Exact in exact arithmetic; the rounding differs from the serial
+    recursion's by a few ulp (``tests/reference.py::signal_colour_noise``
+    repeats this order).
+    """
+    nn = acc_n.shape[0]
+    a0 = cf_8[0]
+    b1 = cf_8[1]
+    b2 = cf_8[2]
+    r1 = cf_8[3]
+    r2 = cf_8[4]
+    g = nn // COLOUR_SEGMENTS
+    x0 = acc_n[0:g]
+    x1 = acc_n[g:2 * g]
+    x2 = acc_n[2 * g:3 * g]
+    x3 = acc_n[3 * g:4 * g]
+    p0 = q0 = p1 = q1 = p2 = q2 = p3 = q3 = 0.0
+    # four independent chains per component: their latencies overlap
+    for k in range(g):
+        z = x0[k]
+        p0 = r1 * p0 + b1 * z
+        q0 = r2 * q0 + b2 * z
+        x0[k] = (a0 * z + p0) + q0
+        z = x1[k]
+        p1 = r1 * p1 + b1 * z
+        q1 = r2 * q1 + b2 * z
+        x1[k] = (a0 * z + p1) + q1
+        z = x2[k]
+        p2 = r1 * p2 + b1 * z
+        q2 = r2 * q2 + b2 * z
+        x2[k] = (a0 * z + p2) + q2
+        z = x3[k]
+        p3 = r1 * p3 + b1 * z
+        q3 = r2 * q3 + b2 * z
+        x3[k] = (a0 * z + p3) + q3
+    for n in range(COLOUR_SEGMENTS * g, nn):
+        z = acc_n[n]
+        p3 = r1 * p3 + b1 * z
+        q3 = r2 * q3 + b2 * z
+        acc_n[n] = (a0 * z + p3) + q3
+    c1 = state_2[0]
+    c2 = state_2[1]
+    for s in range(COLOUR_SEGMENTS):
+        lo = s * g
+        hi = nn if s == COLOUR_SEGMENTS - 1 else lo + g
+        ln = hi - lo
+        if ln == 0:
+            continue
+        seg = acc_n[lo:hi]
+        w1 = pw_2n[0, :ln]
+        w2 = pw_2n[1, :ln]
+        for k in range(ln):
+            seg[k] += w1[k] * c1 + w2[k] * c2
+        if s == 0:
+            e1, e2 = p0, q0
+        elif s == 1:
+            e1, e2 = p1, q1
+        elif s == 2:
+            e1, e2 = p2, q2
+        else:
+            e1, e2 = p3, q3
+        c1 = w1[ln - 1] * c1 + e1
+        c2 = w2[ln - 1] * c2 + e2
+    state_2[0] = c1
+    state_2[1] = c2

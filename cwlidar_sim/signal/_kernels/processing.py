@@ -118,7 +118,8 @@ def _ml_estimate(shat, kp, k_lo, k_hi, table, oversample, n_fft, half_width):
 
 
 @numba.njit(**NJIT)
-def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, est_id, win_id,
+def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, detect, est_id,
+                win_id,
                 second_frac, guard_bins, table, oversample, n_fft, ml_half, shat):
     """Threshold one averaged spectrum and estimate its Doppler bin; returns (x [bins] or NaN, flags).
 
@@ -137,7 +138,11 @@ def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, rai
         for k in range(k_lo, k_hi):
             if shat[k] - 1.0 > ymax:
                 ymax = shat[k] - 1.0
-        t = thr_value * ymax if ymax > 0.0 else 0.0
+        # a peak-relative threshold needs a detection first: the peak must stand detect sigma_y above the
+        # floor, or every noise-only spectrum would yield its highest bin as a speed
+        if ymax <= detect * sigma_y:
+            return np.nan, F_NO_SIGNAL
+        t = thr_value * ymax
     # the raise: t -> raise_factor t + raise_offset (processing.threshold_levels)
     t = raise_factor * t + raise_offset
     # totals, argmax, separated groups of thresholded bins
@@ -215,19 +220,21 @@ def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, rai
 
 
 @numba.njit(**NJIT)
-def process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, est_id, win_id,
+def process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, detect,
+                 est_id, win_id,
                  second_frac, guard_bins, table, oversample, n_fft, ml_half, r_lo, r_hi, out_x_e, out_flags_e):
     """Rows ``r_lo .. r_hi - 1`` of :func:`process_kernel` (serial, ``nogil``)."""
     shat = np.empty(spec_ef.shape[1])
     for e in range(r_lo, r_hi):
         x, fl = process_one(spec_ef[e], inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y,
-                            est_id, win_id, second_frac, guard_bins, table, oversample, n_fft, ml_half, shat)
+                            detect, est_id, win_id, second_frac, guard_bins, table, oversample, n_fft, ml_half, shat)
         out_x_e[e] = x
         out_flags_e[e] = fl
 
 
 @numba.njit(**NJIT_PARALLEL)
-def process_kernel(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, est_id, win_id,
+def process_kernel(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, detect,
+                   est_id, win_id,
                    second_frac, guard_bins, table, oversample, n_fft, ml_half, out_x_e, out_flags_e):
     """:func:`process_one` over every estimate (rows of ``spec_ef``).
 
@@ -237,7 +244,8 @@ def process_kernel(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_fac
     ne = spec_ef.shape[0]
     n_chunk = 64
     for c in numba.prange((ne + n_chunk - 1) // n_chunk):
-        process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, est_id, win_id,
+        process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, detect,
+                     est_id, win_id,
                      second_frac, guard_bins, table, oversample, n_fft, ml_half, c * n_chunk,
                      min(ne, (c + 1) * n_chunk), out_x_e, out_flags_e)
 

@@ -2,10 +2,9 @@
 
 import math
 
-import numpy as np
 import pytest
 
-from cwlidar_sim.sensors.conical_period import default_spacing, simulate_conical_period
+from cwlidar_sim.campaign.conical_period import default_spacing, simulate_conical_period
 
 
 def test_short_period_end_to_end():

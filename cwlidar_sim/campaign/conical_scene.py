@@ -1,0 +1,413 @@
+"""Conical scene files: the scan, the turbulence with height, the periods (``kind = "conical"``).
+
+A conical scene describes CS's experiment: a conically scanning ZephIR, a
+cup and a sonic on its axis, at one or several heights, over several
+periods.  How the scene is run is :mod:`cwlidar_sim.campaign.conical`.
+
+Units of work
+-------------
+* Dwell (default, ``scan.cycle = false``): the lidar stays at one height for
+  the whole period; one unit is (period, height), each with its own Mann box
+  sized for that height's cone.
+* Cycle (``scan.cycle = true``): the lidar cycles through the heights,
+  ``scan.lidar.revs_per_height`` revolutions at each in turn, losing
+  ``scan.lidar.refocus_time`` between heights (the scanner keeps turning);
+  one unit is a period, with ONE box holding every height's cone.  Each
+  height gets its share of the record; the cup and the sonic at each height
+  record continuously (the sonic is read at that height's estimate times).
+  A VAD scan may not span a refocus, so every ``scan.scan_revs`` must divide
+  ``revs_per_height``.
+
+Wind direction
+--------------
+A period's ``wind_direction_deg`` is the direction the mean wind blows
+*toward* in the lidar's frame, from the lidar's azimuth 0 (its +x axis)
+toward its +y axis (counter-clockwise seen from above, the scan's azimuth
+convention), any finite value.  The field's x axis always lies along the
+mean wind (Taylor advection); the scan is turned instead, so the lidar's
+azimuth 0 lies at ``-wind_direction_deg`` in the field, and the VAD's
+directions are reported in the lidar's frame.
+
+Example
+-------
+.. code-block:: toml
+
+    name = "cs"
+    kind = "conical"
+    seed = 35
+    duration = 600.0
+
+    [scan]
+    heights = [40.0, 60.0, 80.0, 100.0]
+    scan_revs = [1, 3]
+    sub_dwells = 8                 # the cone and the sweep: half_angle_deg, revolution_time, ...
+
+    [lidar]                        # the keys of every scene's [lidar]; defaults: the CS series instrument
+    tier = "spectral"
+    cnr_db = -10.0
+
+    [turbulence]                   # or alpha_eps, length_scale, gamma for one tensor at every height
+    source = "mann1994"            # neutral surface layer at each height (Mann 1994's Kaimal fit)
+
+    [[period]]
+    name = "p0"
+    mean_speed = 10.0
+    wind_direction_deg = 225.0
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
+from .conical_period import default_spacing
+from .lidar_spec import ConicalLidarSpec
+from .spec import Spec, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
+
+__all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS"]
+
+#: scan keys that only a cycling lidar uses.
+CYCLE_KEYS = ("revs_per_height", "refocus_time")
+
+
+@dataclasses.dataclass(frozen=True)
+class ScanSpec(Spec):
+    """The scan: heights, the cone and its schedule, the box, the VAD.
+
+    The lidar's instrument and signal chain are the scene's ``[lidar]`` table
+    (:class:`cwlidar_sim.campaign.lidar_spec.ConicalLidarSpec`: the same keys
+    as every scene's); this table is the geometry.
+
+    Parameters
+    ----------
+    heights : tuple of float
+        Measurement heights [m]; 1 to 20 distinct values.
+    scan_revs : tuple of int
+        Revolutions per VAD scan (1: 1 s scans, 3: 3 s scans); each in [1, 60].
+    spacing : float
+        Box spacing [m]; 0: the default, height / 20 (at least 1 m) of each
+        unit's height, in cycle mode of the lowest height.
+    lateral_doubling : bool
+        Generate each box twice as wide and keep half (no periodic image across the circle).
+    reference : {'previous', 'vane'}
+        How the VAD's 180 deg ambiguity is resolved.
+    cycle : bool
+        False: the lidar dwells at each height, one unit per period and
+        height.  True: it cycles through the heights within each period, one
+        unit (and one box) per period; needs at least two heights (module notes).
+    half_angle_deg, revolution_time, estimates_per_rev, sub_dwells, azimuth0_deg
+        The cone and the sweep (:class:`cwlidar_sim.sensors.ConicalLidar`).
+    revs_per_height, refocus_time
+        The height cycle (``cycle = true`` only): revolutions at each height
+        and the time lost refocusing [s].
+    """
+
+    heights: tuple = (40.0, 60.0, 80.0, 100.0)
+    scan_revs: tuple = (1, 3)
+    spacing: float = 0.0
+    lateral_doubling: bool = True
+    reference: str = "previous"
+    cycle: bool = False
+    half_angle_deg: float = 30.0
+    revolution_time: float = 1.0
+    estimates_per_rev: int = 50
+    sub_dwells: int = 8
+    azimuth0_deg: float = 0.0
+    revs_per_height: int = 1
+    refocus_time: float = 0.0
+
+    def __post_init__(self):
+        h = tuple(self.heights)
+        if not 1 <= len(h) <= 20:
+            raise ValueError(f"scan.heights needs 1 to 20 heights, got {len(h)}")
+        h = tuple(check_real(f"scan.heights[{i}]", z, lo=1.0, hi=1000.0) for i, z in enumerate(h))
+        if len(set(h)) != len(h):
+            raise ValueError(f"scan.heights must be distinct, got {h}")
+        set_field(self, "heights", h)
+        r = tuple(self.scan_revs)
+        if not r:
+            raise ValueError("scan.scan_revs needs at least one scan length, e.g. [1, 3]")
+        set_field(self, "scan_revs", tuple(check_int(f"scan.scan_revs[{i}]", n, lo=1, hi=60) for i, n in enumerate(r)))
+        set_field(self, "spacing", check_real("scan.spacing", self.spacing, lo=0.0, hi=100.0))
+        set_field(self, "lateral_doubling", check_bool("scan.lateral_doubling", self.lateral_doubling))
+        check_choice("scan.reference", self.reference, ("previous", "vane"))
+        set_field(self, "cycle", check_bool("scan.cycle", self.cycle))
+        set_field(self, "half_angle_deg", check_real("scan.half_angle_deg", self.half_angle_deg, lo=10.0, hi=60.0))
+        set_field(self, "revolution_time", check_real("scan.revolution_time", self.revolution_time, lo=0.1, hi=100.0))
+        set_field(self, "estimates_per_rev", check_int("scan.estimates_per_rev", self.estimates_per_rev, lo=4,
+                                                       hi=10000))
+        set_field(self, "sub_dwells", check_int("scan.sub_dwells", self.sub_dwells, lo=1, hi=256))
+        set_field(self, "azimuth0_deg", check_real("scan.azimuth0_deg", self.azimuth0_deg))
+        set_field(self, "revs_per_height", check_int("scan.revs_per_height", self.revs_per_height, lo=1, hi=10000))
+        set_field(self, "refocus_time", check_real("scan.refocus_time", self.refocus_time, lo=0.0, hi=100.0))
+        if self.cycle:
+            if len(h) < 2:
+                raise ValueError(f"scan.cycle = true cycles through the heights and needs at least 2, got {list(h)}; "
+                                 f"allowed: cycle = false for one height")
+            bad = [n for n in self.scan_revs if self.revs_per_height % n]
+            if bad:
+                raise ValueError(f"scan.scan_revs {bad} must divide scan.revs_per_height = "
+                                 f"{self.revs_per_height} in cycle mode (a VAD scan cannot span a refocus); "
+                                 f"allowed: divisors of revs_per_height")
+        elif self.revs_per_height != 1 or self.refocus_time != 0.0:
+            raise ValueError("scan.revs_per_height and scan.refocus_time set the height cycle; they need "
+                             "scan.cycle = true")
+
+    def block_time(self) -> float:
+        """Cycle mode: the time of one height's block, revolutions plus refocus [s]."""
+        return self.revs_per_height * self.revolution_time + self.refocus_time
+
+    def geometry(self) -> dict:
+        """The :class:`cwlidar_sim.sensors.ConicalLidar` geometry fields of the scan (not the heights)."""
+        g = {k: getattr(self, k) for k in ("half_angle_deg", "revolution_time", "estimates_per_rev",
+                                           "azimuth0_deg")}
+        if self.cycle:
+            g.update(revs_per_height=self.revs_per_height, refocus_time=self.refocus_time)
+        return g
+
+    def as_dict(self) -> dict:
+        d = super().as_dict()
+        d["heights"], d["scan_revs"] = list(self.heights), list(self.scan_revs)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ScanSpec":
+        if isinstance(d, dict) and ("lidar" in d or "tier" in d):
+            raise ValueError("scan.lidar and scan.tier moved: the lidar's instrument and signal chain are the "
+                             "[lidar] table (the keys of every scene's [lidar]: tier, cnr_db, speckle, span, "
+                             "variants, clouds, ...); the cone and its schedule (half_angle_deg, revolution_time, "
+                             "estimates_per_rev, sub_dwells, revs_per_height, refocus_time, azimuth0_deg) are "
+                             "[scan] keys")
+        return super().from_dict(d)
+
+
+@dataclasses.dataclass(frozen=True)
+class SurfaceTurbulenceSpec(Spec):
+    """Turbulence with height: a neutral surface layer, or one tensor for every height.
+
+    Parameters
+    ----------
+    source : {'mann1994', 'iec', 'fixed'}
+        'mann1994': Mann's (1994) tensor fit to Kaimal's neutral spectra at
+        each height (L = 0.59 z, alpha eps^(2/3) = 3.2 u*^2 z^(-2/3), Gamma = 3.9);
+        'iec': IEC 61400-1 at each height; 'fixed': ``alpha_eps``,
+        ``length_scale``, ``gamma`` everywhere.
+    z0 : float
+        Roughness length [m] of the log law giving u*; in (0, 2].
+    alpha_eps, length_scale, gamma : float, optional
+        The tensor for 'fixed'.
+    """
+
+    source: str = "mann1994"
+    z0: float = 0.01
+    alpha_eps: float | None = None
+    length_scale: float | None = None
+    gamma: float | None = None
+
+    def __post_init__(self):
+        check_choice("turbulence.source", self.source, ("mann1994", "iec", "fixed"))
+        set_field(self, "z0", check_real("turbulence.z0", self.z0, lo=0.0, hi=2.0, lo_open=True))
+        given = [self.alpha_eps, self.length_scale, self.gamma]
+        if self.source == "fixed":
+            if None in given:
+                raise ValueError("turbulence.source = 'fixed' needs alpha_eps, length_scale and gamma")
+            self.params()
+        elif any(g is not None for g in given):
+            raise ValueError(f"turbulence: alpha_eps, length_scale, gamma need source = 'fixed' "
+                             f"(source is {self.source!r})")
+
+    def params(self, height=None, speed=None):
+        """(MannParameters, sigma_u target or None, u* or None) at ``height`` [m] and ``speed`` [m/s]."""
+        from ..turbulence.parameters import MannParameters
+
+        if self.source == "fixed":
+            return MannParameters(self.alpha_eps, self.length_scale, self.gamma), None, None
+        from ..turbulence.surface_layer import surface_layer_parameters
+
+        return surface_layer_parameters(height, speed, z0=self.z0, source=self.source)
+
+
+@dataclasses.dataclass(frozen=True)
+class ConicalPeriodSpec(Spec):
+    """One period of a conical scene.
+
+    Parameters
+    ----------
+    name : str
+    mean_speed : float
+        Mean horizontal wind speed at the measurement height [m/s]; in [1, 30]
+        (in cycle mode: at every height, the box's one advection speed).
+    wind_direction_deg : float
+        Direction the mean wind blows toward in the lidar's frame [deg], from
+        the lidar's azimuth 0 toward +y (the scan's azimuth convention); any
+        finite value (module notes).
+    duration : float, optional
+        Length [s]; default the scene's ``duration``; in [10, 3600].
+    seed : int, optional
+        Seed of this period's units; default derived from the scene seed.
+    """
+
+    name: str
+    mean_speed: float
+    wind_direction_deg: float = 0.0
+    duration: float | None = None
+    seed: int | None = None
+
+    _required = ("name", "mean_speed")
+
+    def __post_init__(self):
+        check_str("period.name", self.name)
+        set_field(self, "mean_speed", check_real(f"period[{self.name}].mean_speed", self.mean_speed, lo=1.0, hi=30.0))
+        set_field(self, "wind_direction_deg",
+                  check_real(f"period[{self.name}].wind_direction_deg", self.wind_direction_deg))
+        if self.duration is not None:
+            set_field(self, "duration", check_real(f"period[{self.name}].duration", self.duration, lo=10.0, hi=3600.0))
+        if self.seed is not None:
+            set_field(self, "seed", check_seed(f"period[{self.name}].seed", self.seed))
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ConicalPeriodSpec":
+        name = d.get("name") if isinstance(d, dict) else None
+        if isinstance(d, dict) and "misalignment_deg" in d:
+            raise ValueError(f"period {name!r}: misalignment_deg is the staring beam's angle to the wind; a conical "
+                             f"period takes wind_direction_deg (the direction the wind blows toward in the lidar's "
+                             f"frame [deg], any value)")
+        if isinstance(d, dict) and "start" in d:
+            raise ValueError(f"period {name!r}: start is for staring scenes (background pauses)")
+        return super().from_dict(d)
+
+
+@dataclasses.dataclass(frozen=True)
+class ConicalScene(Spec):
+    """A conical campaign: the scan, the turbulence with height, the periods.
+
+    Parameters
+    ----------
+    name : str
+        Used for ``DIR/<name>.nc``; letters, digits, '-', '_'.
+    periods : tuple of ConicalPeriodSpec
+        Each is run at every height.
+    scan : ScanSpec
+    lidar : ConicalLidarSpec
+        The instrument and the signal chain (the keys of every scene's ``[lidar]``).
+    turbulence : SurfaceTurbulenceSpec
+    duration : float
+        Default period length [s]; in [10, 3600] (CS: 600).
+    seed : int
+    description : str
+    """
+
+    name: str
+    periods: tuple
+    scan: ScanSpec = dataclasses.field(default_factory=ScanSpec)
+    lidar: ConicalLidarSpec = dataclasses.field(default_factory=ConicalLidarSpec)
+    turbulence: SurfaceTurbulenceSpec = dataclasses.field(default_factory=SurfaceTurbulenceSpec)
+    duration: float = 600.0
+    seed: int = 0
+    description: str = ""
+    base_dir: str = dataclasses.field(default=".", compare=False)
+
+    kind = "conical"
+
+    def __post_init__(self):
+        check_scene_name(self.name)
+        if not isinstance(self.scan, ScanSpec) or not isinstance(self.turbulence, SurfaceTurbulenceSpec):
+            raise TypeError("scan and turbulence must be ScanSpec and SurfaceTurbulenceSpec")
+        if not isinstance(self.lidar, ConicalLidarSpec):
+            raise TypeError(f"lidar must be a ConicalLidarSpec, got {type(self.lidar).__name__}")
+        periods = check_periods(self.periods, ConicalPeriodSpec, "conical scene")
+        set_field(self, "periods", periods)
+        set_field(self, "duration", check_real("duration", self.duration, lo=10.0, hi=3600.0))
+        set_field(self, "seed", check_seed("seed", self.seed))
+        check_str("description", self.description, allow_empty=True)
+        nh = len(self.scan.heights)
+        for p in periods:
+            dur = check_real(f"period {p.name!r} duration", self.period_duration(p), lo=10.0, hi=3600.0)
+            if self.scan.cycle:
+                block = self.scan.block_time()
+                if (dur + self.scan.refocus_time) < nh * block * (1 - 1e-12):
+                    raise ValueError(f"period {p.name!r} lasts {dur:g} s, shorter than one cycle through the "
+                                     f"{nh} heights ({nh} x {block:g} s blocks); allowed: longer periods or fewer "
+                                     f"revs_per_height")
+
+        # the lidar's own checks (focus range, dwell, cells, clouds), named by field, at every height
+        from ..sensors.conical import ConicalLidar
+
+        for hs in ((self.scan.heights,) if self.scan.cycle else [(z,) for z in self.scan.heights]):
+            try:
+                ConicalLidar(heights=hs, **self.lidar_fields(self.scan.spacing or default_spacing(min(hs))))
+            except (ValueError, TypeError) as e:
+                raise type(e)(f"conical lidar at heights {list(hs)} m: {e}") from None
+
+    def lidar_fields(self, spacing: float) -> dict:
+        """The :class:`cwlidar_sim.sensors.ConicalLidar` fields of the scene but its heights, for a box spacing [m]."""
+        kw = self.lidar.sensor_kwargs(spacing)
+        kw.update(self.scan.geometry(), sub_dwells=self.scan.sub_dwells, instrument=self.lidar.build_instrument())
+        return kw
+
+    # -- units of work ----------------------------------------------------
+    def period_duration(self, period) -> float:
+        """Length of a period [s]."""
+        return self.duration if period.duration is None else period.duration
+
+    def units(self):
+        """The units in run order: (period, height) pairs (period slowest); in cycle mode (period, heights)."""
+        if self.scan.cycle:
+            return [(p, self.scan.heights) for p in self.periods]
+        return [(p, z) for p in self.periods for z in self.scan.heights]
+
+    def unit_names(self):
+        """Names of the units, ``<period>_z<height>`` (cycle mode: ``<period>``)."""
+        if self.scan.cycle:
+            return [p.name for p in self.periods]
+        return [f"{p.name}_z{z:g}" for p, z in self.units()]
+
+    def row_names(self, index: int) -> list:
+        """Names of the result rows of unit ``index``: ``<period>_z<height>`` for each height it measures."""
+        p, z = self.units()[index]
+        return [f"{p.name}_z{h:g}" for h in (z if self.scan.cycle else (z,))]
+
+    def simulated_hours(self) -> float:
+        """Simulated time of all units [h] (dwell: each height its own record; cycle: one record per period)."""
+        per = 1 if self.scan.cycle else len(self.scan.heights)
+        return sum(self.period_duration(p) for p in self.periods) * per / 3600.0
+
+    def unit_seed(self, index: int) -> int:
+        """Seed of unit ``index``, from the period's own seed or the scene's (distinct across units)."""
+        p, z = self.units()[index]
+        if self.scan.cycle:
+            child = np.random.SeedSequence(self.seed if p.seed is None else p.seed,
+                                           spawn_key=(index,) if p.seed is None else ())
+        elif p.seed is not None:
+            child = np.random.SeedSequence(p.seed, spawn_key=(self.scan.heights.index(z),))
+        else:
+            child = np.random.SeedSequence(self.seed, spawn_key=(index,))
+        return int(child.generate_state(2, np.uint64)[0] >> np.uint64(1))
+
+    # -- interchange ------------------------------------------------------
+    def as_dict(self) -> dict:
+        d = super().as_dict()
+        d.pop("base_dir", None)
+        d["kind"] = "conical"
+        d["period"] = d.pop("periods")
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict, *, base_dir: str = ".") -> "ConicalScene":
+        check_scene_keys(d, {"name", "kind", "description", "seed", "duration", "period", "scan", "lidar",
+                             "turbulence"}, ("name", "period"), "conical scene")
+        kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
+        if "scan" in d:
+            kw["scan"] = ScanSpec.from_dict(d["scan"])
+        if "lidar" in d:
+            kw["lidar"] = ConicalLidarSpec.from_dict(d["lidar"])
+        if "turbulence" in d:
+            kw["turbulence"] = SurfaceTurbulenceSpec.from_dict(d["turbulence"])
+        kw["periods"] = periods_from_dict(d["period"], ConicalPeriodSpec)
+        return cls(base_dir=base_dir, **kw)
+
+    def replace(self, **changes) -> "ConicalScene":
+        """Copy with fields changed (validated)."""
+        return dataclasses.replace(self, **changes)

@@ -1,0 +1,136 @@
+"""Scene-spec machinery shared by every scene kind: TOML interchange, key checks, identity constants.
+
+Every table of a scene file maps onto a frozen dataclass deriving from
+:class:`Spec`: :meth:`Spec.as_dict` gives the TOML-shaped mapping (None
+values dropped, TOML has no null; nested specs as tables, tuples as lists)
+and :meth:`Spec.from_dict` rebuilds the spec from it, rejecting unknown keys
+by name (:func:`cwlidar_sim._validation.check_keys`).  The scene classes
+themselves (:class:`cwlidar_sim.campaign.scene.Scene`,
+:class:`cwlidar_sim.campaign.conical_scene.ConicalScene`) use the scene-level
+checks here (name, top-level keys, periods), so a staring and a conical
+scene file report the same mistake in the same words.
+
+This module sits at the bottom of :mod:`cwlidar_sim.campaign`: it imports
+nothing of the campaign, and every scene, store and runner module may import it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+
+from .._validation import check_keys, check_str
+
+__all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field", "check_scene_name",
+           "check_scene_keys", "periods_from_dict", "check_periods", "read_text_file", "parse_toml"]
+
+#: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`).
+RESULTS_VERSION = 2
+#: Scene kinds: ``kind`` in a scene file (default 'staring').
+SCENE_KINDS = ("staring", "conical")
+
+
+def set_field(obj, name: str, value) -> None:
+    """Set a field of a frozen dataclass (its validated, converted value) from ``__post_init__``."""
+    object.__setattr__(obj, name, value)
+
+
+def spec_as_dict(obj) -> dict:
+    """Plain TOML-shaped dict of a spec: None values dropped, specs as tables, tuples as lists."""
+    out = {}
+    for f in dataclasses.fields(obj):
+        v = getattr(obj, f.name)
+        if v is None:
+            continue
+        if dataclasses.is_dataclass(v):
+            v = v.as_dict()
+        elif isinstance(v, tuple) and v and dataclasses.is_dataclass(v[0]):
+            v = [x.as_dict() for x in v]
+        elif isinstance(v, tuple):
+            v = [dict(x) if isinstance(x, dict) else x for x in v]
+        elif isinstance(v, dict):
+            v = dict(v)
+        out[f.name] = v
+    return out
+
+
+class Spec:
+    """Base of the scene's frozen dataclasses: :meth:`as_dict` / :meth:`from_dict` round-trip.
+
+    Subclasses are frozen dataclasses that validate in ``__post_init__``;
+    ``_required`` names the keys :meth:`from_dict` needs.
+    """
+
+    _required: tuple = ()
+
+    def as_dict(self) -> dict:
+        """Plain TOML-shaped dict (round-trips through :meth:`from_dict`)."""
+        return spec_as_dict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict):
+        """Build from a TOML-shaped mapping; unknown keys are rejected by name."""
+        check_keys(cls, d, required=cls._required)
+        return cls(**d)
+
+
+def check_scene_name(name) -> str:
+    """A scene name (the results file's name): letters, digits, '-' and '_'."""
+    check_str("name", name)
+    if not all(c.isalnum() or c in "-_" for c in name):
+        raise ValueError(f"name {name!r} may hold only letters, digits, '-' and '_'")
+    return name
+
+
+def check_scene_keys(d, allowed, required, what: str) -> None:
+    """A scene mapping: a table, no key outside ``allowed``, every key of ``required``."""
+    if not isinstance(d, dict):
+        raise TypeError(f"a scene must be a table, got {type(d).__name__}")
+    unknown = sorted(set(d) - set(allowed))
+    if unknown:
+        raise ValueError(f"unknown key(s) in {what}: {unknown}; allowed: {sorted(allowed)}")
+    for key in required:
+        if key not in d:
+            raise ValueError(f"{what} is missing the required key {key!r}")
+
+
+def periods_from_dict(periods, cls) -> tuple:
+    """The ``[[period]]`` array of a scene mapping as a tuple of ``cls`` specs."""
+    if not isinstance(periods, (list, tuple)):
+        raise TypeError("period must be an array of tables ([[period]])")
+    return tuple(cls.from_dict(p) for p in periods)
+
+
+def check_periods(periods, cls, what: str) -> tuple:
+    """At least one period, every one a ``cls``, names unique."""
+    periods = tuple(periods)
+    if not periods:
+        raise ValueError(f"a {what} needs at least one [[period]]")
+    if not all(isinstance(p, cls) for p in periods):
+        raise TypeError(f"periods must be {cls.__name__} instances, got "
+                        f"{sorted({type(p).__name__ for p in periods})}")
+    names = [p.name for p in periods]
+    if len(set(names)) != len(names):
+        raise ValueError(f"period names must be unique, got {names}")
+    return periods
+
+
+def read_text_file(path, what: str) -> tuple[str, str]:
+    """(text, folder) of a TOML file; an unreadable file is a ValueError naming ``what`` and the path."""
+    path = os.fspath(path)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+    except OSError as e:
+        raise ValueError(f"cannot read {what} file {path!r}: {e.strerror}") from None
+    return text, os.path.dirname(os.path.abspath(path))
+
+
+def parse_toml(text: str, what: str) -> dict:
+    """TOML text as a dict; invalid TOML is a ValueError naming ``what``."""
+    import tomllib
+
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{what} is not valid TOML: {e}") from None

@@ -1,0 +1,209 @@
+"""Conical scenes: any wind direction, the cycle through heights as a scene option, distinct unit seeds."""
+
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from cwlidar_sim.campaign import conical_period, loads_scene, run_scene
+from cwlidar_sim.campaign.conical_period import simulate_conical_cycle
+from cwlidar_sim.sensors import conical as sensors_conical
+from cwlidar_sim.sensors.conical import measure_conical
+from cwlidar_sim.turbulence import MannParameters
+
+PHI = math.radians(30.0)
+DWELL = math.radians(7.2)
+
+TEXT = """
+name = "dirs"
+kind = "conical"
+seed = 4
+duration = {duration}
+[scan]
+heights = {heights}
+scan_revs = {revs}
+{scan}
+[lidar]
+tier = "los"
+[turbulence]                # a fixed tensor: the surface layer's sigma_u would cost a one-point spectrum
+source = "fixed"
+alpha_eps = 0.05
+length_scale = 15.0
+gamma = 3.9
+{periods}
+"""
+
+
+def scene(periods, scan="", heights="[20.0]", revs="[1]", duration=10.0):
+    return loads_scene(TEXT.format(scan=scan, periods=periods, heights=heights, revs=revs, duration=duration))
+
+
+def period(name, speed=8.0, direction=None):
+    return f'[[period]]\nname = "{name}"\nmean_speed = {speed}\n' + (
+        "" if direction is None else f"wind_direction_deg = {direction}\n")
+
+
+def dirichlet(n_sub, dwell_rad):
+    """Mean of cos(theta + delta_j) / cos(theta) over the n_sub looks of a dwell (the sweep's attenuation)."""
+    h = dwell_rad / n_sub
+    return math.sin(n_sub * h / 2) / (n_sub * math.sin(h / 2))
+
+
+def calm_box(lidar, d=2.0, nx=64):
+    """A box of zero fluctuations covering the lidar's cells."""
+    ext = [lidar.beam_extent(z) for z in lidar.heights]
+    r = max(e["radius"] for e in ext) + 2 * d
+    y = np.arange(-r, r + d, d)
+    z = np.arange(min(e["z_lo"] for e in ext) - d, max(e["z_hi"] for e in ext) + d, d)
+    zero = np.zeros((nx, y.size, z.size))
+    return xr.Dataset({c: (("x", "y", "z"), zero) for c in "uvw"}, coords={"x": d * np.arange(nx), "y": y, "z": z})
+
+
+@pytest.fixture
+def sheared(monkeypatch):
+    """Each unit's turbulence replaced by a frozen field u = a (z - z0), v = w = 0 (a = 0: a uniform wind)."""
+    real = sensors_conical.conical_field
+    shear = {"a": 0.0, "z0": 0.0}
+
+    def field(*args, **kw):
+        f = real(*args, **kw)
+        u = (shear["a"] * (f.z - shear["z0"])).broadcast_like(f.u).transpose(*f.u.dims)
+        return f.assign(u=u.astype(f.u.dtype), v=0.0 * f.v, w=0.0 * f.w)
+
+    monkeypatch.setattr(sensors_conical, "conical_field", field)
+    return shear
+
+
+@pytest.fixture
+def no_model(monkeypatch):
+    """CS's filter model left out of a scene's units (it is tested in tests/analysis/test_cs_model.py; here it
+    would only cost a Mann one-point spectrum)."""
+    from cwlidar_sim.analysis import cs_model
+
+    monkeypatch.setattr(cs_model, "model_ratios", lambda *a, **k: {"std_ratio": np.nan, "radial_variance_ratio": np.nan})
+
+
+# ---------------------------------------------------------------------------
+# wind from every side
+# ---------------------------------------------------------------------------
+def test_a_conical_period_takes_any_wind_direction():
+    sc = scene(period("a", direction=200.0) + period("b", direction=-135.0))
+    assert [p.wind_direction_deg for p in sc.periods] == [200.0, -135.0]
+    assert type(sc).from_dict(sc.as_dict()) == sc
+    with pytest.raises(ValueError, match=r"misalignment_deg is the staring beam's angle.*wind_direction_deg"):
+        scene(period("a") + "misalignment_deg = 30.0\n")
+    with pytest.raises(ValueError, match=r"wind_direction_deg=inf is not finite"):
+        scene(period("a", direction="inf"))
+    with pytest.raises(ValueError, match="start is for staring scenes"):
+        scene(period("a") + "start = 5.0\n")
+
+
+@pytest.mark.parametrize("direction", [0.0, 90.0, 180.0, 270.0, 225.0])
+def test_the_beam_turns_with_the_wind(direction):
+    """A beam at the lidar's own azimuth alpha = azimuth0 + 360 t / T sees U sin Phi cos(alpha - direction).
+
+    alpha comes from the scan's definition, not from the record, so a scan turned the wrong way (or not
+    at all) fails for every direction but 0 (and 180 for the sign).
+    """
+    U, az0 = 8.0, 10.0
+    lid = conical_period._conical_lidar((20.0,), "los", 2.0, 8, {"azimuth0_deg": az0}, direction)
+    rec = measure_conical(calm_box(lid), lid, 2.0, U)
+    alpha = np.radians(az0 + 360.0 * rec.time_e / lid.revolution_time - direction)
+    want = U * math.sin(PHI) * np.cos(alpha) * dirichlet(8, DWELL)
+    np.testing.assert_allclose(rec.vlos_e, want, rtol=0, atol=1e-12)
+
+
+def test_a_uniform_wind_from_every_side_gives_one_speed_and_its_direction(sheared, no_model):
+    """VAD speed, direction and the sonic's direction for winds toward 0, 90, 180, 270, 225 and -40 deg."""
+    dirs = [0.0, 90.0, 180.0, 270.0, 225.0, -40.0]
+    sc = scene("".join(period(f"d{i}", direction=d) for i, d in enumerate(dirs)))
+    ds = run_scene(sc, None, progress=False)
+    U = 8.0
+    # the fit of a uniform wind is exact (to rounding) whichever points the blind zone removes: the speed is
+    # the sweep-attenuated U, the same for every direction; the cup reads U itself
+    np.testing.assert_allclose(ds.lidar_mean_unit.values[:, 0], U * dirichlet(8, DWELL), rtol=1e-12)
+    np.testing.assert_allclose(ds.cup_mean_unit.values, U, rtol=1e-12)
+    wrap = lambda d: (np.asarray(d) + 180.0) % 360.0 - 180.0  # noqa: E731
+    np.testing.assert_allclose(wrap(ds.lidar_direction_unit.values[:, 0] - np.array(dirs)), 0.0, atol=1e-9)
+    np.testing.assert_allclose(wrap(ds.sonic_direction_unit.values - np.array(dirs)), 0.0, atol=1e-9)
+    assert np.all(ds.ambiguity_rate_unit.values == 0.0)
+    assert np.all(ds.lidar_direction_unit.values >= -180.0) and np.all(ds.lidar_direction_unit.values < 180.0)
+
+
+# ---------------------------------------------------------------------------
+# the cycle through heights
+# ---------------------------------------------------------------------------
+CYCLE = 'cycle = true\nrevs_per_height = 2\nrefocus_time = 1.0'
+
+
+def test_cycle_scene_validation():
+    sc = scene(period("a") + period("b"), CYCLE, heights="[20.0, 30.0]", revs="[1, 2]", duration=30.0)
+    assert sc.unit_names() == ["a", "b"] and sc.row_names(1) == ["b_z20", "b_z30"]
+    assert sc.simulated_hours() == pytest.approx(60.0 / 3600.0)
+    assert type(sc).from_dict(sc.as_dict()) == sc
+    for kw, match in [
+        (dict(scan=CYCLE), "needs at least 2"),
+        (dict(scan=CYCLE, heights="[20.0, 30.0]", revs="[3]"), r"scan.scan_revs \[3\] must divide"),
+        (dict(scan="revs_per_height = 2", heights="[20.0, 30.0]"), r"revs_per_height.*cycle = true"),
+        (dict(scan=CYCLE.replace("= 2", "= 6"), heights="[20.0, 30.0]", duration=10.0), "shorter than one cycle"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            scene(period("a"), **kw)
+
+
+def test_cycling_lidar_gives_each_height_its_share_and_its_own_cup_and_sonic(sheared):
+    """One box for both heights, sheared u = a (z - 25 m): each height's row reads its own height's wind.
+
+    2 revolutions per height and 1 s to refocus: blocks of 3 s, 10 in 31 s, 5 per height: 10 revolutions
+    (500 estimates, ten 1-s and five 2-s scans) at each height.  The cup at z reads U + a (z - 25)
+    exactly; the VAD speed its sweep-attenuated probe-volume average, which differs from the cup's by at
+    most a times the weighting's height offset (the exact weighting's asymmetry, ~z_R cos Phi = 0.6 m)
+    plus the tail beyond the span, which sees the mean wind only (~15 % of the weight at 5 z_R):
+    0.15 x a x 5 m = 0.04 m/s at a = 0.05 s^-1, against the 0.5 m/s between the heights.
+    """
+    a, U = 0.05, 8.0
+    sheared.update(a=a, z0=25.0)
+    rows = simulate_conical_cycle((20.0, 30.0), 7, revs_per_height=2, refocus_time=1.0, speed=U, duration=31.0,
+                                  scan_revs=(1, 2), model=False, params=MannParameters(0.05, 15.0, 3.9))
+    assert [r["height"] for r in rows] == [20.0, 30.0]
+    for r in rows:
+        assert r["n_estimates"] == 500 and r["scans"][1]["n_scans"] == 10 and r["scans"][2]["n_scans"] == 5
+        assert r["box_shape"] == rows[0]["box_shape"]  # one box
+        cup = U + a * (r["height"] - 25.0)
+        assert r["cup_mean"] == pytest.approx(cup, rel=1e-6)
+        assert r["scans"][1]["lidar_mean"] / dirichlet(8, DWELL) == pytest.approx(cup, abs=0.06)
+        assert r["sonic_radial_variance"] == pytest.approx(0.0, abs=1e-12)  # each sonic: a constant wind
+    assert rows[1]["cup_mean"] - rows[0]["cup_mean"] == pytest.approx(10 * a, rel=1e-6)
+    with pytest.raises(ValueError, match="must divide revs_per_height"):
+        simulate_conical_cycle((20.0, 30.0), 7, revs_per_height=2, scan_revs=(3,), duration=31.0)
+
+
+def test_a_cycle_scene_runs_one_unit_per_period_with_results_per_height(sheared, no_model, tmp_path):
+    sheared.update(a=0.05, z0=25.0)
+    sc = scene(period("a"), CYCLE, heights="[20.0, 30.0]", revs="[1, 2]", duration=31.0)
+    ds = run_scene(sc, tmp_path, progress=False)
+    assert list(ds.period.values) == ["a_z20", "a_z30"] and list(ds.height.values) == [20.0, 30.0]
+    assert list(ds.n_periods.values) == [1, 1]
+    np.testing.assert_allclose(ds.cup_mean_unit.values, [7.75, 8.25], rtol=1e-6)
+    assert ds.std_ratio.dims == ("height", "scan_s") and list(ds.scan_s.values) == [1.0, 2.0]
+    assert sorted(p.name for p in (tmp_path / "dirs.periods").iterdir()) == ["000_a.nc"]
+    again = run_scene(sc, tmp_path, progress=False)
+    assert again.attrs["periods_reused"] == '["a"]'
+    np.testing.assert_array_equal(again.lidar_mean_unit.values, ds.lidar_mean_unit.values)
+
+
+# ---------------------------------------------------------------------------
+# seeds
+# ---------------------------------------------------------------------------
+def test_conical_units_get_distinct_seeds_across_periods_and_heights():
+    three = "[20.0, 30.0, 40.0]"
+    sc = scene(period("a") + period("b") + period("c"), heights=three)
+    seeds = [sc.unit_seed(i) for i in range(len(sc.unit_names()))]
+    assert len(seeds) == 9 and len(set(seeds)) == 9
+    own = scene(period("a") + "seed = 12\n" + period("b"), heights=three)
+    s2 = [own.unit_seed(i) for i in range(6)]
+    assert len(set(s2)) == 6 and s2[3:] == seeds[3:6]  # a period's own seed leaves the others alone
+    cyc = scene(period("a") + period("b") + period("c"), CYCLE, heights=three, revs="[1, 2]", duration=30.0)
+    c = [cyc.unit_seed(i) for i in range(3)]
+    assert len(set(c)) == 3

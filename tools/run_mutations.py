@@ -352,6 +352,28 @@ MUTATIONS = [
     M("hawc2-openfast-y", "turbulence io", "cwlidar_sim/turbulence/io.py",
       "        return True, True", "        return True, False",
       ("tests/turbulence/test_io_openfast.py",), "OpenFAST's reversed y axis ignored"),
+    # --- nacelle lidar ----------------------------------------------------------------------------
+    M("nacelle-yaw-sign", "nacelle lidar", "cwlidar_sim/sensors/nacelle.py",
+      "return rotation_matrices(0.0, 0.0, self.yaw_misalignment_deg)",
+      "return rotation_matrices(0.0, 0.0, -self.yaw_misalignment_deg)",
+      ("tests/sensors/test_nacelle.py",), "yaw misalignment turns the rotor the wrong way"),
+    M("nacelle-motion-doppler-sign", "nacelle lidar", "cwlidar_sim/sensors/nacelle.py",
+      "vlos_lc -= rel[:, None]", "vlos_lc += rel[:, None]",
+      ("tests/sensors/test_nacelle.py::test_platform_motion_los_and_its_correction",),
+      "the platform's own speed adds to the Doppler shift instead of subtracting"),
+    M("nacelle-motion-correction-attitude", "nacelle lidar", "cwlidar_sim/sensors/nacelle.py",
+      "known = att_lc if lidar.motion_correction else m_lc", "known = m_lc",
+      ("tests/sensors/test_nacelle.py::test_platform_motion_los_and_its_correction",),
+      "the motion correction forgets the attitude (roll, pitch, yaw)"),
+    M("nacelle-blockage-half-chord", "nacelle lidar", "cwlidar_sim/sensors/nacelle.py",
+      "< 0.5 * lidar.blade_chord)", "< lidar.blade_chord)",
+      ("tests/sensors/test_nacelle.py::test_blade_blockage_flags_the_estimates_it_covers",),
+      "blades twice as wide as their chord"),
+    M("nacelle-sweep-offsets", "nacelle lidar", "cwlidar_sim/sensors/nacelle.py",
+      "dang = 360.0 / lidar.estimates_per_rev if lidar.circle else 0.0",
+      "dang = 0.0",
+      ("tests/sensors/test_nacelle.py::test_uniform_wind_tier1_is_exact_yawed_or_not",),
+      "the beam does not sweep within a dwell"),
 ]
 
 

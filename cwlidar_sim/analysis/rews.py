@@ -53,6 +53,7 @@ __all__ = [
     "rotor_node_weights",
     "rews_from_box",
     "los_to_u",
+    "fit_uvw",
     "scan_average",
     "preview_time",
     "align_preview",
@@ -227,6 +228,54 @@ def los_to_u(vlos, direction):
         raise ValueError("a beam with n_x = 0 (perpendicular to the mean wind) cannot estimate u; "
                          "allowed: |n_x| >= 1e-6")
     return np.asarray(vlos, dtype=float) / nx
+
+
+def fit_uvw(los_e, direction_ec, group_e=None, *, valid_e=None):
+    """Least-squares wind ``(u, v, w)`` from line-of-sight speeds, per group of estimates (e.g. revolutions).
+
+    Solves ``los_e = direction_ec . (u, v, w)`` over each group's valid estimates
+    (the homogeneous-flow reconstruction of a scan; exact for a uniform wind
+    with directions the dwell-averaged ones the speeds were projected on).
+
+    Parameters
+    ----------
+    los_e : array_like, shape (n_e,)
+        Line-of-sight speeds [m/s], positive away from the lidar.
+    direction_ec : array_like, shape (n_e, 3)
+        Directions they refer to [-].
+    group_e : array_like of int, shape (n_e,), optional
+        Group of each estimate; default one group.
+    valid_e : array_like of bool, optional
+        Estimates to use; default the finite ones.
+
+    Returns
+    -------
+    groups : ndarray of int, shape (n_g,)
+    uvw_gc : ndarray, shape (n_g, 3)
+        [m/s]; NaN for a group with fewer than 3 valid estimates or a
+        singular geometry (condition number above 1e8).
+    """
+    los = np.asarray(los_e, dtype=float)
+    n = np.asarray(direction_ec, dtype=float)
+    if los.ndim != 1 or n.shape != (los.size, 3):
+        raise ValueError(f"los_e must be 1-D and direction_ec of shape (n_e, 3), got {los.shape}, {n.shape}")
+    g = np.zeros(los.size, dtype=np.int64) if group_e is None else np.asarray(group_e)
+    if g.shape != los.shape:
+        raise ValueError(f"group_e must have the shape of los_e, got {g.shape}")
+    ok = np.isfinite(los) & np.all(np.isfinite(n), axis=1)
+    if valid_e is not None:
+        ok &= np.asarray(valid_e, dtype=bool)
+    groups = np.unique(g)
+    out = np.full((groups.size, 3), np.nan)
+    for i, k in enumerate(groups):
+        m = ok & (g == k)
+        if m.sum() < 3:
+            continue
+        A = n[m]
+        if np.linalg.cond(A) > 1e8:
+            continue
+        out[i] = np.linalg.lstsq(A, los[m], rcond=None)[0]
+    return groups, out
 
 
 def scan_average(u_t, n: int):

@@ -216,7 +216,7 @@ def _add_campaign(sub):
     p.add_argument("--out", default=None, metavar="FIGDIR", help="figure folder (default DIR)")
     p.set_defaults(func=_cmd_report)
 
-    p = _command(sub, "reproduce", "reproduce a published result: a2012, cs, or the nacelle lidar's preview",
+    p = _command(sub, "reproduce", "reproduce a published result: a2012, cs, nacelle",
                  "Run a bundled scene and write its results and figures. a2012: Angelou et al. "
                  "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods. "
                  "cs: a conically scanning ZephIR against a cup, 40-100 m, 1 s and 3 s scans, "

@@ -374,6 +374,14 @@ MUTATIONS = [
       "dang = 0.0",
       ("tests/sensors/test_nacelle.py::test_uniform_wind_tier1_is_exact_yawed_or_not",),
       "the beam does not sweep within a dwell"),
+    M("nacelle-theory-forgets-evolution", "nacelle scene", "cwlidar_sim/campaign/nacelle.py",
+      "ev = None if p.lifetime is None else EddyLifetimeEvolution(p.lifetime, p.mean_speed)", "ev = None",
+      ("tests/test_notebooks.py::test_notebook_runs_in_quick_mode[nacelle.ipynb]",),
+      "the analytic coherence of an evolving period is the frozen one"),
+    M("nacelle-rews-psd-of-another-focus", "nacelle scene", "cwlidar_sim/campaign/nacelle.py",
+      "rpsd[i, at], ndof[at] = est.rotor_f, est.n_dof_f", "rpsd[:, at], ndof[at] = est.rotor_f, est.n_dof_f",
+      ("tests/campaign/test_nacelle_scene.py",),
+      "every focus reports the REWS spectrum of the last focus's preview-aligned segments"),
 ]
 
 

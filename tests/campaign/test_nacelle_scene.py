@@ -79,3 +79,30 @@ def test_small_run_writes_units_and_physics(tmp_path):
     # the Wiener gain is |S_RL| / S_LL, i.e. sqrt(coherence S_RR / S_LL)
     np.testing.assert_allclose(ds.wiener_gain.values[0, :, 0],
                                np.sqrt(coh * ds.rews_psd.values[0] / ds.lidar_psd.values[0, :, 0]), rtol=1e-12)
+
+
+def test_sweep_over_focus_half_angle_and_rotor_size_plans_tasks():
+    """A campaign file sweeps a nacelle scene's keys like any scene's; each task is validated and estimated."""
+    from cwlidar_sim.campaign.sweep import estimate_task, expand, loads_campaign
+
+    spec = loads_campaign("""
+name = "nac_sweep"
+seed = 1
+base = "nacelle"
+[set]
+duration = 300.0
+[[sweep]]
+"scan.focus_distances" = [[50.0], [150.0]]
+[[sweep]]
+"scan.half_angle_deg" = [10.0, 20.0]
+[[sweep]]
+"scan.rotor_radius" = [40.0, 80.0]
+""")
+    tasks = expand(spec)
+    assert len(tasks) == 8 and all(t.scene.kind == "nacelle" for t in tasks)
+    est = {(t.scene.scan.focus_distances[0], t.scene.scan.half_angle_deg, t.scene.scan.rotor_radius):
+           estimate_task(t.scene) for t in tasks}
+    assert all(e["seconds"] > 0 and e["memory_bytes"] > 1e8 for e in est.values())
+    # a farther focus needs a longer box, a bigger rotor a wider one
+    assert est[150.0, 10.0, 40.0]["memory_bytes"] > est[50.0, 10.0, 40.0]["memory_bytes"]
+    assert est[50.0, 10.0, 80.0]["memory_bytes"] > est[50.0, 10.0, 40.0]["memory_bytes"]

@@ -451,3 +451,69 @@ def irfftn_inplace_shared(spec, n_last: int, plans):
     tasks = _chunks(spec.shape[0], spec.size // spec.shape[0])
     run_dynamic(tasks, lambda w, t: _c2r2_pass(spec, real, plans, w, t[0], t[1]))
     return real
+
+
+def _r2c2_pass(real, spec, book, worker, lo, hi):
+    # 2-D r2c over the last two axes of slabs lo..hi; the input is preserved.
+    s_in = real[lo:hi]
+    s_out = spec[lo:hi]
+    key = ("r2c2", s_in.shape, s_in.strides, s_out.strides, s_in.dtype.str)
+    plan = book.get(
+        worker,
+        key,
+        lambda: pyfftw.FFTW(s_in, s_out, axes=(1, 2), direction="FFTW_FORWARD",
+                            flags=("FFTW_ESTIMATE", "FFTW_UNALIGNED"), threads=1),
+    )
+    plan.update_arrays(s_in, s_out)
+    plan.execute()
+
+
+def _c2c_forward_pass(spec, book, worker, lo, hi):
+    # 1-D forward c2c along axis 0 of columns lo..hi of axis 1, in place.
+    block = spec[:, lo:hi]
+    key = ("c2cf", block.shape, block.strides, block.dtype.str)
+    plan = book.get(
+        worker,
+        key,
+        lambda: pyfftw.FFTW(block, block, axes=(0,), direction="FFTW_FORWARD", flags=_FLAGS, threads=1),
+    )
+    plan.update_arrays(block, block)
+    plan.execute()
+
+
+def rfftn3(real, out=None):
+    """Unnormalised forward real 3-D FFT, ``X[k] = sum_n x[n] exp(-2j pi k.n / N)``.
+
+    The inverse of :func:`irfftn_inplace_shared` up to the factor ``N1 N2 N3``.
+    Two passes, like it: batched 2-D r2c transforms over axes 1 and 2 of slabs
+    of axis 0, then batched 1-D c2c transforms along axis 0 (chunked along
+    axis 1); chunks depend on the shape only and are planned single-threaded,
+    so the result is the same bits for any thread count.
+
+    Parameters
+    ----------
+    real : ndarray, float32 or float64, shape (N1, N2, N3)
+        Field to transform (not modified); views with padded rows (the
+        boxes of :func:`cwlidar_sim.turbulence.generate_box`) are fine.
+    out : ndarray, complex, shape (N1, N2, N3 // 2 + 1), C-contiguous, optional
+        Output buffer (e.g. from :func:`empty_halfspectrum`); allocated if None.
+
+    Returns
+    -------
+    spec : ndarray, complex64 or complex128
+        The half spectrum, ``spec[k1, k2, k3]`` for ``k3 = 0 .. N3 // 2``.
+    """
+    if real.ndim != 3:
+        raise ValueError(f"real must be 3-D, got shape {real.shape}")
+    n1, n2, n3 = real.shape
+    shape_out = (n1, n2, n3 // 2 + 1)
+    if out is None:
+        out = pyfftw.empty_aligned(shape_out, dtype=complex_dtype(real.dtype))
+    elif out.shape != shape_out or out.dtype != complex_dtype(real.dtype) or not out.flags.c_contiguous:
+        raise ValueError(f"out must be a C-contiguous {complex_dtype(real.dtype)} array of shape {shape_out}")
+    book = _PlanBook()
+    tasks = _chunks(n1, out.size // n1)
+    run_dynamic(tasks, lambda w, t: _r2c2_pass(real, out, book, w, t[0], t[1]))
+    tasks = _chunks(n2, out.size // n2)
+    run_dynamic(tasks, lambda w, t: _c2c_forward_pass(out, book, w, t[0], t[1]))
+    return out

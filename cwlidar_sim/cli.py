@@ -216,16 +216,19 @@ def _add_campaign(sub):
     p.add_argument("--out", default=None, metavar="FIGDIR", help="figure folder (default DIR)")
     p.set_defaults(func=_cmd_report)
 
-    p = _command(sub, "reproduce", "reproduce a published result: a2012 or cs",
+    p = _command(sub, "reproduce", "reproduce a published result: a2012, cs, nacelle",
                  "Run a bundled scene and write its results and figures. a2012: Angelou et al. "
                  "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods. "
                  "cs: a conically scanning ZephIR against a cup, 40-100 m, 1 s and 3 s scans, "
-                 "six 10-min periods per height.",
+                 "six 10-min periods per height. nacelle: a nacelle lidar's REWS preview coherence at "
+                 "three focus distances, frozen and evolving turbulence, against the analytic coherence.",
                  ["cwlidar-sim reproduce a2012 --out results            # about a minute on 2 cores",
-                  "cwlidar-sim reproduce cs --quick --out results       # two periods per height"])
-    p.add_argument("paper", choices=("a2012", "cs"))
+                  "cwlidar-sim reproduce cs --quick --out results       # two periods per height",
+                  "cwlidar-sim reproduce nacelle --quick --out results  # 5-min periods, under 3 min"])
+    p.add_argument("paper", choices=("a2012", "cs", "nacelle"))
     p.add_argument("--quick", action="store_true",
-                   help="a2012: shortened periods; cs: two periods per height (about a minute each)")
+                   help="a2012: shortened periods; cs: two periods per height (about a minute each); "
+                        "nacelle: 5-min periods")
     p.add_argument("--out", default="results", metavar="DIR", help="output folder (default: results)")
     p.add_argument("--dask", default=None, metavar="ADDRESS")
     p.add_argument("--threads", type=int, default=None)
@@ -286,6 +289,10 @@ def _run_and_report(scene, args, figures):
         summary["std_ratio"] = {f"{float(z):g} m": [round(float(x), 3) for x in row]
                                 for z, row in zip(ds.height.values, ds.std_ratio.values)}
         summary["scan_s"] = [float(s) for s in ds.scan_s.values]
+    elif scene.kind == "nacelle":
+        from .campaign.nacelle import summary as nacelle_summary
+
+        summary.update(nacelle_summary(ds))
     else:
         summary["rayleigh_length_m"] = ds.attrs["rayleigh_length"]
         summary["availability"] = {str(p): round(float(a), 4) for p, a in zip(ds.period.values, ds.availability.values)}

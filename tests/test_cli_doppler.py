@@ -36,7 +36,7 @@ def test_spectral_and_signal_report(capsys, tier):
     assert rep["n"] - rep["n_valid"] <= 3 and rep["n_valid"] == rep["n_usable"]
     assert rep["flags"]["NO_SIGNAL"] == rep["n"] - rep["n_valid"]
     assert abs(rep["mean"] - v) < 0.1 * rep["bin_speed"]
-    assert set(rep["flags"]) == {"NO_SIGNAL", "NEAR_NYQUIST", "NEAR_ZERO", "SECOND_PEAK", "FIT_FAILED", "PAUSED"}
+    assert set(rep["flags"]) == {"NO_SIGNAL", "NEAR_NYQUIST", "NEAR_ZERO", "SECOND_PEAK", "FIT_FAILED", "PAUSED", "BLOCKED"}
     assert rep["instrument"]["blocks_per_estimate"] == 200 and rep["estimator"] == "centroid"
 
 

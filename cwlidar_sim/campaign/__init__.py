@@ -6,30 +6,32 @@ the stages below the campaign layer):
 ``spec``
     Scene-spec machinery shared by every scene kind (TOML interchange, key
     checks, ``RESULTS_VERSION``).
-``conical_scene``, ``scene``
-    The scene files: conical (:class:`ConicalScene`) and staring
-    (:class:`Scene`); :func:`load_scene` reads either by ``kind``.
+``conical_scene``, ``nacelle_scene``, ``scene``
+    The scene files: conical (:class:`ConicalScene`), nacelle
+    (:class:`NacelleScene`) and staring (:class:`Scene`); :func:`load_scene`
+    reads any by ``kind``.
 ``planning``, ``auto``, ``store``
     A staring period's field and tensor; the automatic fidelity choice;
     results on disk (checks, per-unit files, resume).
-``staring``, ``conical_period``, ``conical``
+``staring``, ``conical_period``, ``conical``, ``nacelle``
     One unit of work of each scene kind: a staring period, a conical period
     (field, lidar, cup, sonic, VAD fits, CS's model) and the conical scene's
-    units and summary.
+    units and summary, a nacelle period (REWS, preview, coherence, theory).
 ``runner``
     :func:`run_scene`: dispatches by scene kind, keeps every finished unit.
-``reproduce``, ``sweep``, ``batch``, ``figures``, ``figures_cs``
+``reproduce``, ``sweep``, ``batch``, ``figures``, ``figures_cs``, ``figures_nacelle``
     The bundled reproductions, campaign files and their Dask runs, figures.
 """
 
 from .conical_period import simulate_conical_cycle, simulate_conical_period
 from .conical_scene import ConicalScene
+from .nacelle_scene import NacelleScene
 from .reproduce import bundled_scene
 from .runner import choose_field, plan_field, run_scene
 from .scene import Scene, load_scene, loads_scene
 from .staring import fit_probe_length_results
 from .store import PreflightError, ResultsWriteError, read_results, write_results
 
-__all__ = ["Scene", "ConicalScene", "load_scene", "loads_scene", "run_scene", "read_results", "choose_field",
+__all__ = ["Scene", "ConicalScene", "NacelleScene", "load_scene", "loads_scene", "run_scene", "read_results", "choose_field",
            "plan_field", "bundled_scene", "PreflightError", "ResultsWriteError", "write_results",
            "fit_probe_length_results", "simulate_conical_period", "simulate_conical_cycle"]

@@ -233,6 +233,10 @@ def make_figures(ds, out_dir) -> list:
     """Write every figure as PNG into ``out_dir``; returns the paths (conical scenes: :mod:`.figures_cs`)."""
     if ds.attrs.get("sensor") == "conical":
         return make_cs_figures(ds, out_dir)
+    if ds.attrs.get("sensor") == "nacelle":
+        from .figures_nacelle import make_nacelle_figures
+
+        return make_nacelle_figures(ds, out_dir)
     plt = _plt()
     os.makedirs(out_dir, exist_ok=True)
     figs = {

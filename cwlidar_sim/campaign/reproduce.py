@@ -16,7 +16,7 @@ from .scene import Scene, loads_scene
 __all__ = ["BUNDLED", "bundled_scene", "bundled_text"]
 
 #: Bundled scenes: name -> (file, quick mode: period duration [s] (staring) or periods kept (conical)).
-BUNDLED = {"a2012": ("a2012.toml", 1200.0), "cs": ("cs.toml", 2)}
+BUNDLED = {"a2012": ("a2012.toml", 1200.0), "cs": ("cs.toml", 2), "nacelle": ("nacelle.toml", 300.0)}
 
 
 def bundled_text(name: str) -> str:
@@ -36,6 +36,9 @@ def bundled_scene(name: str, *, quick: bool = False) -> Scene:
         q = BUNDLED[name][1]
         if scene.kind == "conical":
             scene = scene.replace(periods=scene.periods[:q])
+        elif scene.kind == "nacelle":
+            scene = scene.replace(duration=q, periods=tuple(dataclasses.replace(p, duration=None)
+                                                            for p in scene.periods))
         else:
             scene = scene.replace(duration=q,
                                   periods=tuple(dataclasses.replace(p, duration=None) for p in scene.periods))

@@ -26,9 +26,10 @@ import json
 import os
 import time
 
-from . import conical, staring, store
+from . import conical, nacelle, staring, store
 from .auto import resolve
 from .conical_scene import ConicalScene
+from .nacelle_scene import NacelleScene
 from .planning import FieldPlan, choose_field, generate_field, plan_field, scene_params
 from .scene import Scene
 from .spec import RESULTS_VERSION
@@ -48,6 +49,8 @@ def _sensor(scene):
     """
     if isinstance(scene, ConicalScene):
         return conical.run_unit, conical.estimate_bytes, conical.summarise
+    if isinstance(scene, NacelleScene):
+        return nacelle.run_unit, nacelle.estimate_bytes, nacelle.summarise
     if isinstance(scene, Scene):
         return staring.run_period, store.estimate_bytes, None
     raise TypeError(f"scene must be a Scene or a ConicalScene, got {type(scene).__name__}")

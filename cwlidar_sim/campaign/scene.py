@@ -449,6 +449,10 @@ def scene_from_dict(d: dict, *, base_dir: str = "."):
     """A staring :class:`Scene` or a :class:`~cwlidar_sim.campaign.conical_scene.ConicalScene`, by ``d['kind']``."""
     if isinstance(d, dict) and d.get("kind", "staring") == "conical":
         return ConicalScene.from_dict(d, base_dir=base_dir)
+    if isinstance(d, dict) and d.get("kind", "staring") == "nacelle":
+        from .nacelle_scene import NacelleScene
+
+        return NacelleScene.from_dict(d, base_dir=base_dir)
     if isinstance(d, dict) and "kind" in d:
         check_choice("kind", d["kind"], SCENE_KINDS)
     return Scene.from_dict(d, base_dir=base_dir)

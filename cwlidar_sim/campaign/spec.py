@@ -28,7 +28,7 @@ __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field"
 #: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`).
 RESULTS_VERSION = 2
 #: Scene kinds: ``kind`` in a scene file (default 'staring').
-SCENE_KINDS = ("staring", "conical")
+SCENE_KINDS = ("staring", "conical", "nacelle")
 
 
 def set_field(obj, name: str, value) -> None:

@@ -50,7 +50,7 @@ import math
 import os
 
 from .._validation import check_bool, check_int, check_keys, check_seed
-from . import conical
+from . import conical, nacelle
 from .auto import resolve
 from .planning import plan_field, scene_params
 from .reproduce import BUNDLED, bundled_scene
@@ -331,8 +331,9 @@ def estimate_task(scene: Scene) -> dict:
     box's transform), its raw series in float64 (results and analysis
     copies) and 250 MB of interpreter and libraries.
     """
-    if scene.kind == "conical":
-        per = [conical.estimate_unit(scene, i) for i in range(len(scene.unit_names()))]
+    if scene.kind in ("conical", "nacelle"):
+        mod = conical if scene.kind == "conical" else nacelle
+        per = [mod.estimate_unit(scene, i) for i in range(len(scene.unit_names()))]
         return {"seconds": TASK_OVERHEAD_S + sum(e["seconds"] for e in per),
                 "memory_bytes": max(e["memory_bytes"] for e in per) + 250e6}
     scene = resolve(scene)[0]

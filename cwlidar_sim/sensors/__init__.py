@@ -19,6 +19,11 @@
     for the speckle, dwell or height cycle as focus groups),
     :func:`conical_field` (a Mann box holding the cone, optionally laterally
     doubled) and :func:`surface_layer_parameters`.
+``nacelle``
+    :class:`NacelleLidar` and :func:`measure_nacelle`: a forward-looking
+    nacelle lidar for turbine control (circular scan or fixed beams, focus
+    distances in turn, yaw misalignment, platform motion and its correction,
+    blade blockage), :func:`nacelle_field` (frozen or evolving boxes).
 ``cup``
     :class:`Cup`: horizontal speed through a first-order response (distance constant).
 
@@ -41,6 +46,7 @@ from .lidar import (
     measure_staring,
 )
 from .conical import ConicalLidar, ConicalRecord, conical_field, measure_conical, surface_layer_parameters
+from .nacelle import NacelleLidar, NacelleRecord, PlatformMotion, measure_nacelle, nacelle_field
 from .cup import Cup, cup_response, cup_transfer, sample_cup
 from .sonic import (
     A2012_OUTPUTS,
@@ -60,5 +66,6 @@ __all__ = [
     "StaringLidar", "LidarRecord", "measure_staring", "expected_spectrum_exact", "instrument_from_spec",
     "TIERS", "VARIANT_KEYS", "SIGNAL_MAX_ESTIMATES", "DRAW_BLOCK",
     "ConicalLidar", "ConicalRecord", "measure_conical", "conical_field", "surface_layer_parameters",
+    "NacelleLidar", "NacelleRecord", "PlatformMotion", "measure_nacelle", "nacelle_field",
     "Cup", "sample_cup", "cup_response", "cup_transfer",
 ]

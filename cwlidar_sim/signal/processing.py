@@ -91,10 +91,13 @@ class Flag(enum.IntFlag):
     #: The instrument was measuring its background (10 min every 3 h in
     #: A2012): no estimate; set by the campaign runner, the estimate is NaN.
     PAUSED = 32
+    #: The beam was blocked (a turbine blade passing through it) for too much of the
+    #: dwell: no estimate; set by the nacelle lidar, the estimate is NaN.
+    BLOCKED = 64
 
 
 #: Flags that make an estimate NaN.
-FAIL_FLAGS = Flag.NO_SIGNAL | Flag.FIT_FAILED | Flag.PAUSED
+FAIL_FLAGS = Flag.NO_SIGNAL | Flag.FIT_FAILED | Flag.PAUSED | Flag.BLOCKED
 
 #: Flags of finite estimates biased by the instrument's limits: not counted as available.
 SUSPECT_FLAGS = Flag.NEAR_ZERO | Flag.NEAR_NYQUIST

@@ -50,6 +50,48 @@ Conventions (established from the peers, pinned in tests/turbulence/test_io.py)
   default (``False``) keeps the order the generators (Mann64bit, mannrs,
   hipersim) write.
 
+OpenFAST InflowWind's convention (``convention="openfast"``)
+------------------------------------------------------------
+A box made for OpenFAST (``WindType = 5``) is read by InflowWind with
+conventions of its own, pinned here from its source (OpenFAST
+``modules/inflowwind/src/InflowWind_IO.f90``: the reader ``IfW_HAWC_Init``
+and the writer ``Grid3D_WriteHAWC``; ``IfW_FlowField.f90``: the time shift
+of the Grid3D interpolation; weio's ``mannbox_file`` module, part of the
+OpenFAST toolbox, describes the same y order: "y from ly/2 to -ly/2").
+InflowWind's frame is x downwind, y to the left looking downwind, z up (as
+ours):
+
+* **Value order.**  Each file is read plane by plane (``IX = 1..nx``), each
+  plane as a Fortran ``(nz, ny)`` array: z fastest, then y, then x, as
+  above.
+* **x planes.**  File plane ``IX`` is time step ``IX`` of a periodic series
+  of step ``dx / URef`` at the rotor (``TimeShifted = t + (X0 - X)/U``): file
+  plane 0 reaches the rotor first.  In our frame (a sensor at rest sees
+  ``x0 - U t``) that is ``file plane j = our plane Nx-1-j``, what
+  ``reverse_x`` does.
+* **y.**  The reader stores ``Vel(:, iy, iz, ix) = file(iz, NY:1:-1)``: file
+  y index j is InflowWind's ``Y = (Ny-1-j) dy - (Ny-1) dy / 2``, so file y
+  runs to the *right* looking downwind, and ``file y index j = our y index
+  Ny-1-j``.
+* **Signs.**  u, v, w are taken as they are (no sign is flipped for HAWC
+  files; contrast the Bladed reader's left-hand-rule flip of v).
+* **Mean.**  The files hold fluctuations: InflowWind adds the mean profile
+  (``URef``, ``PLExp``/``Z0`` at ``RefHt``) after interpolation, and with
+  ``ScaleMethod`` 1 or 2 first subtracts each point's mean of u over x
+  (``remove_u_mean=True`` does the same here) after scaling the components
+  (scale the Dataset yourself to apply ``SFx`` ... or a target sigma).
+  OpenFAST's own writer removes, per height, the mean of u over time at its
+  first y column.
+
+With ``convention="openfast"`` :func:`read_hawc2` returns, in our frame and
+Taylor convention, the field an InflowWind turbine sees from those files
+(our ``y = Y + (Ny-1) dy / 2``, ``z = Z - (RefHt - (Nz-1) dz / 2)``), and
+:func:`write_hawc2` writes files from which InflowWind presents our field.
+A box written by a generator (Mann64bit, mannrs, hipersim) and handed to
+InflowWind unchanged is therefore mirrored in x and in y without u or v
+changing sign: read it with the default convention to get what the
+generator made, with ``"openfast"`` to get what the OpenFAST turbine saw.
+
 NetCDF
 ------
 :func:`write_netcdf` / :func:`read_netcdf` store a box (x, y, z), plane
@@ -76,6 +118,8 @@ from .._validation import check_bool, check_int, check_memory, check_real, check
 __all__ = ["hawc2_paths", "read_hawc2", "read_netcdf", "write_hawc2", "write_netcdf"]
 
 _COMPONENTS = ("u", "v", "w")
+#: File conventions: how the file's indices map onto our Dataset's.
+CONVENTIONS = ("hawc2", "openfast")
 _FIELD_DIMS = (("x", "y", "z"), ("x", "y"), ("x",))
 _HAWC2_DTYPE = np.dtype("<f4")
 #: Default largest slab copied at once while writing a HAWC2 file [bytes].
@@ -135,7 +179,8 @@ def hawc2_paths(base_or_paths) -> tuple[Path, Path, Path]:
     return tuple(out)
 
 
-def write_hawc2(box, base, *, reverse_x: bool = False, max_chunk_bytes: int = _DEFAULT_CHUNK_BYTES):
+def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2",
+                max_chunk_bytes: int = _DEFAULT_CHUNK_BYTES):
     """Write a 3-D box as a HAWC2 / Mann64bit binary turbulence box.
 
     Parameters
@@ -153,6 +198,12 @@ def write_hawc2(box, base, *, reverse_x: bool = False, max_chunk_bytes: int = _D
         readers that bring file plane 0 to the rotor first (HAWC2 < 13.1,
         OpenFAST InflowWind).  Default False: file plane j = our plane j, as
         Mann64bit, mannrs and hipersim write.  See the module docstring.
+    convention : {"hawc2", "openfast"}, optional
+        "hawc2" (default): the generators' layout (with ``reverse_x`` as
+        given).  "openfast": the layout OpenFAST's InflowWind reads, so
+        that it presents this field to the turbine: x planes in arrival
+        order and y reversed (file y index j = our Ny-1-j), u, v, w as they
+        are; ``reverse_x`` must then be False (see the module docstring).
     max_chunk_bytes : int, optional
         Largest float32 slab converted at a time [bytes] (at least one x
         plane is always taken).  Memory held by the writer is about this,
@@ -178,6 +229,7 @@ def write_hawc2(box, base, *, reverse_x: bool = False, max_chunk_bytes: int = _D
     written as ``NAME.part`` and renamed when complete.
     """
     reverse_x = check_bool("reverse_x", reverse_x)
+    reverse_x, reverse_y = _convention_flips(convention, reverse_x)
     max_chunk_bytes = check_int("max_chunk_bytes", max_chunk_bytes, lo=1)
     arrays = _field_arrays(box, "box", allowed=(_FIELD_DIMS[0],))
     paths = hawc2_paths(base)
@@ -195,6 +247,8 @@ def write_hawc2(box, base, *, reverse_x: bool = False, max_chunk_bytes: int = _D
                 for i0 in range(0, nx, step):
                     i1 = min(nx, i0 + step)
                     src = vel_xyz[nx - i1: nx - i0][::-1] if reverse_x else vel_xyz[i0:i1]
+                    if reverse_y:
+                        src = src[:, ::-1]
                     # One slab at a time: a contiguous little-endian float32
                     # copy of at most ``step`` planes, never of the component.
                     with np.errstate(over="ignore", invalid="ignore"):  # caught just below
@@ -202,9 +256,10 @@ def write_hawc2(box, base, *, reverse_x: bool = False, max_chunk_bytes: int = _D
                     if not np.isfinite(slab_xyz).all():
                         bad = np.argwhere(~np.isfinite(slab_xyz))[0]
                         ix = nx - 1 - (i0 + bad[0]) if reverse_x else i0 + bad[0]
+                        iy = slab_xyz.shape[1] - 1 - bad[1] if reverse_y else bad[1]
                         raise ValueError(
                             f"box['{c}'] has a non-finite value (after the cast to float32) at "
-                            f"[x={ix}, y={bad[1]}, z={bad[2]}]; allowed: finite values below 3.4e38 m/s"
+                            f"[x={ix}, y={iy}, z={bad[2]}]; allowed: finite values below 3.4e38 m/s"
                         )
                     fh.write(slab_xyz.data)
                     del slab_xyz
@@ -218,7 +273,8 @@ def write_hawc2(box, base, *, reverse_x: bool = False, max_chunk_bytes: int = _D
     return paths
 
 
-def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, mmap: bool = False, attrs=None):
+def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, convention: str = "hawc2",
+               remove_u_mean: bool = False, mmap: bool = False, attrs=None):
     """Read a HAWC2 / Mann64bit binary turbulence box.
 
     Parameters
@@ -233,6 +289,16 @@ def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, mmap: 
     reverse_x : bool, optional
         The files hold the planes in reverse order (see :func:`write_hawc2`);
         they are flipped back so that the Dataset is in our convention.
+    convention : {"hawc2", "openfast"}, optional
+        "hawc2" (default): the generators' layout.  "openfast": the files
+        as OpenFAST's InflowWind reads them (x planes in arrival order, y
+        reversed, signs unchanged); the Dataset is then the field the
+        InflowWind turbine sees, in our frame.  ``reverse_x`` must be False
+        with "openfast".  See the module docstring.
+    remove_u_mean : bool, optional
+        Subtract from u, at every (y, z), its mean over x, as InflowWind
+        does with ``ScaleMethod`` 1 or 2.  Loads the data (not with
+        ``mmap``).  Default False.
     mmap : bool, optional
         Map the files read-only (``numpy.memmap``) instead of loading them:
         data are read lazily, only the slices used, and the files must stay in
@@ -262,7 +328,11 @@ def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, mmap: 
     shape = check_tuple("shape", shape, 3, lambda n, v: check_int(n, v, lo=1))
     spacing = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
     reverse_x = check_bool("reverse_x", reverse_x)
+    reverse_x, reverse_y = _convention_flips(convention, reverse_x)
+    remove_u_mean = check_bool("remove_u_mean", remove_u_mean)
     mmap = check_bool("mmap", mmap)
+    if mmap and remove_u_mean:
+        raise ValueError("remove_u_mean=True changes the data and needs it in memory; allowed with mmap=False only")
     extra = _check_attrs(attrs)
     count = shape[0] * shape[1] * shape[2]
     expected = count * _HAWC2_DTYPE.itemsize
@@ -288,6 +358,11 @@ def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, mmap: 
             vel_xyz = vel_xyz.astype(np.float32, copy=False)
         if reverse_x:
             vel_xyz = vel_xyz[::-1]
+        if reverse_y:
+            vel_xyz = vel_xyz[:, ::-1]
+        if remove_u_mean and c == "u":
+            # Per-point mean over x, accumulated in float64 (InflowWind sums in double).
+            vel_xyz = (vel_xyz - vel_xyz.mean(axis=0, dtype=np.float64)).astype(np.float32)
         data[c] = (("x", "y", "z"), vel_xyz, {"units": "m s-1", "long_name": _LONG_NAMES[c]})
     coords = {
         d: (d, np.arange(n) * s, {"units": "m", "long_name": _LONG_NAMES[d]})
@@ -295,6 +370,8 @@ def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, mmap: 
     }
     ds_attrs = dict(extra)
     ds_attrs.update(dx=spacing[0], dy=spacing[1], dz=spacing[2])
+    if convention != "hawc2":
+        ds_attrs["hawc2_convention"] = convention
     return xr.Dataset(data, coords=coords, attrs=ds_attrs)
 
 
@@ -402,6 +479,18 @@ def read_netcdf(path, *, lazy: bool = False):
 # ---------------------------------------------------------------------------
 # helpers
 # ---------------------------------------------------------------------------
+def _convention_flips(convention, reverse_x) -> tuple[bool, bool]:
+    """(reverse x, reverse y) of a file convention."""
+    if convention not in CONVENTIONS:
+        raise ValueError(f"convention={convention!r} is not allowed; allowed: {', '.join(map(repr, CONVENTIONS))}")
+    if convention == "openfast":
+        if reverse_x:
+            raise ValueError("convention='openfast' already puts the x planes in arrival order; "
+                             "allowed: reverse_x=False with it")
+        return True, True
+    return reverse_x, False
+
+
 def _check_path(name, value) -> Path:
     if not isinstance(value, (str, os.PathLike)):
         raise TypeError(f"{name} must be str or os.PathLike, got {type(value).__name__} {value!r}")

@@ -1,0 +1,367 @@
+"""Nacelle scene files: a turbine's forward-looking lidar, the rotor, the turbulence, the periods (``kind = "nacelle"``).
+
+A nacelle scene describes lidar-assisted control's question: how well a
+nacelle lidar's estimate of the rotor-effective wind speed (REWS),
+shifted by its preview time, matches the REWS the rotor feels, per focus
+distance.  How it is run is :mod:`cwlidar_sim.campaign.nacelle`.
+
+Units of work: one per period.  A period's box (frozen turbulence) or boxes
+(evolving turbulence, ``lifetime`` set: one per plane, the rotor's and each
+focus distance's) hold the rotor disc and every focus distance; the lidar
+measures each focus distance as its own fixed-focus record on that one
+turbulence, so the focus distances are compared on the same air.
+
+Example
+-------
+.. code-block:: toml
+
+    name = "nacelle"
+    kind = "nacelle"
+    seed = 20
+    duration = 600.0
+
+    [scan]                          # the sensor's geometry (cwlidar_sim.sensors.NacelleLidar)
+    focus_distances = [50.0, 100.0, 150.0]
+    half_angle_deg = 15.0
+    rotor_radius = 60.0             # the REWS's disc [m], uniform weight (rotor_exponent = 0)
+    spacing = 4.0                   # the box [m]
+    segment_duration = 60.0         # the coherence's segments [s]
+
+    [lidar]                         # the keys of every scene's [lidar]; defaults: the CS series instrument
+    tier = "spectral"
+    variants = [{ name = "median", estimator = "median" }]
+
+    [turbulence]
+    alpha_eps = 0.1
+    length_scale = 33.6
+    gamma = 3.9
+
+    [[period]]
+    name = "frozen"
+    mean_speed = 12.0
+
+    [[period]]
+    name = "evolving"
+    mean_speed = 12.0
+    lifetime = 20.0                 # eddy-lifetime evolution (cwlidar_sim.turbulence.evolution) [s]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .._validation import check_bool, check_int, check_real, check_seed, check_str
+from .lidar_spec import LidarSpecBase
+from .spec import Spec, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
+
+__all__ = ["NacelleScanSpec", "NacelleTurbulenceSpec", "NacellePeriodSpec", "NacelleLidarSpec",
+           "NacelleScene"]
+
+
+@dataclasses.dataclass(frozen=True)
+class NacelleLidarSpec(LidarSpecBase):
+    """The ``[lidar]`` table of a nacelle scene: every scene's keys, the scanning instrument's defaults.
+
+    Defaults: ``preset = 'cs'`` (the ZephIR optics of the nacelle lidars),
+    ``tier = 'los'``, ``span = 5``, ``speckle = 'independent'``;
+    ``cell_length`` defaults to the box spacing (``scan.spacing``).
+    """
+
+    preset: str = "cs"
+    tier: str = "los"
+    span: float = 5.0
+    speckle: str = "independent"
+
+
+#: [scan] keys passed to :class:`cwlidar_sim.sensors.NacelleLidar` as they are.
+SENSOR_GEOMETRY = ("half_angle_deg", "revolution_time", "estimates_per_rev", "azimuth0_deg", "sub_dwells",
+                   "rotor_rpm", "n_blades", "blade_chord", "rotor_plane_distance", "blade_azimuth0_deg",
+                   "blockage_fraction")
+
+
+@dataclasses.dataclass(frozen=True)
+class NacelleScanSpec(Spec):
+    """The lidar's geometry, the rotor disc, the box and the coherence's settings.
+
+    Parameters
+    ----------
+    focus_distances : tuple of float
+        Focus distances [m], 1 to 10 distinct, each its own record (module notes).
+    half_angle_deg, revolution_time, estimates_per_rev, azimuth0_deg, sub_dwells
+        The scan (:class:`cwlidar_sim.sensors.NacelleLidar`).
+    beam_azimuths_deg : tuple of float
+        Fixed beams instead of the circle [deg]; empty: the circle.
+    rotor_rpm, n_blades, blade_chord, rotor_plane_distance, blade_azimuth0_deg, blockage_fraction
+        Blade blockage (``rotor_rpm = 0``: none).
+    rotor_radius : float
+        Radius of the REWS's disc [m]; in (0, 200].
+    rotor_exponent : float
+        Per-area weight ``(r / R)^p`` of the REWS (:class:`cwlidar_sim.analysis.rews.RotorDisc`); in [0, 10].
+    spacing : float
+        Box spacing [m]; in (0, 50].
+    lateral_doubling : bool
+        Generate each box twice as wide and keep half.
+    segment_duration : float
+        Segment length of the coherence [s]; in [10, 3600], at most a third of each period.
+    k_min, k_max : float
+        Wavenumber range of the reported coherence [rad/m], 0 < k_min < k_max <= 2.
+    n_k : int
+        Log-spaced wavenumber bins; in [4, 200].
+    theory_beams : int
+        Point beams of the analytic coherence over a revolution; in [0, 64]
+        (0: no theory; its cost grows like the square).
+    """
+
+    focus_distances: tuple = (50.0, 100.0, 150.0)
+    half_angle_deg: float = 15.0
+    revolution_time: float = 1.0
+    estimates_per_rev: int = 50
+    azimuth0_deg: float = 0.0
+    sub_dwells: int = 2
+    beam_azimuths_deg: tuple = ()
+    rotor_rpm: float = 0.0
+    n_blades: int = 3
+    blade_chord: float = 2.0
+    rotor_plane_distance: float = 3.0
+    blade_azimuth0_deg: float = 0.0
+    blockage_fraction: float = 0.5
+    rotor_radius: float = 60.0
+    rotor_exponent: float = 0.0
+    spacing: float = 4.0
+    lateral_doubling: bool = True
+    segment_duration: float = 60.0
+    k_min: float = 0.004
+    k_max: float = 0.3
+    n_k: int = 24
+    theory_beams: int = 8
+
+    def __post_init__(self):
+        f = tuple(self.focus_distances)
+        if not 1 <= len(f) <= 10:
+            raise ValueError(f"scan.focus_distances needs 1 to 10 focus distances, got {len(f)}")
+        f = tuple(check_real(f"scan.focus_distances[{i}]", r, lo=10.0, hi=1000.0) for i, r in enumerate(f))
+        if len(set(f)) != len(f):
+            raise ValueError(f"scan.focus_distances must be distinct, got {f}")
+        set_field(self, "focus_distances", f)
+        b = tuple(check_real(f"scan.beam_azimuths_deg[{i}]", a) for i, a in enumerate(self.beam_azimuths_deg))
+        set_field(self, "beam_azimuths_deg", b)
+        set_field(self, "rotor_radius", check_real("scan.rotor_radius", self.rotor_radius, lo=0.0, hi=200.0,
+                                                   lo_open=True))
+        set_field(self, "rotor_exponent", check_real("scan.rotor_exponent", self.rotor_exponent, lo=0.0, hi=10.0))
+        set_field(self, "spacing", check_real("scan.spacing", self.spacing, lo=0.0, hi=50.0, lo_open=True))
+        set_field(self, "lateral_doubling", check_bool("scan.lateral_doubling", self.lateral_doubling))
+        set_field(self, "segment_duration", check_real("scan.segment_duration", self.segment_duration, lo=10.0,
+                                                       hi=3600.0))
+        set_field(self, "k_max", check_real("scan.k_max", self.k_max, lo=0.0, hi=2.0, lo_open=True))
+        set_field(self, "k_min", check_real("scan.k_min", self.k_min, lo=0.0, hi=self.k_max, lo_open=True,
+                                            hi_open=True))
+        set_field(self, "n_k", check_int("scan.n_k", self.n_k, lo=4, hi=200))
+        set_field(self, "theory_beams", check_int("scan.theory_beams", self.theory_beams, lo=0, hi=64))
+
+    def k_edges(self) -> np.ndarray:
+        """Edges of the wavenumber bins [rad/m]."""
+        return np.geomspace(self.k_min, self.k_max, self.n_k + 1)
+
+    def geometry(self) -> dict:
+        """The :class:`cwlidar_sim.sensors.NacelleLidar` geometry fields (not the focus distances)."""
+        g = {k: getattr(self, k) for k in SENSOR_GEOMETRY}
+        g["beam_azimuths_deg"] = self.beam_azimuths_deg or None
+        return g
+
+    def as_dict(self) -> dict:
+        d = super().as_dict()
+        d["focus_distances"], d["beam_azimuths_deg"] = list(self.focus_distances), list(self.beam_azimuths_deg)
+        return d
+
+
+@dataclasses.dataclass(frozen=True)
+class NacelleTurbulenceSpec(Spec):
+    """The Mann tensor of every period (at hub height).
+
+    Parameters
+    ----------
+    alpha_eps : float
+        alpha eps^(2/3) [m^(4/3) s^-2].
+    length_scale : float
+        L [m].
+    gamma : float
+        Shear distortion Gamma [-].
+    """
+
+    alpha_eps: float = 0.1
+    length_scale: float = 33.6
+    gamma: float = 3.9
+
+    def __post_init__(self):
+        try:
+            self.params()
+        except (ValueError, TypeError) as e:
+            raise type(e)(f"turbulence.{e}") from None
+
+    def params(self):
+        """The :class:`cwlidar_sim.turbulence.MannParameters`."""
+        from ..turbulence.parameters import MannParameters
+
+        return MannParameters(self.alpha_eps, self.length_scale, self.gamma)
+
+
+@dataclasses.dataclass(frozen=True)
+class NacellePeriodSpec(Spec):
+    """One period of a nacelle scene.
+
+    Parameters
+    ----------
+    name : str
+    mean_speed : float
+        Mean wind at hub height [m/s]; in [3, 40].
+    yaw_misalignment_deg : float
+        Yaw of the rotor axis from the wind [deg]; in [-45, 45].  The analytic
+        coherence is for an aligned rotor only (NaN otherwise).
+    lifetime : float, optional
+        Eddy-lifetime scale T [s] of evolving turbulence
+        (:class:`cwlidar_sim.turbulence.evolution.EddyLifetimeEvolution`); None: frozen.
+    duration : float, optional
+        Length [s]; default the scene's; in [30, 7200].
+    seed : int, optional
+        Seed of the period's box; default derived from the scene seed.
+    """
+
+    name: str
+    mean_speed: float
+    yaw_misalignment_deg: float = 0.0
+    lifetime: float | None = None
+    duration: float | None = None
+    seed: int | None = None
+
+    _required = ("name", "mean_speed")
+
+    def __post_init__(self):
+        check_str("period.name", self.name)
+        w = f"period[{self.name}]"
+        set_field(self, "mean_speed", check_real(f"{w}.mean_speed", self.mean_speed, lo=3.0, hi=40.0))
+        set_field(self, "yaw_misalignment_deg", check_real(f"{w}.yaw_misalignment_deg", self.yaw_misalignment_deg,
+                                                           lo=-45.0, hi=45.0))
+        if self.lifetime is not None:
+            set_field(self, "lifetime", check_real(f"{w}.lifetime", self.lifetime, lo=0.0, hi=1e6, lo_open=True))
+        if self.duration is not None:
+            set_field(self, "duration", check_real(f"{w}.duration", self.duration, lo=30.0, hi=7200.0))
+        if self.seed is not None:
+            set_field(self, "seed", check_seed(f"{w}.seed", self.seed))
+
+
+@dataclasses.dataclass(frozen=True)
+class NacelleScene(Spec):
+    """A nacelle-lidar campaign (module notes).
+
+    Parameters
+    ----------
+    name : str
+        Used for ``DIR/<name>.nc``.
+    periods : tuple of NacellePeriodSpec
+    scan : NacelleScanSpec
+    lidar : NacelleLidarSpec
+    turbulence : NacelleTurbulenceSpec
+    duration : float
+        Default period length [s]; in [30, 7200].
+    seed : int
+    description : str
+    """
+
+    name: str
+    periods: tuple
+    scan: NacelleScanSpec = dataclasses.field(default_factory=NacelleScanSpec)
+    lidar: NacelleLidarSpec = dataclasses.field(default_factory=NacelleLidarSpec)
+    turbulence: NacelleTurbulenceSpec = dataclasses.field(default_factory=NacelleTurbulenceSpec)
+    duration: float = 600.0
+    seed: int = 0
+    description: str = ""
+    base_dir: str = dataclasses.field(default=".", compare=False)
+
+    kind = "nacelle"
+
+    def __post_init__(self):
+        check_scene_name(self.name)
+        for key, cls in (("scan", NacelleScanSpec), ("lidar", NacelleLidarSpec),
+                         ("turbulence", NacelleTurbulenceSpec)):
+            if not isinstance(getattr(self, key), cls):
+                raise TypeError(f"{key} must be a {cls.__name__}, got {type(getattr(self, key)).__name__}")
+        periods = check_periods(self.periods, NacellePeriodSpec, "nacelle scene")
+        set_field(self, "periods", periods)
+        set_field(self, "duration", check_real("duration", self.duration, lo=30.0, hi=7200.0))
+        set_field(self, "seed", check_seed("seed", self.seed))
+        check_str("description", self.description, allow_empty=True)
+        for p in periods:
+            dur = self.period_duration(p)
+            if dur < 3.0 * self.scan.segment_duration:
+                raise ValueError(f"period {p.name!r} lasts {dur:g} s, shorter than 3 coherence segments of "
+                                 f"scan.segment_duration = {self.scan.segment_duration:g} s; allowed: longer "
+                                 f"periods or shorter segments")
+            try:
+                self.sensor(p)
+            except (ValueError, TypeError) as e:
+                raise type(e)(f"nacelle lidar of period {p.name!r}: {e}") from None
+
+    def sensor(self, period, focus_distances=None):
+        """The :class:`cwlidar_sim.sensors.NacelleLidar` of a period (all focus distances, or those given)."""
+        from ..sensors.nacelle import NacelleLidar
+
+        kw = self.lidar.sensor_kwargs(self.scan.spacing)
+        kw.update(self.scan.geometry(), instrument=self.lidar.build_instrument(),
+                  yaw_misalignment_deg=period.yaw_misalignment_deg,
+                  focus_distances=tuple(focus_distances or self.scan.focus_distances))
+        return NacelleLidar(**kw)
+
+    # -- units of work ----------------------------------------------------
+    def period_duration(self, period) -> float:
+        """Length of a period [s]."""
+        return self.duration if period.duration is None else period.duration
+
+    def units(self):
+        """The units in run order: the periods."""
+        return list(self.periods)
+
+    def unit_names(self):
+        """Names of the units: the periods'."""
+        return [p.name for p in self.periods]
+
+    def row_names(self, index: int) -> list:
+        """Names of the result rows of unit ``index``: its period's."""
+        return [self.periods[index].name]
+
+    def simulated_hours(self) -> float:
+        """Simulated time of all units [h] (each focus distance its own record)."""
+        return sum(self.period_duration(p) for p in self.periods) * len(self.scan.focus_distances) / 3600.0
+
+    def unit_seed(self, index: int) -> int:
+        """Seed of unit ``index``: the period's own, or derived from the scene's (distinct across units)."""
+        p = self.periods[index]
+        if p.seed is not None:
+            return p.seed
+        child = np.random.SeedSequence(self.seed, spawn_key=(index,))
+        return int(child.generate_state(2, np.uint64)[0] >> np.uint64(1))
+
+    # -- interchange ------------------------------------------------------
+    def as_dict(self) -> dict:
+        d = super().as_dict()
+        d.pop("base_dir", None)
+        d["kind"] = "nacelle"
+        d["period"] = d.pop("periods")
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict, *, base_dir: str = ".") -> "NacelleScene":
+        check_scene_keys(d, {"name", "kind", "description", "seed", "duration", "period", "scan", "lidar",
+                             "turbulence"}, ("name", "period"), "nacelle scene")
+        kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
+        for key, spec in (("scan", NacelleScanSpec), ("lidar", NacelleLidarSpec),
+                          ("turbulence", NacelleTurbulenceSpec)):
+            if key in d:
+                kw[key] = spec.from_dict(d[key])
+        kw["periods"] = periods_from_dict(d["period"], NacellePeriodSpec)
+        return cls(base_dir=base_dir, **kw)
+
+    def replace(self, **changes) -> "NacelleScene":
+        """Copy with fields changed (validated)."""
+        return dataclasses.replace(self, **changes)

@@ -109,7 +109,7 @@ class NacelleLidar(LidarBase):
     Geometry fields below; the shared fields (instrument, tier, probe volume,
     chain, cloud) are :class:`cwlidar_sim.sensors.base.LidarBase`'s, with the
     defaults of a scanning lidar (``instrument = CS_SERIES``, the ZephIR
-optics of the nacelle lidars, ``tier = 'los'``, ``span = 5``,
+    optics of the nacelle lidars, ``tier = 'los'``, ``span = 5``,
     ``cell_length = 2`` m, ``speckle = 'independent'``).  The instrument's
     ``focus`` is replaced by each focus distance.
 

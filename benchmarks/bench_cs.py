@@ -39,7 +39,8 @@ def _child(task) -> dict:
     scene = bundled_scene("cs", quick=quick)
     for tier in ("los", "spectral"):
         warm = scene.replace(duration=60.0, periods=scene.periods[:1],
-                             scan=dataclasses.replace(scene.scan, heights=scene.scan.heights[:1], tier=tier))
+                             scan=dataclasses.replace(scene.scan, heights=scene.scan.heights[:1]),
+                             lidar=dataclasses.replace(scene.lidar, tier=tier))
         run_scene(warm, progress=False)
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -47,7 +48,7 @@ def _child(task) -> dict:
         ds = run_scene(scene, tmp, progress=False)
         make_figures(ds, tmp)
         out["wall_s"] = time.perf_counter() - t
-    floor = scene.replace(scan=dataclasses.replace(scene.scan, tier="los"))
+    floor = scene.replace(lidar=dataclasses.replace(scene.lidar, tier="los", variants=()))
     t = time.perf_counter()
     run_scene(floor, progress=False)
     out["floor_s"] = time.perf_counter() - t

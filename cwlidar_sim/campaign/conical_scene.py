@@ -10,8 +10,8 @@ Units of work
   the whole period; one unit is (period, height), each with its own Mann box
   sized for that height's cone.
 * Cycle (``scan.cycle = true``): the lidar cycles through the heights,
-  ``scan.lidar.revs_per_height`` revolutions at each in turn, losing
-  ``scan.lidar.refocus_time`` between heights (the scanner keeps turning);
+  ``scan.revs_per_height`` revolutions at each in turn, losing
+  ``scan.refocus_time`` between heights (the scanner keeps turning);
   one unit is a period, with ONE box holding every height's cone.  Each
   height gets its share of the record; the cup and the sonic at each height
   record continuously (the sonic is read at that height's estimate times).

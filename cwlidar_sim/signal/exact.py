@@ -33,7 +33,7 @@ import numpy as np
 from .._validation import check_real
 from .instrument import Instrument
 from .noise import lag_coefficients, noise_floor
-from .spectral import _as_2d, _weights, cnr_linear
+from .spectral import _as_2d, _signal_lag_rows, _weights, cnr_linear
 
 __all__ = ["expected_spectrum_exact", "signal_rows", "ar1_rho"]
 
@@ -43,20 +43,19 @@ def ar1_rho(instrument, correlation_time: float) -> float:
     return 1.0 if math.isinf(correlation_time) else math.exp(-1.0 / (instrument.sample_rate * correlation_time))
 
 
-def signal_rows(instrument, vlos_es, amp_s, a_d) -> np.ndarray:
-    """Expected signal periodogram rows (exact) from cell speeds [m/s] and amplitudes ``CNR w_s / 2``.
+def signal_rows(instrument, vlos_es, amp_s, a_d, *, method: str = "gridded") -> np.ndarray:
+    """Expected signal periodogram rows from cell speeds [m/s] and amplitudes ``CNR w_s / 2``.
 
     ``a_d`` from :func:`cwlidar_sim.signal.noise.lag_coefficients`; returns
-    shape ``(n_estimates, N/2 + 1)``.
+    shape ``(n_estimates, N/2 + 1)``.  ``method`` is how the cells' cosine
+    sums are formed (:func:`cwlidar_sim.signal.spectral.continuum_moments`):
+    'gridded' (default, 1.5-2.5x faster) or 'exact' (the per-cell
+    recurrence of ``_kernels.lag_sequence_kernel``, bit for bit); the two
+    agree to rounding (about 1e-13 of the total).
     """
-    from . import _kernels as K
-    from .._config import apply_numba_threads
     from .._fft import rfft_rows
 
-    x = np.ascontiguousarray(vlos_es / instrument.bin_speed)
-    lags = np.empty((x.shape[0], instrument.n_fft))
-    apply_numba_threads()
-    K.lag_sequence_kernel(x, amp_s, a_d, lags)
+    lags = _signal_lag_rows(instrument, vlos_es, amp_s, a_d, method)
     sig = np.ascontiguousarray(rfft_rows(lags).real)
     np.maximum(sig, 0.0, out=sig)
     return sig

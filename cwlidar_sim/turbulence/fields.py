@@ -69,16 +69,8 @@ def line_spectra(params: MannParameters, n: int, dx: float):
 
 
 def _one_point_parallel(k1_k, params):
-    """one_point_spectra in chunks on the configured threads (its kernel releases the GIL)."""
-    out = np.empty((4, k1_k.size))
-    step = max(1, -(-k1_k.size // 8))
-
-    def work(_w, t):
-        lo, hi = t
-        out[:, lo:hi] = one_point_spectra(k1_k[lo:hi], params)
-
-    _config.run_static([(i, min(k1_k.size, i + step)) for i in range(0, k1_k.size, step)], work)
-    return out
+    """one_point_spectra as one (4, n) array (the quadrature runs on the package's threads)."""
+    return np.array(one_point_spectra(k1_k, params))
 
 
 _line_knots_lock = threading.Lock()

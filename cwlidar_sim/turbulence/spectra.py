@@ -64,30 +64,72 @@ def _scales(k1: float, L: float):
 
 def _onepoint_raw(k1_k, params, k2_max, k3_max):
     """(F11, F22, F33, F13) at each k1 with |k2| <= k2_max, |k3| <= k3_max."""
+    k1_k = np.ascontiguousarray(k1_k, dtype=float)
+    args = (params.length_scale, params.gamma, k2_max, k3_max)
+    if k1_k.size <= _ONEPOINT_CACHED:
+        out = _onepoint_cached(k1_k.tobytes(), *args)
+    else:
+        out = _onepoint_unscaled(k1_k, *args)
+    pre = params.alpha_eps / (4.0 * math.pi) * params.length_scale ** (17.0 / 3.0)
+    return out[:, :4] * pre
+
+
+#: k1 rows per task of the one-point quadrature (each row is computed alone).
+_ONEPOINT_ROWS = 16
+#: Calls with at most this many k1 are kept (:func:`_onepoint_cached`).
+_ONEPOINT_CACHED = 8192
+
+
+@functools.lru_cache(maxsize=64)
+def _onepoint_cached(k1_bytes, L, gamma, k2_max, k3_max):
+    """:func:`_onepoint_unscaled`, kept per process (read-only).
+
+    The quadrature depends on L and Gamma only: alpha_eps is a factor applied
+    after, so the periods of a campaign at one height (one L and Gamma, other
+    speeds and so other alpha_eps) share it, bit for bit.
+    """
+    out = _onepoint_unscaled(np.frombuffer(k1_bytes, dtype=float), L, gamma, k2_max, k3_max)
+    out.setflags(write=False)
+    return out
+
+
+def _onepoint_unscaled(k1_k, L, gamma, k2_max, k3_max):
+    """The quadrature of :func:`_onepoint_raw` without the prefactor: (n_k1, 6).
+
+    Rows go to the package's threads in tasks of :data:`_ONEPOINT_ROWS`; each
+    row's sums run in a fixed order (the zero weights padding a task's node
+    table are skipped), so the result does not depend on the split or the
+    thread count.
+    """
+    from .._fft import run_dynamic
     from ._kernels import onepoint_kernel
 
-    L = params.length_scale
-    rows2, rows3 = [], []
-    for k1 in k1_k:
-        s, t = _scales(k1, L)
-        x2, w2 = half_line_nodes(s, k2_max, t)
-        x3, w3 = half_line_nodes(s, k3_max, t)
-        # Even in k2 for the components returned: fold k2 < 0 onto k2 > 0.
-        rows2.append((x2, 2.0 * w2))
-        rows3.append((np.concatenate([-x3[::-1], x3]), np.concatenate([w3[::-1], w3])))
-    n2 = max(len(r[0]) for r in rows2)
-    n3 = max(len(r[0]) for r in rows3)
-    q2 = np.zeros((len(k1_k), n2))
-    w2 = np.zeros_like(q2)
-    q3 = np.zeros((len(k1_k), n3))
-    w3 = np.zeros_like(q3)
-    for i, ((a, b), (c, d)) in enumerate(zip(rows2, rows3)):
-        q2[i, : len(a)], w2[i, : len(b)] = a, b
-        q3[i, : len(c)], w3[i, : len(d)] = c, d
+    tab = lifetime_table()
     out = np.empty((len(k1_k), 6))
-    onepoint_kernel(np.asarray(k1_k, float), q2, w2, q3, w3, L, params.gamma, lifetime_table(), out)
-    pre = params.alpha_eps / (4.0 * math.pi) * L ** (17.0 / 3.0)
-    return out[:, :4] * pre
+
+    def work(_w, t):
+        lo, hi = t
+        rows2, rows3 = [], []
+        for k1 in k1_k[lo:hi]:
+            s, tp = _scales(k1, L)
+            x2, w2 = half_line_nodes(s, k2_max, tp)
+            x3, w3 = half_line_nodes(s, k3_max, tp)
+            # Even in k2 for the components returned: fold k2 < 0 onto k2 > 0.
+            rows2.append((x2, 2.0 * w2))
+            rows3.append((np.concatenate([-x3[::-1], x3]), np.concatenate([w3[::-1], w3])))
+        n2 = max(len(r[0]) for r in rows2)
+        n3 = max(len(r[0]) for r in rows3)
+        q2 = np.zeros((hi - lo, n2))
+        w2 = np.zeros_like(q2)
+        q3 = np.zeros((hi - lo, n3))
+        w3 = np.zeros_like(q3)
+        for i, ((a, b), (c, d)) in enumerate(zip(rows2, rows3)):
+            q2[i, : len(a)], w2[i, : len(b)] = a, b
+            q3[i, : len(c)], w3[i, : len(d)] = c, d
+        onepoint_kernel(np.ascontiguousarray(k1_k[lo:hi]), q2, w2, q3, w3, L, gamma, tab, out[lo:hi])
+
+    run_dynamic([(lo, min(len(k1_k), lo + _ONEPOINT_ROWS)) for lo in range(0, len(k1_k), _ONEPOINT_ROWS)], work)
+    return out
 
 
 def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k3_max: float = math.inf):

@@ -81,7 +81,7 @@ def test_gridded_moments_and_estimates_match_the_exact_path(case):
         v = v * np.linspace(-3.0, 3.0, v.shape[0])[:, None]
     elif case == "gain":
         kw["cnr_gain_e"] = np.linspace(0.5, 2.0, v.shape[0])
-    m0, v0, l0 = continuum_moments(inst, v, w, -10.0, spread, correlation_time=tau, **kw)
+    m0, v0, l0 = continuum_moments(inst, v, w, -10.0, spread, correlation_time=tau, method="exact", **kw)
     m1, v1, l1 = continuum_moments(inst, v, w, -10.0, spread, correlation_time=tau, method="gridded", **kw)
     assert np.max(np.abs(m1 / m0 - 1)) < 1e-12
     assert np.max(np.abs(v1 / v0 - 1)) < 1e-12
@@ -101,6 +101,9 @@ def test_method_is_checked():
     with pytest.raises(ValueError, match="method"):
         continuum_moments(inst, v, w, -10.0, 0.1, method="fft")
     assert math.isfinite(S.GRID_HALF_WIDTH)
+    # the default is the gridded method (what the chain and the estimator theory use)
+    for a, b in zip(continuum_moments(inst, v, w, -10.0, 0.1), continuum_moments(inst, v, w, -10.0, 0.1, method="gridded")):
+        assert np.array_equal(a, b)
 
 
 def test_signal_lag_rows_exact_is_lag_sequence_kernel_and_gridded_agrees():
@@ -114,6 +117,6 @@ def test_signal_lag_rows_exact_is_lag_sequence_kernel_and_gridded_agrees():
         a_d = lag_coefficients(inst.n_fft, inst.window, rho)
         ref = np.empty((37, inst.n_fft))
         K.lag_sequence_kernel(np.ascontiguousarray(v / inst.bin_speed), amp, a_d, ref)
-        assert np.array_equal(_signal_lag_rows(inst, v, amp, a_d), ref)
+        assert np.array_equal(_signal_lag_rows(inst, v, amp, a_d, method="exact"), ref)
         g = _signal_lag_rows(inst, v, amp, a_d, method="gridded")
         assert np.max(np.abs(g - ref)) < 3e-13 * 2 * amp.sum()

@@ -97,3 +97,36 @@ def test_bad_input():
         covariances(p, (1.0, 0.0, 1.0))
     with pytest.raises(TypeError, match="params"):
         one_point_spectra([0.1], dict(alpha_eps=1))
+
+
+def test_one_point_quadrature_is_shared_across_alpha_eps_and_split_free():
+    """The kept quadrature (L, Gamma only) times alpha_eps is the quadrature itself, at any split or thread count."""
+    from cwlidar_sim import _config
+    from cwlidar_sim.turbulence import spectra as S
+
+    k1 = np.concatenate([[0.0], np.logspace(-3, 1, 37)])  # 38 rows: tasks of 16, 16 and 6
+    p = MannParameters(0.31, 29.0, 3.2)
+    q = MannParameters(0.047, 29.0, 3.2)  # other alpha_eps: the same kept quadrature
+    S._onepoint_cached.cache_clear()
+    Fp = np.array(one_point_spectra(k1, p))
+    Fq = np.array(one_point_spectra(k1, q))
+    assert S._onepoint_cached.cache_info().hits == 1
+    # another L or Gamma is another quadrature, not a kept one
+    for other in (MannParameters(0.31, 30.0, 3.2), MannParameters(0.31, 29.0, 3.0)):
+        F = np.array(one_point_spectra(k1, other))
+        assert np.max(np.abs(F[0, 1:] / Fp[0, 1:] - 1)) > 1e-2
+    assert S._onepoint_cached.cache_info().hits == 1
+    # uncached, one row at a time and on one thread: every row is computed alone, so the bits agree
+    n0 = _config.get_num_threads()
+    try:
+        _config.set_num_threads(1)
+        rows = np.concatenate([S._onepoint_unscaled(k1[i:i + 1], 29.0, 3.2, math.inf, math.inf) for i in range(k1.size)])
+    finally:
+        _config.set_num_threads(n0)
+    for par, F in ((p, Fp), (q, Fq)):
+        pre = par.alpha_eps / (4.0 * math.pi) * par.length_scale ** (17.0 / 3.0)
+        assert np.array_equal(F, (rows[:, :4] * pre).T)
+    # and F scales with alpha_eps (the reason the quadrature may be shared)
+    np.testing.assert_allclose(Fq, Fp * (q.alpha_eps / p.alpha_eps), rtol=1e-14)
+    # a kept result is read-only: a caller cannot change what the next call gets
+    assert not S._onepoint_cached(k1.tobytes(), 29.0, 3.2, math.inf, math.inf).flags.writeable

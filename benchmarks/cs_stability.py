@@ -207,6 +207,51 @@ def markdown(summary):
     return "\n".join(lines)
 
 
+def grid_check(seeds, duration, json_path=None, z=40.0, zetas=(None, 0.4), span=5.0):
+    """Paired effect of halving the across-wind spacing (dy = dz = d/2) on the 1-s ratio, by class.
+
+    The convergence study measured it in neutral conditions (span 5: its ``grid`` group); the stable
+    class's L = 7.9 m at 40 m is resolved by 4 cells of d = 2 m, so the effect is measured again per
+    class, at span 5 as there (the span's effect is separate and barely grid-dependent).
+    """
+    from cwlidar_sim.campaign.conical_period import default_spacing, simulate_conical_period
+    from cwlidar_sim.sensors.conical import ConicalLidar
+    from cwlidar_sim.turbulence.grids import common_extent
+
+    d = default_spacing(z)
+    spacings = (d, d / 2)
+    lid = ConicalLidar(heights=(z,), span=span, cell_length=d)
+    be = lid.beam_extent(z)
+    lmax = max(class_params(z, zeta)[0].length_scale for zeta in zetas)
+    need = (SPEED * duration + 2 * be["radius"] + 4 * d, max(2 * be["radius"] + 3 * d, 2 * lmax + d),
+            max(be["z_hi"] - min(be["z_lo"], z) + 3 * d, 2 * lmax + d))
+    ext = tuple(common_extent(n, spacings) for n in need)
+    rows = []
+    for seed in seeds:
+        for zeta in zetas:
+            p = class_params(z, zeta)[0]
+            r = {}
+            for name, sp in (("d", (d, d, d)), ("across d/2", (d, d / 2, d / 2))):
+                out = simulate_conical_period(z, seed, speed=SPEED, duration=duration, tier="los", spacing=d,
+                                              params=p, model=False,
+                                              lidar_overrides={"span": span, "cell_length": d},
+                                              box_options={"extent": ext, "spacing": sp})
+                r[name] = out["scans"][1]["std_ratio"]
+            rows.append({"seed": seed, "zeta": zeta, "ratio_d": r["d"], "ratio_across_half": r["across d/2"],
+                         "effect": r["across d/2"] - r["d"]})
+            log(f"grid check z={z:g} zeta={zeta} seed={seed}: d {r['d']:.4f}, across d/2 "
+                f"{r['across d/2']:.4f}, effect {rows[-1]['effect']:+.4f}")
+    summary = {}
+    for zeta in zetas:
+        m, se = _mean_se([r["effect"] for r in rows if r["zeta"] == zeta])
+        summary["neutral" if zeta is None else f"{zeta:+g}"] = {"effect_1s": m, "effect_se_1s": se}
+        log(f"zeta={zeta}: across d/2 effect on the 1-s ratio {m:+.4f}" + ("" if se is None else f" ± {se:.4f}"))
+    if json_path:
+        write_json(json_path, {"machine": machine(), "height": z, "span": span, "duration": duration,
+                               "extent": ext, "rows": rows, "summary": summary})
+    return summary
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--json", default=None, help="results file (resumed from if it exists)")
@@ -214,6 +259,8 @@ def main(argv=None):
     ap.add_argument("--heights", type=float, nargs="+", default=list(HEIGHTS))
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--quick", action="store_true", help="120-s periods, seed 1, 40 m only (a smoke run)")
+    ap.add_argument("--grid-check", metavar="JSON", default=None,
+                    help="the paired across-wind spacing check by class (40 m, neutral and stable) into JSON")
     ap.add_argument("--markdown", metavar="JSON", default=None, help="print the table of a finished run and exit")
     a = ap.parse_args(argv)
     if a.markdown:
@@ -226,6 +273,9 @@ def main(argv=None):
         return 0
     if a.quick:
         a.seeds, a.heights, a.duration = [1], [40.0], 120.0
+    if a.grid_check:
+        grid_check(a.seeds, a.duration, a.grid_check)
+        return 0
     res = {"machine": machine(), "settings": {"speed": SPEED, "span": SPAN, "tier": "los", "duration": a.duration,
                                               "seeds": a.seeds, "heights": a.heights, "zetas": list(ZETAS),
                                               "mix": {("neutral" if k is None else f"{k:+g}"): v

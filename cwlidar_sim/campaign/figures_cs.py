@@ -1,7 +1,11 @@
 """Figures of a conical (CS) campaign's results, simulation beside CS's filter model.
 
-After CS Figs. 7-9 (lidar/cup standard deviation and mean speed) and 11-12
-(radial variance from the turbulence parameter against the sonic's).  Every
+After CS's figures: Fig. 6 (the regression of the lidar's 10-min standard
+deviation on the cup's, 3 s scans at 40 m), Figs. 8-9 (their ratio against
+height, 3 s and 1 s scans) and Figs. 11-12 (the ratio of the radial variance
+from the turbulence parameter to the sonic's against height, 3 s and 1 s).
+CS shows no mean-speed comparison: :func:`plot_mean_speed` is the simulation's
+own check.  Every
 function takes the results Dataset of a conical scene
 (:func:`cwlidar_sim.campaign.conical.summarise`) and returns a Figure.
 """
@@ -26,7 +30,7 @@ def _scan_label(ds, j):
 
 
 def plot_std_ratio(ds, var="std_ratio", ylabel="lidar / cup 10-min standard deviation"):
-    """Ratio against height: simulation (mean over selected periods +- s.e.), CS's model (Kaimal) and Mann."""
+    """Ratio against height (CS Figs. 8-9): simulation (mean over selected periods +- s.e.), CS's model (Kaimal) and Mann."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6, 4.5))
     z = ds.height.values
@@ -45,7 +49,7 @@ def plot_std_ratio(ds, var="std_ratio", ylabel="lidar / cup 10-min standard devi
 
 
 def plot_std_scatter(ds):
-    """Each period: lidar against cup 10-min standard deviation, per height (CS Fig. 7-8)."""
+    """Each period: lidar against cup 10-min standard deviation, per height and scan (as CS Fig. 6, which shows 40 m, 3 s)."""
     plt = _plt()
     nj = ds.sizes["scan_s"]
     fig, axes = plt.subplots(1, nj, figsize=(5 * nj, 4.5), squeeze=False)
@@ -66,7 +70,7 @@ def plot_std_scatter(ds):
 
 
 def plot_mean_speed(ds):
-    """Each period: lidar against cup 10-min mean speed (CS Fig. 9), with the mean bias per height."""
+    """Each period: lidar against cup 10-min mean speed, with the mean bias per height (not in CS)."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5, 4.5))
     for i, z in enumerate(ds.height.values):
@@ -85,7 +89,7 @@ def plot_mean_speed(ds):
 
 
 def plot_radial_variance(ds):
-    """(TP U)^2 against the sonic-equivalent radial variance (CS Figs. 11-12): per period and per height."""
+    """(TP U)^2 against the sonic-equivalent radial variance: per period, and their ratio against height (CS Figs. 11-12)."""
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
     ax = axes[0]

@@ -116,8 +116,10 @@ def _check_nacelle(nb, results):
     # evolution decorrelates: the evolving period's analytic coherence lies below the frozen one's
     # (where the frozen coherence is not near a null of the disc's and the circle's transfers: there the
     # modes' cross terms cancel, and damping them unevenly can leave more)
-    big = th[0] > 0.05
-    assert big.sum() >= 3 and np.all(th[1][big] < th[0][big])
+    # (as the notebook's 20-s segments see it, the theory holds only the bins with an ordinate, one
+    # per 0.026 rad/m, and above 0.03 only the first at each distance)
+    big = th[0] > 0.03
+    assert big.sum() >= 2 and np.all(th[1][big] < th[0][big]), (th[0], th[1])
 
 
 def _check_cs(nb, results):

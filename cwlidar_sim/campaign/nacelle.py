@@ -202,7 +202,7 @@ def _theory(scene, p, r, edges):
     # average and delays at the theory's resolution (the beam-pair sums cost N^2)
     beams = circular_scan(s.theory_beams, lid.half_angle_deg, r, revolution_time=lid.revolution_time,
                           azimuth0_deg=lid.azimuth0_deg)
-    ev = None if p.lifetime is None else EddyLifetimeEvolution(p.lifetime, U)
+    ev = None if p.lifetime is None else EddyLifetimeEvolution(p.lifetime, p.mean_speed)
     # paired as the simulation pairs: the preview less the revolution average's mean delay
     shift = lid.preview_distance(r) / U - float(beams.delay_pb.mean())
     th = rews_spectra(theory_wavenumbers(scene, p), scene.turbulence.params(),

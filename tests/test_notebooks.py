@@ -106,14 +106,20 @@ def _check_nacelle(nb, results):
     coh = ds.coherence.values
     assert np.all((coh[np.isfinite(coh)] >= 0) & (coh[np.isfinite(coh)] <= 1))
     th = ds.coherence_theory.values
+    # as the estimate sees it: NaN in the bins without an ordinate, the same bins in every row
+    held = np.isfinite(th[0, 0])
+    assert held.sum() >= 4 and np.all(np.isfinite(th[..., held])) and np.all(np.isnan(th[..., ~held]))
+    th = th[..., held]
     # falling with k while it matters (beyond, the disc's and the circle's Bessel side lobes, below 1e-4)
     d = np.diff(th, axis=-1)
     assert np.all((d < 0) | (th[..., 1:] < 1e-3)) and np.all(th[..., -1] < 1e-3)
     # evolution decorrelates: the evolving period's analytic coherence lies below the frozen one's
     # (where the frozen coherence is not near a null of the disc's and the circle's transfers: there the
     # modes' cross terms cancel, and damping them unevenly can leave more)
-    big = th[0] > 0.05
-    assert big.sum() >= 3 and np.all(th[1][big] < th[0][big])
+    # (as the notebook's 20-s segments see it, the theory holds only the bins with an ordinate, one
+    # per 0.026 rad/m, and above 0.03 only the first at each distance)
+    big = th[0] > 0.03
+    assert big.sum() >= 2 and np.all(th[1][big] < th[0][big]), (th[0], th[1])
 
 
 def _check_cs(nb, results):

@@ -46,7 +46,7 @@ import math
 
 import numpy as np
 
-from .._validation import check_int, check_keys, check_real
+from .._validation import check_choice, check_int, check_keys, check_real
 
 __all__ = [
     "RotorDisc",
@@ -60,6 +60,7 @@ __all__ = [
     "CoherenceEstimate",
     "coherence_estimate",
     "coherence_interval",
+    "effective_averages",
     "coherence_bandwidth",
     "wiener_gain",
 ]
@@ -358,9 +359,11 @@ class CoherenceEstimate:
         One-sided cross-spectrum ``E[X_R X_L^*]`` [m^2 s^-2 / Hz].
     coherence_f : ndarray
         Magnitude-squared coherence ``|cross|^2 / (rotor lidar)`` [-].
-    n_dof_f : ndarray of int
-        Independent periodogram ordinates averaged per value (segments x
-        frequencies in the bin).
+    n_dof_f : ndarray
+        Effective number of independent periodogram ordinates averaged per
+        value (:func:`effective_averages`: segments times the bin's
+        frequencies, less for a taper, whose neighbouring ordinates are
+        correlated).
     lower_f, upper_f : ndarray
         Confidence interval of the coherence (:func:`coherence_interval`).
     confidence : float
@@ -398,8 +401,8 @@ def coherence_interval(coherence, n_dof, confidence: float = 0.95):
     ----------
     coherence : array_like
         Estimated ``gamma^2`` [-], in [0, 1].
-    n_dof : array_like of int
-        Independent averages n, >= 2.
+    n_dof : array_like
+        Independent averages n, > 1 (effective, :func:`effective_averages`).
     confidence : float
         Two-sided level, in (0, 1).
 
@@ -413,8 +416,8 @@ def coherence_interval(coherence, n_dof, confidence: float = 0.95):
     confidence = check_real("confidence", confidence, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     g2 = np.clip(np.asarray(coherence, dtype=float), 0.0, 1.0)
     n = np.asarray(n_dof, dtype=float)
-    if np.any(n < 2):
-        raise ValueError("n_dof must be >= 2 independent averages")
+    if np.any(n <= 1):
+        raise ValueError("n_dof must be > 1 independent average (effective averages may be fractional)")
     zq = float(ndtri(0.5 + 0.5 * confidence))
     s = 1.0 / np.sqrt(2.0 * (n - 1.0))
     with np.errstate(divide="ignore"):
@@ -422,6 +425,49 @@ def coherence_interval(coherence, n_dof, confidence: float = 0.95):
     lo = np.tanh(np.maximum(z - zq * s, 0.0)) ** 2
     hi = np.tanh(np.maximum(z + zq * s, 0.0)) ** 2
     return lo, hi
+
+
+def effective_averages(count, n_per: int, window: str = "none"):
+    """Effective number of independent ordinates in the mean of ``count`` consecutive periodogram ordinates [-].
+
+    A taper correlates neighbouring DFT ordinates: for a white (or locally
+    smooth) spectrum the complex correlation at a lag of l ordinates is
+    ``rho_l = sum_n w_n^2 exp(-2 pi i l n / N) / sum_n w_n^2`` (the
+    periodic Hann window: ``rho_1 = -2/3``, ``rho_2 = 1/6``, 0 beyond), and
+    the mean of m consecutive ordinates has the variance of
+    ``m^2 / sum_(i, i') |rho_(i - i')|^2`` independent ones (about ``m / 1.94``
+    for large m with Hann; m without a taper).  Fisher's interval of the
+    coherence (:func:`coherence_interval`) takes this number, times the
+    segments.
+
+    Parameters
+    ----------
+    count : array_like of int
+        Consecutive ordinates averaged per value, >= 1 (0 gives 0).
+    n_per : int
+        Samples per segment, >= 2.
+    window : {"none", "hann"}
+
+    Returns
+    -------
+    ndarray
+        Effective averages [-] per value, ``<= count``.
+    """
+    n_per = check_int("n_per", n_per, lo=2)
+    check_choice("window", window, ("none", "hann"))
+    m = np.asarray(count, dtype=float)
+    if np.any(m < 0) or not np.all(np.isfinite(m)):
+        raise ValueError("count must be finite and >= 0")
+    if window == "none":
+        return m
+    w2 = (0.5 - 0.5 * np.cos(2.0 * math.pi * np.arange(n_per) / n_per)) ** 2
+    lags = np.arange(min(int(m.max(initial=1.0)), n_per // 2) + 1)
+    rho2 = np.abs(np.exp(-2j * math.pi * np.outer(lags, np.arange(n_per)) / n_per) @ w2 / w2.sum()) ** 2
+    out = np.zeros(m.shape)
+    for v in np.unique(m[m > 0]):
+        ll = lags[lags < v]
+        out[m == v] = v * v / (v + 2.0 * np.sum((v - ll[1:]) * rho2[ll[1:]]))
+    return out
 
 
 def coherence_estimate(rotor_t, lidar_t, *, fs: float, U: float, segment_duration: float = 600.0,
@@ -464,8 +510,8 @@ def coherence_estimate(rotor_t, lidar_t, *, fs: float, U: float, segment_duratio
         f = np.sqrt(lo * hi)[keep]
         srr, sll, srl, count = srr[keep], sll[keep], srl[keep], count[keep]
     g2 = np.abs(srl) ** 2 / (srr * sll)
-    n = count * ss.n_segments
-    if np.any(n < 2):
+    n = effective_averages(count, ss.n_per, window) * ss.n_segments
+    if np.any(n <= 1):
         raise ValueError(f"only {ss.n_segments} segment(s): the coherence of one average is 1; allowed: "
                          "at least 2 segments, or frequency bins holding several frequencies")
     lo, hi = coherence_interval(g2, n, confidence)

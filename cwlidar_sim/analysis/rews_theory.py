@@ -67,10 +67,11 @@ import math
 
 import numpy as np
 
-from .._validation import check_int, check_real
+from .._validation import check_choice, check_int, check_real
 from .rews import RotorDisc
 
-__all__ = ["LidarBeams", "circular_scan", "beam_transfer", "RewsSpectra", "rews_spectra", "rotor_spectrum"]
+__all__ = ["LidarBeams", "circular_scan", "beam_transfer", "RewsSpectra", "rews_spectra", "rotor_spectrum",
+           "estimated_spectra"]
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(6)
 _OUTER_ANGLES = 128
@@ -562,3 +563,138 @@ def rotor_spectrum(k1, params, rotor: RotorDisc, *, resolution: float = 60.0):
         k2, k3, wq = _polar_nodes(kk, params.length_scale, rotor.radius, 0.0, resolution)
         out[j] = np.sum(wq * rotor.transfer(np.hypot(k2, k3)) ** 2 * spectral_tensor(kk, k2, k3, params)[:, 0, 0])
     return out
+
+
+# --------------------------------------------------------------------------
+# the spectra as a segment-averaged estimate sees them
+# --------------------------------------------------------------------------
+def _geometric_sum(delta, n):
+    """``sum_{m=0}^{n-1} exp(2 pi i delta m)`` for real ``delta`` (cycles per sample); n at integer delta."""
+    d = np.asarray(delta, dtype=float)
+    s = np.sin(math.pi * d)
+    near = np.abs(s) < 1e-12
+    val = _cis(math.pi * d * (n - 1)) * (np.sin(math.pi * d * n) / np.where(near, 1.0, s))
+    return np.where(near, complex(n), val)
+
+
+def _interp_spectrum(k_src, values, k_new, *, complex_):
+    """Log-log interpolation of a spectrum (modulus; phase linear in k for a complex one), flat below, power law above."""
+    lk = np.log(k_src)
+    mag = np.log(np.maximum(np.abs(values), 1e-300))
+    x = np.log(np.maximum(k_new, k_src[0]))
+    slope = (mag[-1] - mag[-2]) / (lk[-1] - lk[-2])
+    out = np.where(x > lk[-1], mag[-1] + slope * (x - lk[-1]), np.interp(x, lk, mag))
+    out = np.exp(out)
+    if complex_:
+        ph = np.unwrap(np.angle(values))
+        out = out * _cis(np.interp(np.maximum(k_new, k_src[0]), k_src, ph))
+    return out
+
+
+def estimated_spectra(spectra: RewsSpectra, mean_speed: float, *, fs: float, segment_duration: float,
+                      window: str = "hann", f_edges=None, oversample: int = 16, reach: float = 32.0) -> RewsSpectra:
+    """What :func:`cwlidar_sim.analysis.rews.coherence_estimate` expects to see of analytic spectra.
+
+    The estimate's spectra are segment periodograms (mean removed, tapered)
+    averaged over segments and over the frequencies of each bin; their
+    expectation is the true two-sided spectrum ``S(nu) = (2 pi / U) S(k1)``
+    weighted by each ordinate's kernel ``|K_j(nu)|^2``,
+    ``K_j(nu) = sum_n w_n (exp(2 pi i nu t_n) - m(nu)) exp(-2 pi i j n / N)``
+    (``m(nu)`` the segment mean of the mode, ``t_n = n / fs``), scaled as
+    :func:`cwlidar_sim.analysis.segment_spectra` scales the periodogram.
+    The coherence formed from these expectations is what the estimate
+    converges to with many segments: the taper's leakage and the bins'
+    averaging of the red spectra included (at 60-s segments the leakage of
+    the strongly coherent low frequencies raises the coherence near its
+    fall), the estimator's finite-average bias (about ``(1 - c)^2 / n``)
+    not.
+
+    Parameters
+    ----------
+    spectra : RewsSpectra
+        Analytic spectra on an increasing grid of k1 [rad/m], fine enough
+        for log-log interpolation (about 10 per decade), from below the
+        first ordinate ``2 pi / (U T)`` to above the last bin edge; below
+        the grid the spectra are held flat, above it extended by the last
+        power law; the cross-spectrum's phase is interpolated linearly in k1.
+    mean_speed : float
+        U [m/s] (k1 = 2 pi f / U).
+    fs : float
+        Sampling rate [Hz].
+    segment_duration : float
+        Segment length T [s] (rounded to samples as segment_spectra does).
+    window : {"hann", "none"}
+    f_edges : array_like, optional
+        Frequency bin edges [Hz], as for coherence_estimate; None: every ordinate.
+    oversample : int
+        Quadrature nodes per ordinate spacing 1/T, >= 4.
+    reach : float
+        The kernel is integrated over ``|nu| <= f_last + reach / T``: with Hann
+        the kernel has fallen by more than 1e-8 there; without a taper its
+        ``1 / nu^2`` leakage from farther is left out.
+
+    Returns
+    -------
+    RewsSpectra
+        On the bins' centres ``k = 2 pi sqrt(lo hi) / U`` holding ordinates
+        (or every ordinate's k): the expected one-sided PSDs in f
+        [m^2 s^-2 / Hz] and cross-spectrum of the estimate.
+    """
+    if not isinstance(spectra, RewsSpectra):
+        raise TypeError(f"spectra must be a RewsSpectra, got {type(spectra).__name__}")
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    fs = check_real("fs", fs, lo=0.0, lo_open=True)
+    T = check_real("segment_duration", segment_duration, lo=0.0, lo_open=True)
+    check_choice("window", window, ("none", "hann"))
+    oversample = check_int("oversample", oversample, lo=4, hi=1000)
+    reach = check_real("reach", reach, lo=1.0)
+    k_src = np.asarray(spectra.k1_k, dtype=float)
+    if k_src.size < 2 or np.any(np.diff(k_src) <= 0):
+        raise ValueError("spectra.k1_k must hold at least 2 increasing wavenumbers")
+    n_per = int(round(T * fs))
+    if n_per < 2:
+        raise ValueError(f"segment_duration * fs = {T * fs:g} samples; allowed: >= 2")
+    df = fs / n_per
+    j_all = np.arange(1, n_per // 2 + 1)
+    f_all = j_all * df
+    if f_edges is None:
+        groups = [np.array([j]) for j in j_all]
+        centres = f_all
+    else:
+        e = np.asarray(f_edges, dtype=float)
+        if e.ndim != 1 or e.size < 2 or np.any(np.diff(e) <= 0):
+            raise ValueError("f_edges must be increasing frequency bin edges [Hz]")
+        idx = np.searchsorted(e, f_all, side="right") - 1
+        keep = [b for b in range(e.size - 1) if np.any(idx == b)]
+        groups = [j_all[idx == b] for b in keep]
+        centres = np.array([math.sqrt(e[b] * e[b + 1]) for b in keep])
+    j_used = np.concatenate(groups)
+    nu_max = min(j_used.max() * df + reach / T, 0.5 * fs)  # a sampled series' spectrum: one period of nu
+    nu = (np.arange(-int(math.ceil(nu_max / df * oversample)), int(math.ceil(nu_max / df * oversample)) + 1)
+          * (df / oversample))
+    dnu = df / oversample
+    # the two-sided spectra in f at nu (conjugate symmetric)
+    kn = 2.0 * math.pi * np.abs(nu) / U
+    scale = 2.0 * math.pi / U
+    s_rr = scale * _interp_spectrum(k_src, spectra.rotor_k, kn, complex_=False)
+    s_ll = scale * _interp_spectrum(k_src, spectra.lidar_k, kn, complex_=False)
+    s_rl = scale * _interp_spectrum(k_src, spectra.cross_k, kn, complex_=True)
+    s_rl = np.where(nu < 0, np.conj(s_rl), s_rl)
+    # kernels: the taper as sum of shifted rectangles
+    taps = [(0.0, 1.0)] if window == "none" else [(0.0, 0.5), (1.0, -0.25), (-1.0, -0.25)]
+    norm = n_per if window == "none" else float(np.sum((0.5 - 0.5 * np.cos(2 * math.pi * np.arange(n_per) / n_per)) ** 2))
+    mean_mode = _geometric_sum(nu / fs, n_per) / n_per
+    out = np.empty((3, len(groups)), dtype=complex)
+    for b, js in enumerate(groups):
+        acc = np.zeros(3, dtype=complex)
+        for j in js:
+            kj = np.zeros(nu.size, dtype=complex)
+            d0 = 0.0 + 0.0j
+            for shift, c in taps:
+                kj += c * _geometric_sum((nu - (j + shift) * df) / fs, n_per)
+                d0 += c * complex(_geometric_sum(np.array([-(j + shift) * df / fs]), n_per)[0])
+            kj -= mean_mode * d0
+            w = np.abs(kj) ** 2 * dnu
+            acc += [np.sum(w * s_rr), np.sum(w * s_ll), np.sum(w * s_rl)]
+        out[:, b] = acc * (2.0 / (fs * norm)) / len(js)
+    return RewsSpectra(k1_k=2.0 * math.pi * centres / U, rotor_k=out[0].real, lidar_k=out[1].real, cross_k=out[2])

@@ -41,8 +41,10 @@ def plot_coherence_focus(ds, period=None):
         ax.plot(k, ds.coherence.values[ip, i, j], "o", color=c, ms=4, label=f"simulated, r = {r:g} m")
         ax.fill_between(k, ds.coherence_lower.values[ip, i, j], ds.coherence_upper.values[ip, i, j], color=c,
                         alpha=0.15, lw=0)
-        if np.isfinite(ds.coherence_theory.values[ip, i]).any():
-            ax.plot(k, ds.coherence_theory.values[ip, i], "-", color=c, label=f"analytic, r = {r:g} m")
+        th = ds.coherence_theory.values[ip, i]
+        fin = np.isfinite(th)  # the analytic one as estimated: only the bins that hold ordinates
+        if fin.any():
+            ax.plot(k[fin], th[fin], "-", color=c, label=f"analytic as estimated, r = {r:g} m")
     ax.axhline(0.5, color="0.5", lw=0.8, ls=":")
     ax.set_xscale("log")
     ax.set_ylim(0, 1.02)

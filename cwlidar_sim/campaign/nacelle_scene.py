@@ -49,6 +49,7 @@ Example
 from __future__ import annotations
 
 import dataclasses
+import os
 
 import numpy as np
 
@@ -57,7 +58,7 @@ from .lidar_spec import LidarSpecBase
 from .spec import Spec, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
 
 __all__ = ["NacelleScanSpec", "NacelleTurbulenceSpec", "NacellePeriodSpec", "NacelleLidarSpec",
-           "NacelleScene"]
+           "NacellePlatformSpec", "PLATFORM_DOFS", "NacelleScene"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -251,6 +252,100 @@ class NacellePeriodSpec(Spec):
             set_field(self, "seed", check_seed(f"{w}.seed", self.seed))
 
 
+#: Degrees of freedom of the ``[platform]`` table (those of :class:`cwlidar_sim.sensors.PlatformMotion`).
+PLATFORM_DOFS = ("surge", "sway", "heave", "roll_deg", "pitch_deg", "yaw_deg")
+
+
+@dataclasses.dataclass(frozen=True)
+class NacellePlatformSpec(Spec):
+    """The ``[platform]`` table: a prescribed motion of the lidar's platform, and the correction.
+
+    Either sinusoids, ``x(t) = A sin(2 pi t / period + phase)`` per degree of
+    freedom, or a CSV time series (``csv``; not both): a header row naming
+    ``time`` [s] and any of the degrees of freedom, one sample per row,
+    spanning every period; the path is resolved relative to the scene file.
+    Example::
+
+        [platform]
+        period = 7.0                  # s
+        surge = 1.5                   # m (amplitude)
+        pitch_deg = 3.0               # deg (amplitude)
+        phase_deg = { pitch_deg = 90.0 }
+        correction = true             # an ideal motion sensor
+
+    Parameters
+    ----------
+    period : float
+        Period of the sinusoids [s]; in [0.5, 3600].
+    surge, sway, heave : float
+        Amplitudes of the lidar's displacement along x, y, z [m]; in [0, 50].
+    roll_deg, pitch_deg, yaw_deg : float
+        Amplitudes of the nacelle's attitude [deg]; in [0, 20].
+    phase_deg : dict
+        Phase per degree of freedom [deg] (keys among :data:`PLATFORM_DOFS`); default 0.
+    csv : str
+        Path of a time series instead of the sinusoids; "" (default): none.
+    correction : bool
+        Correct the line-of-sight speeds with an ideal motion sensor
+        (:class:`cwlidar_sim.sensors.NacelleLidar` ``motion_correction``).
+    """
+
+    period: float = 10.0
+    surge: float = 0.0
+    sway: float = 0.0
+    heave: float = 0.0
+    roll_deg: float = 0.0
+    pitch_deg: float = 0.0
+    yaw_deg: float = 0.0
+    phase_deg: dict = dataclasses.field(default_factory=dict)
+    csv: str = ""
+    correction: bool = False
+
+    def __post_init__(self):
+        set_field(self, "period", check_real("platform.period", self.period, lo=0.5, hi=3600.0))
+        for k in PLATFORM_DOFS:
+            hi = 20.0 if k.endswith("_deg") else 50.0
+            set_field(self, k, check_real(f"platform.{k}", getattr(self, k), lo=0.0, hi=hi))
+        if not isinstance(self.phase_deg, dict):
+            raise TypeError(f"platform.phase_deg must be a table of phases [deg], got {type(self.phase_deg).__name__}")
+        unknown = sorted(set(self.phase_deg) - set(PLATFORM_DOFS))
+        if unknown:
+            raise ValueError(f"unknown key(s) in platform.phase_deg: {unknown}; allowed: {list(PLATFORM_DOFS)}")
+        set_field(self, "phase_deg", {k: check_real(f"platform.phase_deg.{k}", v, lo=-360.0, hi=360.0)
+                                      for k, v in self.phase_deg.items()})
+        check_str("platform.csv", self.csv, allow_empty=True)
+        set_field(self, "correction", check_bool("platform.correction", self.correction))
+        if self.csv and any(getattr(self, k) for k in PLATFORM_DOFS):
+            raise ValueError("platform: give either amplitudes (sinusoids) or csv, not both")
+
+    def motion(self, duration: float, base_dir: str = "."):
+        """The :class:`cwlidar_sim.sensors.PlatformMotion` over ``[0, duration]`` [s] (None: no motion)."""
+        from ..sensors.platform import PlatformMotion
+
+        if self.csv:
+            path = self.csv if os.path.isabs(self.csv) else os.path.join(base_dir, self.csv)
+            if not os.path.isfile(path):
+                raise ValueError(f"platform.csv: no file {path!r} (resolved relative to the scene file)")
+            data = np.genfromtxt(path, delimiter=",", names=True, dtype=np.float64)
+            names = data.dtype.names or ()
+            unknown = sorted(set(names) - {"time", *PLATFORM_DOFS})
+            if "time" not in names or unknown:
+                raise ValueError(f"platform.csv {path!r}: columns {list(names)}; allowed: 'time' and any of "
+                                 f"{list(PLATFORM_DOFS)}")
+            motion = PlatformMotion(time=data["time"], **{k: data[k] for k in names if k != "time"})
+            motion.check_covers(0.0, duration)
+            return motion
+        if not any(getattr(self, k) for k in PLATFORM_DOFS):
+            return None
+        # sampled finely, 1 s beyond the record each side: PlatformMotion's speeds are the samples'
+        # central differences, relative error (2 pi h / period)^2 / 6 (8e-6 at the finest period 0.5 s)
+        step = min(0.01, self.period / 500.0)
+        t = np.arange(-1.0, duration + 1.0 + step, step)
+        w = 2.0 * np.pi / self.period
+        return PlatformMotion(time=t, **{k: getattr(self, k) * np.sin(w * t + np.radians(self.phase_deg.get(k, 0.0)))
+                                         for k in PLATFORM_DOFS if getattr(self, k)})
+
+
 @dataclasses.dataclass(frozen=True)
 class NacelleScene(Spec):
     """A nacelle-lidar campaign (module notes).
@@ -263,6 +358,8 @@ class NacelleScene(Spec):
     scan : NacelleScanSpec
     lidar : NacelleLidarSpec
     turbulence : NacelleTurbulenceSpec
+    platform : NacellePlatformSpec or None
+        The platform's prescribed motion and its correction (the ``[platform]`` table); None: at rest.
     duration : float
         Default period length [s]; in [30, 7200].
     seed : int
@@ -274,6 +371,7 @@ class NacelleScene(Spec):
     scan: NacelleScanSpec = dataclasses.field(default_factory=NacelleScanSpec)
     lidar: NacelleLidarSpec = dataclasses.field(default_factory=NacelleLidarSpec)
     turbulence: NacelleTurbulenceSpec = dataclasses.field(default_factory=NacelleTurbulenceSpec)
+    platform: NacellePlatformSpec | None = None
     duration: float = 600.0
     seed: int = 0
     description: str = ""
@@ -287,6 +385,8 @@ class NacelleScene(Spec):
                          ("turbulence", NacelleTurbulenceSpec)):
             if not isinstance(getattr(self, key), cls):
                 raise TypeError(f"{key} must be a {cls.__name__}, got {type(getattr(self, key)).__name__}")
+        if self.platform is not None and not isinstance(self.platform, NacellePlatformSpec):
+            raise TypeError(f"platform must be a NacellePlatformSpec or None, got {type(self.platform).__name__}")
         periods = check_periods(self.periods, NacellePeriodSpec, "nacelle scene")
         set_field(self, "periods", periods)
         set_field(self, "duration", check_real("duration", self.duration, lo=30.0, hi=7200.0))
@@ -311,6 +411,9 @@ class NacelleScene(Spec):
         kw.update(self.scan.geometry(), instrument=self.lidar.build_instrument(),
                   yaw_misalignment_deg=period.yaw_misalignment_deg,
                   focus_distances=tuple(focus_distances or self.scan.focus_distances))
+        if self.platform is not None:
+            kw.update(motion=self.platform.motion(self.period_duration(period), self.base_dir),
+                      motion_correction=self.platform.correction)
         return NacelleLidar(**kw)
 
     # -- units of work ----------------------------------------------------
@@ -353,10 +456,10 @@ class NacelleScene(Spec):
     @classmethod
     def from_dict(cls, d: dict, *, base_dir: str = ".") -> "NacelleScene":
         check_scene_keys(d, {"name", "kind", "description", "seed", "duration", "period", "scan", "lidar",
-                             "turbulence"}, ("name", "period"), "nacelle scene")
+                             "turbulence", "platform"}, ("name", "period"), "nacelle scene")
         kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
         for key, spec in (("scan", NacelleScanSpec), ("lidar", NacelleLidarSpec),
-                          ("turbulence", NacelleTurbulenceSpec)):
+                          ("turbulence", NacelleTurbulenceSpec), ("platform", NacellePlatformSpec)):
             if key in d:
                 kw[key] = spec.from_dict(d[key])
         kw["periods"] = periods_from_dict(d["period"], NacellePeriodSpec)

@@ -356,6 +356,10 @@ class NacelleRecord:
         flag counts.
     variants : dict
         Variant name -> ``(speed_e, flags_e)``.
+    correction_e : ndarray, shape (n_e,)
+        The motion correction ``n . d'`` added to ``-speed_e`` [m/s] (0 without
+        ``motion_correction``); add it to a variant's ``-speed`` or to ``vlos_e``
+        to correct them alike.
     """
 
     time_e: np.ndarray
@@ -373,6 +377,7 @@ class NacelleRecord:
     availability: float
     info: dict
     variants: dict = dataclasses.field(default_factory=dict)
+    correction_e: np.ndarray | None = None
 
 
 def _blocked(lidar: NacelleLidar, t_l, az_l):
@@ -502,7 +507,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
         s[lost] = np.nan
         f[lost] |= np.uint8(Flag.BLOCKED)
         variants_out[name] = (s, f)
-    corr_e = np.einsum("elc,elc->e", n_elc, ddot_elc) / nsub if lidar.motion_correction else 0.0
+    corr_e = np.einsum("elc,elc->e", n_elc, ddot_elc) / nsub if lidar.motion_correction else np.zeros(ne)
     los_e = -speed_e + corr_e
     info = {"tier": lidar.tier, "sub_dwells": nsub, "n_estimates": ne, "focus": finfo,
             "flag_counts": {f.name: int(np.count_nonzero(flags_e & f.value)) for f in Flag},
@@ -512,7 +517,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
                          flags_e=flags_e, los_e=los_e, direction_ec=known_elc.mean(axis=1),
                          field_direction_ec=n_elc.mean(axis=1), blocked_e=blocked_e,
                          availability=float(np.isfinite(speed_e).mean()) if ne else 0.0, info=info,
-                         variants=variants_out)
+                         variants=variants_out, correction_e=corr_e)
 
 
 def _sample_moving(sampler: BeamSampler, origin_lc, t_l, n_lc):

@@ -25,8 +25,10 @@ __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field"
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
            "parse_toml"]
 
-#: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`).
-RESULTS_VERSION = 2
+#: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`);
+#: raised whenever stored periods would differ from what the code now computes (3: the gridded
+#: tier-2 cosine sums, the nacelle coherence theory as the estimate sees it).
+RESULTS_VERSION = 3
 #: Scene kinds: ``kind`` in a scene file (default 'staring').
 SCENE_KINDS = ("staring", "conical", "nacelle")
 

@@ -297,3 +297,39 @@ def reset_peak() -> bool:
         return True
     except OSError:
         return False
+
+
+def scene_benchmark_main(script, child, *, name, targets, what, argv=None, extra=None) -> int:
+    """The ``main`` of a benchmark that times one bundled scene against its tier-1 floor in a fresh child.
+
+    ``child(task)`` runs in the child (``task``: ``quick``, ``threads``) and returns at least
+    ``wall_s``, ``floor_s``, ``units`` and ``peak_bytes``; ``targets`` maps ``'quick'`` and
+    ``'full'`` to the target wall time [s]; ``what`` names the units in the summary line
+    ("units", "periods"); ``extra(r)``, if given, prints more of the result.  Writes the result,
+    the mode, the target, the ratio to the floor, the load and the machine to ``--json``.
+    """
+    import argparse
+
+    ap = argparse.ArgumentParser(description=f"Wall time and peak memory of cwlidar-sim reproduce {name}")
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--threads", type=int, default=len(os.sched_getaffinity(0)))
+    ap.add_argument("--json", default=None)
+    ap.add_argument("--child", help=argparse.SUPPRESS)
+    a = ap.parse_args(argv)
+    if a.child:
+        child_main({"default": child}, a.child)
+    r = spawn(script, {"quick": a.quick, "threads": a.threads})
+    if "error" in r:
+        print(r["error"], file=sys.stderr)
+        return 1
+    mode = "quick" if a.quick else "full"
+    r.update(mode=mode, target_s=targets[mode], met=r["wall_s"] < targets[mode], ratio_to_floor=r["wall_s"] / r["floor_s"],
+             threads=a.threads, load=os.getloadavg(), time=time.strftime("%Y-%m-%dT%H:%M:%S"), machine=machine())
+    print(f"reproduce {name}{' --quick' if a.quick else ''}: {r['wall_s']:.1f} s for {r['units']} {what} "
+          f"({r['ratio_to_floor']:.2f}x the tier-1 floor of {r['floor_s']:.1f} s), peak {r['peak_bytes'] / 2**30:.2f} GiB; "
+          f"target < {targets[mode]:.0f} s: {'met' if r['met'] else 'MISSED'}")
+    if extra is not None:
+        extra(r)
+    if a.json:
+        write_json(a.json, r)
+    return 0

@@ -15,7 +15,6 @@ VmHWM.  Targets (issue 14): full run under 10 minutes and --quick under
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import os
 import sys
@@ -24,7 +23,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import _protocol  # noqa: E402  (the shared child-process protocol)
-from _protocol import child_main, machine, vmhwm, write_json  # noqa: E402
+from _protocol import vmhwm  # noqa: E402
 
 TARGET_S = {"full": 600.0, "quick": 180.0}
 
@@ -59,27 +58,7 @@ def _child(task) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--threads", type=int, default=len(os.sched_getaffinity(0)))
-    ap.add_argument("--json", default=None)
-    ap.add_argument("--child", help=argparse.SUPPRESS)
-    a = ap.parse_args(argv)
-    if a.child:
-        child_main({"default": _child}, a.child)
-    r = _protocol.spawn(__file__, {"quick": a.quick, "threads": a.threads})
-    if "error" in r:
-        print(r["error"], file=sys.stderr)
-        return 1
-    mode = "quick" if a.quick else "full"
-    r.update(mode=mode, target_s=TARGET_S[mode], met=r["wall_s"] < TARGET_S[mode], ratio_to_floor=r["wall_s"] / r["floor_s"],
-             threads=a.threads, load=os.getloadavg(), time=time.strftime("%Y-%m-%dT%H:%M:%S"), machine=machine())
-    print(f"reproduce cs{' --quick' if a.quick else ''}: {r['wall_s']:.1f} s for {r['units']} units "
-          f"({r['ratio_to_floor']:.2f}x the tier-1 floor of {r['floor_s']:.1f} s), peak {r['peak_bytes'] / 2**30:.2f} GiB; "
-          f"target < {TARGET_S[mode]:.0f} s: {'met' if r['met'] else 'MISSED'}")
-    if a.json:
-        write_json(a.json, r)
-    return 0
+    return _protocol.scene_benchmark_main(__file__, _child, name="cs", targets=TARGET_S, what="units", argv=argv)
 
 
 if __name__ == "__main__":

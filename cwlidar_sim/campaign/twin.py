@@ -1,4 +1,4 @@
-"""The virtual twin of a staring campaign: what this lidar would have measured in these very periods.
+"""The virtual twin of a staring or conical campaign: what this lidar would have measured in these very periods.
 
 A scene names its measured records in ``[turbulence] condition_on`` (each
 record's file, kind 'sonic' or 'cup', position [m] relative to the lidar's
@@ -37,6 +37,37 @@ Geometry and clock
   lidar, ``-(U + u, v, w) . n``, at 10 Hz: A2012's resampling for 32 Hz
   records, block averages for multiples of 10 Hz (any other rate is an
   error before anything is computed).
+
+Conical scenes
+--------------
+A conical scene's records are positioned relative to the lidar (the cone's
+apex) in the lidar's frame (x toward azimuth 0, y toward 90 deg, z up) and
+turned into the field's frame by the period template's
+``wind_direction_deg``.  Each box of a period (dwell: one per height;
+cycle: one) is conditioned on the records inside it
+(:func:`conical_unit_records`; a box holding none is an error before
+anything is computed), *before* its lateral half is kept (the kept half of
+a doubled box has not a periodic box's covariance).  The box's x period is
+``U T`` with U the mean of its records' mean speeds (per height in dwell
+mode), a node per record sample where the record is no denser than the
+scene's spacing; the lidar then sees the periodic image within its circle's
+reach of the record's ends (measured by ``benchmarks/twin_edge.py``).  The
+scene's cup, sonic, scanning lidar, VAD fits and CS's model run unchanged
+(:func:`cwlidar_sim.campaign.conical.run_unit`).  Per period
+(``DIR/<scene>_twin_P<k>.nc``, dimensions ``twin``, ``height``, ``scan_s``):
+every result of the unit (lidar mean and std, std ratio, TP, radial
+variance, cup and sonic statistics, ...) for each twin, with
+``*_twin_mean`` and ``*_twin_std`` across the twins, beside the records'
+own statistics.  Seeds: ``SeedSequence(scene.seed, spawn_key=(0x7477, k,
+h, j))`` for period k, box h, twin j.
+
+Dask and resume
+---------------
+Every (period, twin) is one task (:func:`twin_task`, plain data in and
+out); a period's file is assembled and written when its N twins are done
+(:func:`assemble_twin_period`), so a cluster gives the same bits as a local
+run.  A rerun reuses a period's file only if its identity (scene, tensor,
+the period's records' bytes, twin count, layout version) is unchanged.
 """
 
 from __future__ import annotations
@@ -49,10 +80,12 @@ import os
 
 import numpy as np
 
+from .conical_scene import ConicalPeriodSpec, ConicalScene
 from .scene import PeriodSpec, Scene
 
 __all__ = ["TwinPeriod", "twin_periods", "twin_period_scene", "twin_line_records", "focus_coherence",
-           "record_radial_10hz", "run_twin_period", "run_twin", "twin_path", "TWIN_VERSION"]
+           "record_radial_10hz", "twin_task", "assemble_twin_period", "run_twin_period", "run_twin", "twin_path",
+           "conical_unit_records", "conical_twin_scene", "conical_twin", "TWIN_VERSION"]
 
 #: Layout version of the twin files (part of their identity).
 TWIN_VERSION = 1
@@ -113,7 +146,7 @@ def twin_periods(scene: Scene, paths=None) -> list:
     Parameters
     ----------
     scene : Scene
-        A staring scene with ``[turbulence] condition_on``.
+        A staring or conical scene with ``[turbulence] condition_on``.
     paths : list of str, optional
         Files replacing the records' paths, in order (the same mast, another
         campaign); default the scene's own (relative to its folder).
@@ -126,8 +159,8 @@ def twin_periods(scene: Scene, paths=None) -> list:
     """
     from ..analysis.records import read_periods
 
-    if not isinstance(scene, Scene):
-        raise TypeError(f"the twin needs a staring Scene, got {type(scene).__name__} (conical scenes: not yet)")
+    if not isinstance(scene, (Scene, ConicalScene)):
+        raise TypeError(f"the twin needs a staring Scene or a ConicalScene, got {type(scene).__name__}")
     T = scene.period_duration(scene.periods[0])
     specs = _record_specs(scene, paths)
     per = [read_periods(s, T) for s in specs]
@@ -136,7 +169,7 @@ def twin_periods(scene: Scene, paths=None) -> list:
         raise ValueError("records hold different numbers of whole periods of "
                          f"{T:g} s: " + ", ".join(f"{s.name}: {c}" for s, c in zip(specs, counts))
                          + "; allowed: records of one campaign covering the same time")
-    ref = _reference(scene)
+    ref = _reference(scene) if isinstance(scene, Scene) else -1
     if ref >= 0:
         fs = per[ref][0].sample_rate
         if not (fs == 32.0 or (abs(fs / 10.0 - round(fs / 10.0)) < 1e-9 and fs >= 10.0)):
@@ -259,53 +292,264 @@ def record_radial_10hz(scene: Scene, tp: TwinPeriod, direction) -> np.ndarray | 
     return block_average(vs, int(round(rec.sample_rate / 10.0)))[0]
 
 
-def run_twin_period(scene: Scene, tp: TwinPeriod, n_twins: int, params, *, status=None):
-    """The ``n_twins`` twins of one period and their statistics against the record, as an xarray.Dataset.
-
-    Dimensions ``twin``, ``time_10hz``, ``k``; every variable has ``units``
-    and ``long_name``.  ``*_twin_mean`` / ``*_twin_std`` are the mean and the
-    standard deviation (ddof = 1) across the twins: the conditional
-    distribution's spread given what the records saw.
-    """
-
-    from ..analysis import log_bins, transfer_functions
+def _staring_twin(scene: Scene, tp: TwinPeriod, j: int, params, status=None) -> dict:
+    """Twin ``j`` of period ``tp`` of a staring scene: its 10 Hz series, seed and field plan (a plain dict)."""
     from .staring import run_period
 
-    say = status or (lambda s: None)
+    sc = twin_period_scene(scene, tp, j)
+    plans = []
+    ds = run_period(sc, 0, params, make_field=_make_field(sc, tp, params, plans), status=status)
+    return {"lidar": np.asarray(ds["lidar_10hz"].values[0], dtype=np.float64),
+            "sonic": np.asarray(ds["sonic_10hz"].values[0], dtype=np.float64),
+            "seed": int(sc.periods[0].seed), "plan": plans[-1]}
+
+
+def _staring_period(scene: Scene, tp: TwinPeriod, rows, params):
+    """The period's Dataset from its twins' rows (:func:`_staring_twin`): statistics against the record."""
+    from ..analysis import log_bins, transfer_functions
+    from .planning import plan_field
+
     a = scene.analysis
     k_edges = log_bins(a.k_min, a.k_max, a.per_decade)
-    rows = []
-    rec10 = None
-    plans = []
-    for j in range(n_twins):
-        sc = twin_period_scene(scene, tp, j)
-        say(f"P{tp.index:03d} twin {j + 1}/{n_twins}")
-        ds = run_period(sc, 0, params, make_field=_make_field(sc, tp, params, plans))
-        lid = np.asarray(ds["lidar_10hz"].values[0], dtype=np.float64)
-        son = np.asarray(ds["sonic_10hz"].values[0], dtype=np.float64)
-        if rec10 is None:
-            from .planning import plan_field
-
-            rec10 = record_radial_10hz(scene, tp, plan_field(sc, 0, params).direction)
-            if rec10 is not None and rec10.size != lid.size:
-                raise ValueError(f"period {tp.index}: the record gives {rec10.size} values at 10 Hz, the lidar "
-                                 f"{lid.size}")
-        row = {"lidar": lid, "sonic": son, "seed": int(sc.periods[0].seed)}
+    rec10 = record_radial_10hz(scene, tp, plan_field(twin_period_scene(scene, tp, 0), 0, params).direction)
+    n10 = rows[0]["lidar"].size
+    if rec10 is not None and rec10.size != n10:
+        raise ValueError(f"period {tp.index}: the record gives {rec10.size} values at 10 Hz, the lidar {n10}")
+    rows = [dict(r) for r in rows]
+    for row in rows:
         if rec10 is not None:
-            tf = transfer_functions(lid, rec10, fs=10.0, U=tp.U, k_edges=k_edges, segment_duration=a.segment_duration,
-                                    window=a.window, detrend=a.detrend)
+            tf = transfer_functions(row["lidar"], rec10, fs=10.0, U=tp.U, k_edges=k_edges,
+                                    segment_duration=a.segment_duration, window=a.window, detrend=a.detrend)
             with np.errstate(invalid="ignore", divide="ignore"):
                 coh = np.abs(tf.chi_k) ** 2 / (tf.F_r_k * tf.F_s_k)
             row.update(T1=np.asarray(tf.T1_k), T2=np.asarray(tf.T2_k), coh=coh, k=np.asarray(tf.k_k))
-        rows.append(row)
     out = _dataset(scene, tp, rows, rec10, k_edges)
     if "k" in out.coords:
-        g2, g4 = focus_coherence(scene, tp, plans[-1], params, k_edges)
+        g2, g4 = focus_coherence(scene, tp, rows[-1]["plan"], params, k_edges)
         out["coherence_theory"] = (("k",), g2, {"units": "1", "long_name": "theory: squared coherence of u at the "
                                                 "focus with the records (twin lidar vs record)"})
         out["coherence_theory_twin_truth"] = (("k",), g4, {"units": "1", "long_name": "theory: squared coherence of "
                                                            "a twin's lidar with the truth's (gamma^2 squared)"})
     return out
+
+
+def twin_task(scene, tp: TwinPeriod, j: int, params=None, status=None):
+    """Twin ``j`` of period ``tp``: the unit of work (a Dask task); plain data, the same bits wherever it runs.
+
+    Staring scenes: a dict of the twin's series (:func:`assemble_twin_period`
+    turns the N of a period into its Dataset); conical scenes: the twin's
+    Dataset on ``height``.
+    """
+    if isinstance(scene, ConicalScene):
+        return conical_twin(scene, tp, j, status=status)
+    return _staring_twin(scene, tp, j, params, status=status)
+
+
+def assemble_twin_period(scene, tp: TwinPeriod, results, params=None):
+    """The period's Dataset from its twins' :func:`twin_task` results, in twin order."""
+    if isinstance(scene, ConicalScene):
+        return _conical_period(scene, tp, list(results))
+    return _staring_period(scene, tp, list(results), params)
+
+
+def run_twin_period(scene, tp: TwinPeriod, n_twins: int, params, *, status=None):
+    """The ``n_twins`` twins of one period and their statistics against the record, as an xarray.Dataset.
+
+    Staring scenes: dimensions ``twin``, ``time_10hz``, ``k``; conical
+    scenes: ``twin``, ``height``, ``scan_s`` (:func:`conical_twin`).  Every
+    variable has ``units`` and ``long_name``.  ``*_twin_mean`` /
+    ``*_twin_std`` are the mean and the standard deviation (ddof = 1) across
+    the twins: the conditional distribution's spread given what the records saw.
+    """
+    say = status or (lambda s: None)
+    rows = []
+    for j in range(n_twins):
+        say(f"P{tp.index:03d} twin {j + 1}/{n_twins}")
+        rows.append(twin_task(scene, tp, j, params))
+    return assemble_twin_period(scene, tp, rows, params)
+
+
+# ---------------------------------------------------------------------------
+# conical scenes
+# ---------------------------------------------------------------------------
+def _rotate_from_lidar(pos, wind_direction_deg):
+    """A position in the lidar's frame (x toward azimuth 0) in the field's (x along the wind) [m]."""
+    t = math.radians(wind_direction_deg)
+    x, y, z = (float(c) for c in pos)
+    return (x * math.cos(t) + y * math.sin(t), -x * math.sin(t) + y * math.cos(t), z)
+
+
+def conical_unit_records(scene: ConicalScene, tp: TwinPeriod, h: int):
+    """The records box ``h`` of period ``tp`` is conditioned on: (indices, LineRecords, U [m/s]).
+
+    Box ``h`` is the dwell height ``scan.heights[h]`` (cycle: the one box,
+    h = 0).  A record is used when its position lies inside the generated
+    box (:func:`cwlidar_sim.sensors.conical.conical_box_yz`); U is the mean
+    of the used records' mean speeds, the box's x period ``U T``.  Raises
+    ValueError when no record lies in the box.
+    """
+    from ..sensors.conical import ConicalLidar, conical_box_yz
+    from .conical import _tensor_height
+    from .conical_period import default_spacing
+
+    s = scene.scan
+    hs = s.heights if s.cycle else (s.heights[h],)
+    spacing = s.spacing or default_spacing(min(hs))
+    kw = scene.lidar_fields(spacing)
+    kw.pop("tier", None)
+    lidar = ConicalLidar(heights=tuple(hs), tier=scene.lidar.tier, **kw)
+    unit = 0 if s.cycle else h
+    tensor = scene.turbulence.params(_tensor_height(scene.replace(periods=scene.periods[:1]), unit), tp.U)[0]
+    y_n, z_n = conical_box_yz(lidar, tensor, spacing=spacing, lateral_doubling=s.lateral_doubling)
+    theta = scene.periods[0].wind_direction_deg
+    used, field_pos = [], []
+    for i, spec in enumerate(scene.turbulence.condition_on):
+        x, y, z = _rotate_from_lidar(spec.position, theta)
+        p = (lidar.position[0] + x, lidar.position[1] + y, lidar.position[2] + z)
+        if y_n[0] - 1e-9 <= p[1] <= y_n[-1] + 1e-9 and z_n[0] - 1e-9 <= p[2] <= z_n[-1] + 1e-9:
+            used.append(i)
+            field_pos.append(p)
+    if not used:
+        pos = [list(r.position) for r in scene.turbulence.condition_on]
+        raise ValueError(f"period {tp.index}, heights {list(hs)} m: no record of condition_on lies in the box "
+                         f"(y in [{y_n[0]:.4g}, {y_n[-1]:.4g}] m, z in [{z_n[0]:.4g}, {z_n[-1]:.4g}] m in the "
+                         f"field's frame); the records' positions in the lidar's frame are {pos}; allowed: a record "
+                         f"within the box of every height (or fewer scan.heights)")
+    U = float(np.mean([tp.records[i].mean_speed for i in used]))
+    if not 1.0 <= U <= 30.0:
+        raise ValueError(f"period {tp.index}, heights {list(hs)} m: the records' mean speed is {U:.3g} m/s; "
+                         f"allowed: [1, 30] m/s (Taylor's hypothesis)")
+    lines = []
+    for i, p in zip(used, field_pos):
+        lines.append(tp.records[i].line_record((p[0] - U * tp.delay, p[1], p[2])))
+    return used, lines, U
+
+
+def conical_twin_scene(scene: ConicalScene, tp: TwinPeriod, h: int, twin: int, U: float) -> ConicalScene:
+    """The one-unit scene of twin ``twin`` of period ``tp`` at box ``h``: the records' U, its own seed.
+
+    The scene's first ``[[period]]`` is the template (wind direction); the
+    seed is ``SeedSequence(scene.seed, spawn_key=(0x7477, k, h, twin))``,
+    distinct for every period, height (box) and twin.
+    """
+    tmpl = scene.periods[0]
+    seq = np.random.SeedSequence(scene.seed, spawn_key=(_TWIN_TAG, tp.index, int(h), int(twin)))
+    seed = int(seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
+    p = ConicalPeriodSpec(name=f"P{tp.index:03d}", mean_speed=U, wind_direction_deg=tmpl.wind_direction_deg,
+                          duration=tp.duration, seed=seed)
+    s = scene.scan
+    scan = s if s.cycle else dataclasses.replace(s, heights=(s.heights[h],))
+    return scene.replace(periods=(p,), duration=tp.duration, scan=scan)
+
+
+def _conical_box_options(scene: ConicalScene, tp: TwinPeriod, U: float) -> dict:
+    """The box's x period ``U T`` and spacing: a node per record sample where the record is no denser than the grid.
+
+    With the scene's spacing d and the records' rate fs, ``r = U / (fs d)``:
+    for r >= 0.5, ``nx = n max(1, round(r))`` nodes (each sample on a node,
+    read as the package's sensors read the box: exact); for a denser record
+    (a 20 Hz sonic on a 2 m grid) the grid keeps its spacing and the
+    record's Fourier modes beyond the grid's Nyquist are left out (read
+    band-limited).
+    """
+    from .conical_period import default_spacing
+
+    d = scene.scan.spacing or default_spacing(min(scene.scan.heights))
+    r0 = tp.records[0]
+    L = U * tp.duration
+    r = U / (r0.sample_rate * d)
+    dx = L / (r0.n_samples * max(1, int(round(r)))) if r >= 0.5 else d
+    return {"period_x": L, "spacing": (dx, d, d)}
+
+
+def conical_twin(scene: ConicalScene, tp: TwinPeriod, j: int, *, status=None):
+    """Twin ``j`` of a conical period: every box conditioned on its records, the scene's lidar, cup and sonic.
+
+    Returns the twin's results (those of :func:`cwlidar_sim.campaign.conical.run_unit`)
+    on dimension ``height`` (and ``scan_s``), with ``convection_speed`` and
+    ``records_used`` per height.
+    """
+    import xarray as xr
+
+    from ..turbulence.conditioning import condition_field
+    from .conical import run_unit
+
+    n_boxes = 1 if scene.scan.cycle else len(scene.scan.heights)
+    parts = []
+    for h in range(n_boxes):
+        used, lines, U = conical_unit_records(scene, tp, h)
+        sc = conical_twin_scene(scene, tp, h, j, U)
+        noise_seed = int(sc.periods[0].seed)
+
+        def condition(box, lines=lines, U=U, noise_seed=noise_seed):
+            return condition_field(box, lines, seed=noise_seed, U=U, inplace=True)
+
+        ds = run_unit(sc, 0, status=status, condition=condition, box_options=_conical_box_options(sc, tp, U))
+        n = ds.sizes["period"]
+        ds["convection_speed"] = (("period",), np.full(n, U), {"units": "m s-1", "long_name": "convection speed "
+                                                               "of the box: mean of its records' mean speeds"})
+        ds["records_used"] = (("period",), np.array([json.dumps(used)] * n, dtype=object),
+                              {"units": "1", "long_name": "indices of the condition_on records the box holds"})
+        ds["twin_seed"] = (("period",), np.full(n, noise_seed, np.int64), {"units": "1", "long_name": "twin seed"})
+        parts.append(ds)
+    out = xr.concat(parts, dim="period", combine_attrs="override") if len(parts) > 1 else parts[0]
+    out = out.swap_dims(period="unit_height").drop_vars(["period", "period_name"], errors="ignore")
+    out = out.rename(unit_height="height")
+    out["height"].attrs.update(units="m", long_name="measurement height")
+    return out
+
+
+def _conical_period(scene: ConicalScene, tp: TwinPeriod, results):
+    """The period's Dataset from its twins (:func:`conical_twin`): each twin, their mean and spread, the records."""
+    import warnings
+
+    import xarray as xr
+
+    N = len(results)
+    twins = xr.concat([r.drop_vars(["records_used"]) for r in results], dim="twin", combine_attrs="override")
+    twins = twins.assign_coords(twin=("twin", np.arange(N)))
+    dv = {}
+    for name, da in twins.data_vars.items():
+        if "twin" not in da.dims:
+            continue
+        attrs = dict(da.attrs)
+        long = attrs.get("long_name", name)
+        dv[name] = da.assign_attrs(long_name=f"{long}, each twin")
+        if name in ("twin_seed",) or not np.issubdtype(da.dtype, np.floating):
+            continue
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            m = da.mean("twin", skipna=True)
+            s = da.std("twin", skipna=True, ddof=1) if N > 1 else xr.full_like(m, np.nan)
+        dv[f"{name}_twin_mean"] = m.assign_attrs(units=attrs.get("units", "1"), long_name=f"{long}, mean over the twins")
+        dv[f"{name}_twin_std"] = s.assign_attrs(units=attrs.get("units", "1"),
+                                                long_name=f"{long}, std across the twins (ddof 1)")
+    ds = xr.Dataset(dv)
+    ds["records_used"] = results[0]["records_used"]
+    for v in ("mann_alpha_eps", "mann_length_scale", "mann_gamma", "mean_speed", "u_star"):
+        if v in ds:
+            ds[v] = ds[v].isel(twin=0, drop=True).assign_attrs(dict(twins[v].attrs))
+            for suffix in ("_twin_mean", "_twin_std"):
+                ds = ds.drop_vars(v + suffix, errors="ignore")
+    _record_vars(ds, tp)
+    for i, spec in enumerate(scene.turbulence.condition_on):
+        ds[f"record{i}_position"] = (("xyz",), np.asarray(spec.position, float),
+                                     {"units": "m", "long_name": f"{spec.name}: position in the lidar's frame"})
+    ds.attrs = {"scene": scene.name, "scene_kind": "conical", "period": f"P{tp.index:03d}",
+                "period_index": tp.index, "n_twins": N, "convection_speed": tp.U, "duration": tp.duration,
+                "record_delay": tp.delay, "records": json.dumps([r.spec.name for r in tp.records]),
+                "twin_version": TWIN_VERSION}
+    return ds
+
+
+def _record_vars(ds, tp):
+    """The records' own 10-minute statistics (mean speed, std of u or the cup's speed, filled samples)."""
+    for i, rec in enumerate(tp.records):
+        key = "speed" if rec.spec.kind == "cup" else "u"
+        ds[f"record{i}_mean_speed"] = ((), rec.mean_speed, {"units": "m s-1", "long_name": f"{rec.spec.name}: mean {key}"})
+        ds[f"record{i}_std"] = ((), float(np.std(rec.values[key])),
+                                {"units": "m s-1", "long_name": f"{rec.spec.name}: std of {key}"})
+        ds[f"record{i}_filled"] = ((), rec.n_filled, {"units": "1", "long_name": f"{rec.spec.name}: filled samples"})
 
 
 def _stats(x):
@@ -356,18 +600,14 @@ def _dataset(scene, tp, rows, rec10, k_edges):
                                                      "long_name": "the reference record's speed toward the lidar, 10 Hz"})
         dv["record_mean"] = ((), rm, {"units": "m s-1", "long_name": "10-min mean of record_10hz"})
         dv["record_std"] = ((), rs, {"units": "m s-1", "long_name": "10-min std of record_10hz"})
-    for i, rec in enumerate(tp.records):
-        key = "speed" if rec.spec.kind == "cup" else "u"
-        dv[f"record{i}_mean_speed"] = ((), rec.mean_speed, {"units": "m s-1", "long_name": f"{rec.spec.name}: mean {key}"})
-        dv[f"record{i}_std"] = ((), float(np.std(rec.values[key])),
-                                {"units": "m s-1", "long_name": f"{rec.spec.name}: std of {key}"})
-        dv[f"record{i}_filled"] = ((), rec.n_filled, {"units": "1", "long_name": f"{rec.spec.name}: filled samples"})
     attrs = {"scene": scene.name, "period": f"P{tp.index:03d}", "period_index": tp.index, "n_twins": N,
              "convection_speed": tp.U, "duration": tp.duration, "record_delay": tp.delay,
              "records": json.dumps([r.spec.name for r in tp.records]),
              "reference_record": (tp.records[_reference(scene)].spec.name if rec10 is not None else ""),
              "twin_version": TWIN_VERSION}
-    return xr.Dataset(dv, coords=coords, attrs=attrs)
+    out = xr.Dataset(dv, coords=coords, attrs=attrs)
+    _record_vars(out, tp)
+    return out
 
 
 def twin_path(out_dir, scene: Scene, index: int) -> str:
@@ -387,13 +627,13 @@ def _identity(scene, params, tp, n_twins):
     return h.hexdigest()[:32]
 
 
-def run_twin(scene: Scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, periods=None) -> list:
+def run_twin(scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, periods=None, client=None) -> list:
     """The twins of every period of the scene's records, one NetCDF per period; resumes.
 
     Parameters
     ----------
-    scene : Scene
-        A staring scene with ``[turbulence] condition_on``.
+    scene : Scene or ConicalScene
+        A staring or conical scene with ``[turbulence] condition_on``.
     out_dir : str or path
         Output folder (created).
     paths : list of str, optional
@@ -405,14 +645,17 @@ def run_twin(scene: Scene, out_dir, *, paths=None, n_twins: int = 8, progress=No
         Called with a line of text per stage (default: silent).
     periods : list of int, optional
         Only these period indices.
+    client : dask.distributed.Client, optional
+        Run every (period, twin) as a task on this cluster; default: here,
+        one after the other.  The files are identical bit for bit (each twin
+        is seeded from the scene, the period and its index alone).
 
     Returns
     -------
     list of str
-        The period files, written or found complete.
+        The period files, written or found complete, in period order.
     """
     from .._validation import check_int
-    from .planning import scene_params
     from .store import read_results, write_results
 
     n_twins = check_int("n_twins", n_twins, lo=1, hi=10000)
@@ -423,9 +666,18 @@ def run_twin(scene: Scene, out_dir, *, paths=None, n_twins: int = 8, progress=No
         if bad:
             raise ValueError(f"periods {bad} are not in the records' {len(tps)} period(s)")
         tps = [tps[int(i)] for i in periods]
-    params, _ = scene_params(scene)
+    params = None
+    if isinstance(scene, Scene):
+        from .planning import scene_params
+
+        params, _ = scene_params(scene)
+    else:  # every box's records before anything is computed
+        for tp in tps:
+            for h in range(1 if scene.scan.cycle else len(scene.scan.heights)):
+                conical_unit_records(scene, tp, h)
     os.makedirs(out_dir, exist_ok=True)
-    files = []
+    files = {}
+    todo = []
     for n, tp in enumerate(tps):
         path = twin_path(out_dir, scene, tp.index)
         key = _identity(scene, params, tp, n_twins)
@@ -436,13 +688,42 @@ def run_twin(scene: Scene, out_dir, *, paths=None, n_twins: int = 8, progress=No
                 done = False
             if done:
                 say(f"[{n + 1}/{len(tps)}] P{tp.index:03d}: done already ({path})")
-                files.append(path)
+                files[n] = path
                 continue
             say(f"[{n + 1}/{len(tps)}] P{tp.index:03d}: {path} is from other inputs; recomputing")
-        ds = run_twin_period(scene, tp, n_twins, params,
-                             status=lambda s, n=n: say(f"[{n + 1}/{len(tps)}] {s}"))
+        todo.append((n, tp, path, key))
+
+    def finish(n, tp, path, key, results):
+        ds = assemble_twin_period(scene, tp, results, params)
         ds.attrs["identity"] = key
         write_results(ds, path)
         say(f"[{n + 1}/{len(tps)}] P{tp.index:03d}: wrote {path}")
-        files.append(path)
-    return files
+        files[n] = path
+
+    if client is not None and todo:
+        from dask.distributed import as_completed
+
+        futures, pending = {}, {}
+        for n, tp, path, key in todo:
+            pending[n] = [None] * n_twins
+            for j in range(n_twins):
+                futures[client.submit(twin_task, scene, tp, j, params, pure=False)] = (n, j)
+        info = {n: (tp, path, key) for n, tp, path, key in todo}
+        try:
+            for fut in as_completed(futures):
+                n, j = futures[fut]
+                pending[n][j] = fut.result()
+                say(f"[{n + 1}/{len(tps)}] P{info[n][0].index:03d} twin {j + 1}/{n_twins} done")
+                if all(r is not None for r in pending[n]):
+                    finish(n, *info[n], pending.pop(n))
+        finally:
+            for fut in futures:
+                fut.cancel()
+    else:
+        for n, tp, path, key in todo:
+            results = []
+            for j in range(n_twins):
+                say(f"[{n + 1}/{len(tps)}] P{tp.index:03d} twin {j + 1}/{n_twins}")
+                results.append(twin_task(scene, tp, j, params))
+            finish(n, tp, path, key, results)
+    return [files[n] for n in sorted(files)]

@@ -257,7 +257,8 @@ def test_mast_positions_turn_with_the_wind_into_the_field_frame(run, tmp_path):
     from cwlidar_sim.campaign.twin import conical_unit_records, twin_periods
 
     shutil.copy(run["dir"] / "mast.csv", tmp_path / "mast.csv")
-    for wd, expect in ((90.0, (10.0, 0.0)), (0.0, (0.0, 10.0)), (180.0, (-10.0, 0.0))):
+    # toward 270 deg the mast is upwind; toward 180 deg it lies to the right of the wind (field y < 0)
+    for wd, expect in ((90.0, (10.0, 0.0)), (0.0, (0.0, 10.0)), (270.0, (-10.0, 0.0)), (180.0, (0.0, -10.0))):
         sc = _scene(tmp_path, pos=(0.0, 10.0, Z), wd=wd)
         tp = twin_periods(sc)[0]
         used, (line,), Ub = conical_unit_records(sc, tp, 0)

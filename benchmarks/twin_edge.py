@@ -37,7 +37,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _protocol import log, machine, write_json  # noqa: E402
 
 HEIGHT, U, DX, NY, NOISE = 40.0, 10.0, 2.0, 64, 0.05
-OFFSETS = ((0.0, 0.0), (23.0, 0.0), (-23.0, 0.0), (0.0, 11.5), (0.0, 23.0), (16.0, 16.0))
+#: Offsets (along, across the wind) from the mast [m], on the 2 m nodes (the theory is taken at the very points).
+OFFSETS = ((0.0, 0.0), (24.0, 0.0), (-24.0, 0.0), (0.0, 12.0), (0.0, 24.0), (16.0, 16.0))
 
 
 def run(M, T, seed0=31):
@@ -71,7 +72,7 @@ def run(M, T, seed0=31):
         twin = condition_field(prior_field, rec, seed=int(ss[2]), U=U, params=params)
         wu = twin["u"].values
         for o, (dx, dy) in enumerate(OFFSETS):
-            jx, jy = int(round(dx / DX)), iy0 + int(round(dy / DX))
+            jx, jy = int(dx / DX), iy0 + int(dy / DX)
             a = wu[(jx - i) % n, jy]            # twin: periodic, the record's node at x = 0
             # truth: the same offset from the mast, unmeasured air past the ends; the twin's mean wind is the
             # record's mean (U + mean u), so the truth's fluctuation is taken about it

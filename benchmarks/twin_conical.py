@@ -73,7 +73,7 @@ def _unit_std(ds):
     return float(ds["lidar_std"].values.ravel()[0])
 
 
-def truth_and_records(plain, P, seed0, folder):
+def truth_and_records(plain, P, seed0, folder, periodic=False):
     """The truth's lidar std per period and the mast's CSV (all periods, one after the other)."""
     from cwlidar_sim.campaign.conical import run_unit
     from cwlidar_sim.campaign.conical_scene import ConicalPeriodSpec
@@ -93,7 +93,8 @@ def truth_and_records(plain, P, seed0, folder):
             return box
 
         sc = plain.replace(periods=(ConicalPeriodSpec(name=f"t{p}", mean_speed=U, seed=int(ss[0])),))
-        truths.append(_unit_std(run_unit(sc, 0, condition=keep)))
+        opts = {"period_x": U * T, "spacing": (DX, DX, DX)} if periodic else None
+        truths.append(_unit_std(run_unit(sc, 0, condition=keep, box_options=opts)))
         box = boxes[0]
         vel.append(sample_sonic(box, Sonic(position=(0.0, 0.0, HEIGHT), rate=fs, noise_std=NOISE), t, U,
                                 seed=int(ss[1])))
@@ -148,6 +149,8 @@ def main(argv=None):
     ap.add_argument("--prior", action="store_true", help="also N unconditioned units per period")
     ap.add_argument("--workers", type=int, default=0, help="run the twins on a local Dask cluster of W processes")
     ap.add_argument("--seed", type=int, default=2019)
+    ap.add_argument("--periodic-truth", action="store_true",
+                    help="truth boxes periodic over U T exactly (the twin's own model; a diagnostic)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--keep", default=None, metavar="DIR",
                     help="keep the records, scenes and twin files in DIR (a rerun resumes the twins there)")
@@ -163,7 +166,7 @@ def main(argv=None):
         folder = a.keep or tmp
         os.makedirs(folder, exist_ok=True)
         twin, plain = _scenes(folder, T, a.seed)
-        truths = truth_and_records(plain, P, a.seed, folder)
+        truths = truth_and_records(plain, P, a.seed, folder, periodic=a.periodic_truth)
         with open(os.path.join(folder, "truth.json"), "w") as f:
             f.write(str(truths))
         client = None
@@ -186,7 +189,7 @@ def main(argv=None):
         if a.prior:
             for r, pr in zip(rows, prior_spread(plain, P, N, a.seed)):
                 r["prior_std"] = pr
-    rep = {"machine": machine(), "height_m": HEIGHT, "mean_speed_m_s": U, "spacing_m": DX, "noise_m_s": NOISE,
+    rep = {"machine": machine(), "periodic_truth": a.periodic_truth, "height_m": HEIGHT, "mean_speed_m_s": U, "spacing_m": DX, "noise_m_s": NOISE,
            "duration_s": T, "wall_s": time.perf_counter() - t0, "summary": summary(rows, N), "rows": rows}
     for r in rows:
         tw = np.array(r["twin_std"])

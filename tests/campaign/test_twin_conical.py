@@ -265,3 +265,21 @@ def test_mast_positions_turn_with_the_wind_into_the_field_frame(run, tmp_path):
         assert used == [0] and Ub == pytest.approx(tp.records[0].mean_speed)
         assert line.position[0] == pytest.approx(expect[0] - Ub * tp.delay, abs=1e-9)
         assert line.position[1:] == pytest.approx((expect[1], Z), abs=1e-9)
+
+
+def test_cycle_mode_conditions_one_box_on_the_records_at_every_height(run, tmp_path):
+    """A cycling lidar's one box holds both heights' records (here the mast's CSV read at 40 and 60 m)."""
+    from cwlidar_sim.campaign.twin import run_twin
+
+    shutil.copy(run["dir"] / "mast.csv", tmp_path / "mast.csv")
+    text = SCENE.format(T=T, Z=Z, NOISE=NOISE, pos=f"0.0, 0.0, {Z}", wd=0.0)
+    text = text.replace(f"heights = [{Z}]", f"heights = [{Z}, 60.0]\ncycle = true\nrevs_per_height = 1")
+    text = text.replace('rotation = "none" }]', 'rotation = "none", name = "m40" }, { path = "mast.csv", '
+                        'kind = "sonic", position = [0.0, 0.0, 60.0], noise_std = 0.05, rotation = "none", '
+                        'name = "m60" }]')
+    sc = loads_scene(text, base_dir=str(tmp_path))
+    (f,) = run_twin(sc, tmp_path / "o", n_twins=1, periods=[0])
+    ds = read_results(f)
+    assert ds["height"].values.tolist() == [Z, 60.0] and ds.sizes["twin"] == 1
+    assert ds["records_used"].values.tolist() == ["[0, 1]", "[0, 1]"]
+    assert np.all(np.isfinite(ds["lidar_std"].values))

@@ -472,19 +472,25 @@ def _add_twin(sub):
                  "record, in order), cut them into the scene's periods, and for each period fly the scene's lidar "
                  "and sonic through N fields conditioned on the records (Hoffman-Ribak). Writes DIR/<scene>_twin_"
                  "P<k>.nc per period: the twins' 10 Hz series, their 10-min mean and std, T1/T2 and the coherence "
-                 "against the record, with the spread across the twins beside the record's own statistics. Bad "
-                 "records are refused before anything is computed; a rerun skips the finished periods.",
+                 "against the record, with the spread across the twins beside the record's own statistics (conical "
+                 "scenes: the scanning lidar, cup and sonic in N conditioned boxes; per period every twin's 10-min "
+                 "lidar mean and std, std ratio, TP, ... with their spread). Bad records are refused before "
+                 "anything is computed; a rerun skips the finished periods whose inputs are unchanged; --dask runs "
+                 "every (period, twin) on a cluster with the same result.",
                  ["python -c 'from cwlidar_sim.campaign.twin_example import write_twin_example as w; "
                   "w(\"ex\")'   # the bundled example's truth and CSV",
                   "cwlidar-sim twin ex/twin.toml --twins 8 --out results/twin",
                   "cwlidar-sim twin my_scene.toml --records mast_40m.csv --twins 16 --out results/mine"])
-    p.add_argument("scene", help="staring scene TOML with [turbulence] condition_on")
+    p.add_argument("scene", help="staring or conical scene TOML with [turbulence] condition_on")
     p.add_argument("--records", nargs="+", default=None, metavar="FILE",
                    help="record files replacing the scene's condition_on paths, in order")
     p.add_argument("--twins", type=int, default=8, help="twins per period (default 8)")
     p.add_argument("--out", required=True, help="output folder (created; resumed if it holds finished periods)")
     p.add_argument("--periods", type=int, nargs="+", default=None, metavar="K", help="only these period indices")
     p.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--dask", default=None, metavar="ADDRESS",
+                   help="run every (period, twin) as a task on this Dask scheduler (e.g. tcp://host:8786); "
+                        "default: locally; the files are the same bit for bit")
     p.set_defaults(func=_cmd_twin)
 
 
@@ -497,12 +503,17 @@ def _cmd_twin(args) -> int:
             print(line, file=sys.stderr)
 
     scene = load_scene(args.scene)
+    client = _client(args.dask)
     try:
-        files = run_twin(scene, args.out, paths=args.records, n_twins=args.twins, progress=log, periods=args.periods)
+        files = run_twin(scene, args.out, paths=args.records, n_twins=args.twins, progress=log, periods=args.periods,
+                         client=client)
     except KeyboardInterrupt:
         print(f"cwlidar-sim twin: interrupted; finished periods are kept in {args.out}; run the same command again "
               f"to resume", file=sys.stderr)
         return 130
+    finally:
+        if client is not None:
+            client.close()
     print(json.dumps({"periods": files}, indent=2))
     return 0
 

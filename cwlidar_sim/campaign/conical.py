@@ -148,14 +148,23 @@ def estimate_bytes(scene: ConicalScene) -> float:
     return 20e3 * len(scene.periods) * len(scene.scan.heights) + 1e6
 
 
-def run_unit(scene: ConicalScene, index: int, params=None, *, status=None):
+def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condition=None, box_options=None):
     """Simulate unit ``index`` (period x height, or a period in cycle mode) as a Dataset on ``period``.
 
     ``params`` is ignored (the tensor comes from ``scene.turbulence`` at the
     unit's height); it is accepted for the runner's uniform call.
+    ``condition`` and ``box_options`` are the virtual twin's
+    (:mod:`cwlidar_sim.campaign.twin`): ``condition(box) -> box`` and the
+    box's exact x period and spacing (see
+    :func:`cwlidar_sim.campaign.conical_period.simulate_conical_period`);
+    a scene naming ``condition_on`` runs only with them.
     """
     import time
 
+    if condition is None and scene.turbulence.condition_on:
+        raise ValueError(f"scene {scene.name!r} names records in [turbulence] condition_on: its periods are the "
+                         f"records' and its boxes are conditioned on them; run it with 'cwlidar-sim twin' "
+                         f"(cwlidar_sim.campaign.twin.run_twin)")
     p, z = scene.units()[index]
     name = scene.unit_names()[index]
     if status is not None:
@@ -169,7 +178,8 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None):
     tier, sub_dwells = lidar.pop("tier"), lidar.pop("sub_dwells")
     kw = dict(speed=p.mean_speed, duration=scene.period_duration(p), scan_revs=s.scan_revs, tier=tier,
               sub_dwells=sub_dwells, spacing=spacing, lateral_doubling=s.lateral_doubling, params=tensor,
-              reference=s.reference, wind_direction_deg=p.wind_direction_deg, variants=scene.lidar.variant_list)
+              reference=s.reference, wind_direction_deg=p.wind_direction_deg, variants=scene.lidar.variant_list,
+              condition=condition, box_options=box_options)
     if s.cycle:
         revs, refocus = lidar.pop("revs_per_height"), lidar.pop("refocus_time")
         rows = conical_period.simulate_conical_cycle(z, scene.unit_seed(index), revs_per_height=revs,

@@ -124,7 +124,8 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
                             lateral_doubling: bool = True, params=None, reference: str = "previous",
                             sub_dwells: int = 8, model: bool = True, lidar_overrides: dict | None = None,
                             excluded_flags: int | None = None, wind_direction_deg: float = 0.0, variants=None,
-                            field_span: float | None = None, box_options: dict | None = None) -> dict:
+                            field_span: float | None = None, box_options: dict | None = None,
+                            condition=None) -> dict:
     """Simulate one period: a Mann box, the conical lidar, a cup and a sonic at one height.
 
     Parameters
@@ -177,7 +178,13 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         the cells' length), ``extent`` ((Lx, Ly, Lz) [m]: a fixed physical
         size, so that boxes of other spacings and one seed share their
         Fourier coefficients), ``hf_compensation`` (bool), ``min_extent``
-        (lateral and vertical minimum [m], default 2 L).
+        (lateral and vertical minimum [m], default 2 L), ``period_x`` (the
+        box's exact x period [m]: the virtual twin's ``U T``).
+    condition : callable, optional
+        ``condition(box) -> box``: the generated box conditioned on records
+        before its lateral half is kept (the virtual twin,
+        :mod:`cwlidar_sim.campaign.twin`); see
+        :func:`cwlidar_sim.sensors.conical.conical_field`.
 
     Returns
     -------
@@ -211,7 +218,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
                      lateral_doubling=lateral_doubling, params=params, reference=reference, sub_dwells=sub_dwells,
                      model=model, lidar_overrides=lidar_overrides, excluded_flags=excluded_flags,
                      wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span,
-                     box_options=box_options)[0]
+                     box_options=box_options, condition=condition)[0]
 
 
 def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_time: float = 0.0,
@@ -219,7 +226,8 @@ def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_
                            spacing: float | None = None, lateral_doubling: bool = True, params=None,
                            reference: str = "previous", sub_dwells: int = 8, model: bool = True,
                            lidar_overrides: dict | None = None, excluded_flags: int | None = None,
-                           wind_direction_deg: float = 0.0, variants=None, field_span: float | None = None) -> list:
+                           wind_direction_deg: float = 0.0, variants=None, field_span: float | None = None,
+                           box_options: dict | None = None, condition=None) -> list:
     """Simulate one period of a lidar cycling through several heights in one box (module notes).
 
     The lidar measures ``revs_per_height`` revolutions at each height in
@@ -262,7 +270,8 @@ def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_
     return _simulate(hs, seed, speed=speed, duration=duration, scan_revs=scan_revs, tier=tier, spacing=spacing,
                      lateral_doubling=lateral_doubling, params=params, reference=reference, sub_dwells=sub_dwells,
                      model=model, lidar_overrides=overrides, excluded_flags=excluded_flags,
-                     wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span)
+                     wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span,
+                     box_options=box_options, condition=condition)
 
 
 def _conical_lidar(heights, tier, cell_length, sub_dwells, lidar_overrides, wind_direction_deg):
@@ -279,7 +288,7 @@ def _conical_lidar(heights, tier, cell_length, sub_dwells, lidar_overrides, wind
 
 def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, lateral_doubling, params, reference,
               sub_dwells, model, lidar_overrides, excluded_flags, wind_direction_deg, variants=None,
-              field_span=None, box_options=None) -> list:
+              field_span=None, box_options=None, condition=None) -> list:
     """The box, the lidar at ``heights`` (one: dwell, several: cycle), cups and sonics, fits: one dict per height."""
     from ..analysis.vad import sonic_radial_variance
     from ..sensors import Cup, Sonic, sample_cup, sample_sonic
@@ -323,7 +332,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
     box_kw = _box_options(box_options, d)
     field = conical_field(box_lidar, U, duration, params,
                           int(box_seq.generate_state(1, np.uint64)[0] >> np.uint64(1)),
-                          lateral_doubling=lateral_doubling, **box_kw)
+                          lateral_doubling=lateral_doubling, condition=condition, **box_kw)
     cost["box"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     rec = measure_conical(field, lidar, duration, U, np.random.default_rng(lid_seq), variants=variants)
@@ -378,7 +387,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
 
 def _box_options(options, spacing) -> dict:
     """conical_field's keywords from ``box_options`` (names checked), the spacing defaulting to ``spacing``."""
-    allowed = ("spacing", "extent", "hf_compensation", "min_extent")
+    allowed = ("spacing", "extent", "hf_compensation", "min_extent", "period_x")
     opts = dict(options or {})
     bad = sorted(set(opts) - set(allowed))
     if bad:

@@ -58,13 +58,14 @@ Example
 from __future__ import annotations
 
 import dataclasses
+import os
 
 import numpy as np
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
 from .conical_period import default_spacing
 from .lidar_spec import ConicalLidarSpec
-from .spec import Spec, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
+from .spec import Spec, check_condition_on, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS"]
 
@@ -198,6 +199,15 @@ class SurfaceTurbulenceSpec(Spec):
         Roughness length [m] of the log law giving u*; in (0, 2].
     alpha_eps, length_scale, gamma : float, optional
         The tensor for 'fixed'.
+    condition_on : tuple of RecordSpec
+        Measured records the boxes are conditioned on (the virtual twin,
+        :mod:`cwlidar_sim.campaign.twin`; run with ``cwlidar-sim twin``):
+        tables of :class:`cwlidar_sim.analysis.records.RecordSpec` keys;
+        ``position`` [m] is relative to the lidar (the cone's apex) in the
+        lidar's frame, x toward its azimuth 0, y toward azimuth 90 deg, z up:
+        a mast at the circle's centre at 40 m is ``[0, 0, 40]``.  Each box is
+        conditioned on the records inside it (a unit whose box holds none is
+        an error).  Relative paths are taken from the scene file's folder.
     """
 
     source: str = "mann1994"
@@ -205,17 +215,10 @@ class SurfaceTurbulenceSpec(Spec):
     alpha_eps: float | None = None
     length_scale: float | None = None
     gamma: float | None = None
-
-    @classmethod
-    def from_dict(cls, d: dict):
-        """Build from the ``[turbulence]`` table; unknown keys are rejected by name."""
-        if isinstance(d, dict) and "condition_on" in d:
-            raise ValueError("turbulence.condition_on: a conical scene cannot be conditioned on records yet (the twin "
-                             "command runs staring scenes; benchmarks/twin_conical.py conditions a conical lidar's "
-                             "box on a mast directly)")
-        return super().from_dict(d)
+    condition_on: tuple = ()
 
     def __post_init__(self):
+        set_field(self, "condition_on", check_condition_on(self.condition_on))
         check_choice("turbulence.source", self.source, ("mann1994", "iec", "fixed"))
         set_field(self, "z0", check_real("turbulence.z0", self.z0, lo=0.0, hi=2.0, lo_open=True))
         given = [self.alpha_eps, self.length_scale, self.gamma]
@@ -420,3 +423,7 @@ class ConicalScene(Spec):
     def replace(self, **changes) -> "ConicalScene":
         """Copy with fields changed (validated)."""
         return dataclasses.replace(self, **changes)
+
+    def resolve(self, path: str) -> str:
+        """A path of the scene file, relative to the scene's folder."""
+        return path if os.path.isabs(path) else os.path.join(self.base_dir, path)

@@ -1,4 +1,4 @@
-"""The virtual twin of a staring campaign: what this lidar would have measured in these very periods.
+"""The virtual twin of a staring or conical campaign: what this lidar would have measured in these very periods.
 
 A scene names its measured records in ``[turbulence] condition_on`` (each
 record's file, kind 'sonic' or 'cup', position [m] relative to the lidar's
@@ -37,6 +37,37 @@ Geometry and clock
   lidar, ``-(U + u, v, w) . n``, at 10 Hz: A2012's resampling for 32 Hz
   records, block averages for multiples of 10 Hz (any other rate is an
   error before anything is computed).
+
+Conical scenes
+--------------
+A conical scene's records are positioned relative to the lidar (the cone's
+apex) in the lidar's frame (x toward azimuth 0, y toward 90 deg, z up) and
+turned into the field's frame by the period template's
+``wind_direction_deg``.  Each box of a period (dwell: one per height;
+cycle: one) is conditioned on the records inside it
+(:func:`conical_unit_records`; a box holding none is an error before
+anything is computed), *before* its lateral half is kept (the kept half of
+a doubled box has not a periodic box's covariance).  The box's x period is
+``U T`` with U the mean of its records' mean speeds (per height in dwell
+mode), a node per record sample where the record is no denser than the
+scene's spacing; the lidar then sees the periodic image within its circle's
+reach of the record's ends (measured by ``benchmarks/twin_edge.py``).  The
+scene's cup, sonic, scanning lidar, VAD fits and CS's model run unchanged
+(:func:`cwlidar_sim.campaign.conical.run_unit`).  Per period
+(``DIR/<scene>_twin_P<k>.nc``, dimensions ``twin``, ``height``, ``scan_s``):
+every result of the unit (lidar mean and std, std ratio, TP, radial
+variance, cup and sonic statistics, ...) for each twin, with
+``*_twin_mean`` and ``*_twin_std`` across the twins, beside the records'
+own statistics.  Seeds: ``SeedSequence(scene.seed, spawn_key=(0x7477, k,
+h, j))`` for period k, box h, twin j.
+
+Dask and resume
+---------------
+Every (period, twin) is one task (:func:`twin_task`, plain data in and
+out); a period's file is assembled and written when its N twins are done
+(:func:`assemble_twin_period`), so a cluster gives the same bits as a local
+run.  A rerun reuses a period's file only if its identity (scene, tensor,
+the period's records' bytes, twin count, layout version) is unchanged.
 """
 
 from __future__ import annotations
@@ -49,15 +80,15 @@ import os
 
 import numpy as np
 
+from ._twin_common import _TWIN_TAG, TWIN_VERSION, record_statistics
+from .conical_scene import ConicalScene
 from .scene import PeriodSpec, Scene
+from .twin_conical import conical_twin, conical_twin_period, conical_twin_scene, conical_unit_records
 
 __all__ = ["TwinPeriod", "twin_periods", "twin_period_scene", "twin_line_records", "focus_coherence",
-           "record_radial_10hz", "run_twin_period", "run_twin", "twin_path", "TWIN_VERSION"]
+           "record_radial_10hz", "twin_task", "assemble_twin_period", "run_twin_period", "run_twin", "twin_path",
+           "conical_unit_records", "conical_twin_scene", "conical_twin", "TWIN_VERSION"]
 
-#: Layout version of the twin files (part of their identity).
-TWIN_VERSION = 1
-#: Second word of the twins' seed sequence ("tw").
-_TWIN_TAG = 0x7477
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -113,7 +144,7 @@ def twin_periods(scene: Scene, paths=None) -> list:
     Parameters
     ----------
     scene : Scene
-        A staring scene with ``[turbulence] condition_on``.
+        A staring or conical scene with ``[turbulence] condition_on``.
     paths : list of str, optional
         Files replacing the records' paths, in order (the same mast, another
         campaign); default the scene's own (relative to its folder).
@@ -126,8 +157,8 @@ def twin_periods(scene: Scene, paths=None) -> list:
     """
     from ..analysis.records import read_periods
 
-    if not isinstance(scene, Scene):
-        raise TypeError(f"the twin needs a staring Scene, got {type(scene).__name__} (conical scenes: not yet)")
+    if not isinstance(scene, (Scene, ConicalScene)):
+        raise TypeError(f"the twin needs a staring Scene or a ConicalScene, got {type(scene).__name__}")
     T = scene.period_duration(scene.periods[0])
     specs = _record_specs(scene, paths)
     per = [read_periods(s, T) for s in specs]
@@ -136,7 +167,7 @@ def twin_periods(scene: Scene, paths=None) -> list:
         raise ValueError("records hold different numbers of whole periods of "
                          f"{T:g} s: " + ", ".join(f"{s.name}: {c}" for s, c in zip(specs, counts))
                          + "; allowed: records of one campaign covering the same time")
-    ref = _reference(scene)
+    ref = _reference(scene) if isinstance(scene, Scene) else -1
     if ref >= 0:
         fs = per[ref][0].sample_rate
         if not (fs == 32.0 or (abs(fs / 10.0 - round(fs / 10.0)) < 1e-9 and fs >= 10.0)):
@@ -259,53 +290,81 @@ def record_radial_10hz(scene: Scene, tp: TwinPeriod, direction) -> np.ndarray | 
     return block_average(vs, int(round(rec.sample_rate / 10.0)))[0]
 
 
-def run_twin_period(scene: Scene, tp: TwinPeriod, n_twins: int, params, *, status=None):
-    """The ``n_twins`` twins of one period and their statistics against the record, as an xarray.Dataset.
-
-    Dimensions ``twin``, ``time_10hz``, ``k``; every variable has ``units``
-    and ``long_name``.  ``*_twin_mean`` / ``*_twin_std`` are the mean and the
-    standard deviation (ddof = 1) across the twins: the conditional
-    distribution's spread given what the records saw.
-    """
-
-    from ..analysis import log_bins, transfer_functions
+def _staring_twin(scene: Scene, tp: TwinPeriod, j: int, params, status=None) -> dict:
+    """Twin ``j`` of period ``tp`` of a staring scene: its 10 Hz series, seed and field plan (a plain dict)."""
     from .staring import run_period
 
-    say = status or (lambda s: None)
+    sc = twin_period_scene(scene, tp, j)
+    plans = []
+    ds = run_period(sc, 0, params, make_field=_make_field(sc, tp, params, plans), status=status)
+    return {"lidar": np.asarray(ds["lidar_10hz"].values[0], dtype=np.float64),
+            "sonic": np.asarray(ds["sonic_10hz"].values[0], dtype=np.float64),
+            "seed": int(sc.periods[0].seed), "plan": plans[-1]}
+
+
+def _staring_period(scene: Scene, tp: TwinPeriod, rows, params):
+    """The period's Dataset from its twins' rows (:func:`_staring_twin`): statistics against the record."""
+    from ..analysis import log_bins, transfer_functions
+    from .planning import plan_field
+
     a = scene.analysis
     k_edges = log_bins(a.k_min, a.k_max, a.per_decade)
-    rows = []
-    rec10 = None
-    plans = []
-    for j in range(n_twins):
-        sc = twin_period_scene(scene, tp, j)
-        say(f"P{tp.index:03d} twin {j + 1}/{n_twins}")
-        ds = run_period(sc, 0, params, make_field=_make_field(sc, tp, params, plans))
-        lid = np.asarray(ds["lidar_10hz"].values[0], dtype=np.float64)
-        son = np.asarray(ds["sonic_10hz"].values[0], dtype=np.float64)
-        if rec10 is None:
-            from .planning import plan_field
-
-            rec10 = record_radial_10hz(scene, tp, plan_field(sc, 0, params).direction)
-            if rec10 is not None and rec10.size != lid.size:
-                raise ValueError(f"period {tp.index}: the record gives {rec10.size} values at 10 Hz, the lidar "
-                                 f"{lid.size}")
-        row = {"lidar": lid, "sonic": son, "seed": int(sc.periods[0].seed)}
+    rec10 = record_radial_10hz(scene, tp, plan_field(twin_period_scene(scene, tp, 0), 0, params).direction)
+    n10 = rows[0]["lidar"].size
+    if rec10 is not None and rec10.size != n10:
+        raise ValueError(f"period {tp.index}: the record gives {rec10.size} values at 10 Hz, the lidar {n10}")
+    rows = [dict(r) for r in rows]
+    for row in rows:
         if rec10 is not None:
-            tf = transfer_functions(lid, rec10, fs=10.0, U=tp.U, k_edges=k_edges, segment_duration=a.segment_duration,
-                                    window=a.window, detrend=a.detrend)
+            tf = transfer_functions(row["lidar"], rec10, fs=10.0, U=tp.U, k_edges=k_edges,
+                                    segment_duration=a.segment_duration, window=a.window, detrend=a.detrend)
             with np.errstate(invalid="ignore", divide="ignore"):
                 coh = np.abs(tf.chi_k) ** 2 / (tf.F_r_k * tf.F_s_k)
             row.update(T1=np.asarray(tf.T1_k), T2=np.asarray(tf.T2_k), coh=coh, k=np.asarray(tf.k_k))
-        rows.append(row)
     out = _dataset(scene, tp, rows, rec10, k_edges)
     if "k" in out.coords:
-        g2, g4 = focus_coherence(scene, tp, plans[-1], params, k_edges)
+        g2, g4 = focus_coherence(scene, tp, rows[-1]["plan"], params, k_edges)
         out["coherence_theory"] = (("k",), g2, {"units": "1", "long_name": "theory: squared coherence of u at the "
                                                 "focus with the records (twin lidar vs record)"})
         out["coherence_theory_twin_truth"] = (("k",), g4, {"units": "1", "long_name": "theory: squared coherence of "
                                                            "a twin's lidar with the truth's (gamma^2 squared)"})
     return out
+
+
+def twin_task(scene, tp: TwinPeriod, j: int, params=None, status=None):
+    """Twin ``j`` of period ``tp``: the unit of work (a Dask task); plain data, the same bits wherever it runs.
+
+    Staring scenes: a dict of the twin's series (:func:`assemble_twin_period`
+    turns the N of a period into its Dataset); conical scenes: the twin's
+    Dataset on ``height``.
+    """
+    if isinstance(scene, ConicalScene):
+        return conical_twin(scene, tp, j, status=status)
+    return _staring_twin(scene, tp, j, params, status=status)
+
+
+def assemble_twin_period(scene, tp: TwinPeriod, results, params=None):
+    """The period's Dataset from its twins' :func:`twin_task` results, in twin order."""
+    if isinstance(scene, ConicalScene):
+        return conical_twin_period(scene, tp, list(results))
+    return _staring_period(scene, tp, list(results), params)
+
+
+def run_twin_period(scene, tp: TwinPeriod, n_twins: int, params, *, status=None):
+    """The ``n_twins`` twins of one period and their statistics against the record, as an xarray.Dataset.
+
+    Staring scenes: dimensions ``twin``, ``time_10hz``, ``k``; conical
+    scenes: ``twin``, ``height``, ``scan_s`` (:func:`conical_twin`).  Every
+    variable has ``units`` and ``long_name``.  ``*_twin_mean`` /
+    ``*_twin_std`` are the mean and the standard deviation (ddof = 1) across
+    the twins: the conditional distribution's spread given what the records saw.
+    """
+    say = status or (lambda s: None)
+    rows = []
+    for j in range(n_twins):
+        say(f"P{tp.index:03d} twin {j + 1}/{n_twins}")
+        rows.append(twin_task(scene, tp, j, params))
+    return assemble_twin_period(scene, tp, rows, params)
 
 
 def _stats(x):
@@ -356,18 +415,14 @@ def _dataset(scene, tp, rows, rec10, k_edges):
                                                      "long_name": "the reference record's speed toward the lidar, 10 Hz"})
         dv["record_mean"] = ((), rm, {"units": "m s-1", "long_name": "10-min mean of record_10hz"})
         dv["record_std"] = ((), rs, {"units": "m s-1", "long_name": "10-min std of record_10hz"})
-    for i, rec in enumerate(tp.records):
-        key = "speed" if rec.spec.kind == "cup" else "u"
-        dv[f"record{i}_mean_speed"] = ((), rec.mean_speed, {"units": "m s-1", "long_name": f"{rec.spec.name}: mean {key}"})
-        dv[f"record{i}_std"] = ((), float(np.std(rec.values[key])),
-                                {"units": "m s-1", "long_name": f"{rec.spec.name}: std of {key}"})
-        dv[f"record{i}_filled"] = ((), rec.n_filled, {"units": "1", "long_name": f"{rec.spec.name}: filled samples"})
     attrs = {"scene": scene.name, "period": f"P{tp.index:03d}", "period_index": tp.index, "n_twins": N,
              "convection_speed": tp.U, "duration": tp.duration, "record_delay": tp.delay,
              "records": json.dumps([r.spec.name for r in tp.records]),
              "reference_record": (tp.records[_reference(scene)].spec.name if rec10 is not None else ""),
              "twin_version": TWIN_VERSION}
-    return xr.Dataset(dv, coords=coords, attrs=attrs)
+    out = xr.Dataset(dv, coords=coords, attrs=attrs)
+    record_statistics(out, tp)
+    return out
 
 
 def twin_path(out_dir, scene: Scene, index: int) -> str:
@@ -387,13 +442,13 @@ def _identity(scene, params, tp, n_twins):
     return h.hexdigest()[:32]
 
 
-def run_twin(scene: Scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, periods=None) -> list:
+def run_twin(scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, periods=None, client=None) -> list:
     """The twins of every period of the scene's records, one NetCDF per period; resumes.
 
     Parameters
     ----------
-    scene : Scene
-        A staring scene with ``[turbulence] condition_on``.
+    scene : Scene or ConicalScene
+        A staring or conical scene with ``[turbulence] condition_on``.
     out_dir : str or path
         Output folder (created).
     paths : list of str, optional
@@ -405,14 +460,17 @@ def run_twin(scene: Scene, out_dir, *, paths=None, n_twins: int = 8, progress=No
         Called with a line of text per stage (default: silent).
     periods : list of int, optional
         Only these period indices.
+    client : dask.distributed.Client, optional
+        Run every (period, twin) as a task on this cluster; default: here,
+        one after the other.  The files are identical bit for bit (each twin
+        is seeded from the scene, the period and its index alone).
 
     Returns
     -------
     list of str
-        The period files, written or found complete.
+        The period files, written or found complete, in period order.
     """
     from .._validation import check_int
-    from .planning import scene_params
     from .store import read_results, write_results
 
     n_twins = check_int("n_twins", n_twins, lo=1, hi=10000)
@@ -423,9 +481,18 @@ def run_twin(scene: Scene, out_dir, *, paths=None, n_twins: int = 8, progress=No
         if bad:
             raise ValueError(f"periods {bad} are not in the records' {len(tps)} period(s)")
         tps = [tps[int(i)] for i in periods]
-    params, _ = scene_params(scene)
+    params = None
+    if isinstance(scene, Scene):
+        from .planning import scene_params
+
+        params, _ = scene_params(scene)
+    else:  # every box's records before anything is computed
+        for tp in tps:
+            for h in range(1 if scene.scan.cycle else len(scene.scan.heights)):
+                conical_unit_records(scene, tp, h)
     os.makedirs(out_dir, exist_ok=True)
-    files = []
+    files = {}
+    todo = []
     for n, tp in enumerate(tps):
         path = twin_path(out_dir, scene, tp.index)
         key = _identity(scene, params, tp, n_twins)
@@ -436,13 +503,42 @@ def run_twin(scene: Scene, out_dir, *, paths=None, n_twins: int = 8, progress=No
                 done = False
             if done:
                 say(f"[{n + 1}/{len(tps)}] P{tp.index:03d}: done already ({path})")
-                files.append(path)
+                files[n] = path
                 continue
             say(f"[{n + 1}/{len(tps)}] P{tp.index:03d}: {path} is from other inputs; recomputing")
-        ds = run_twin_period(scene, tp, n_twins, params,
-                             status=lambda s, n=n: say(f"[{n + 1}/{len(tps)}] {s}"))
+        todo.append((n, tp, path, key))
+
+    def finish(n, tp, path, key, results):
+        ds = assemble_twin_period(scene, tp, results, params)
         ds.attrs["identity"] = key
         write_results(ds, path)
         say(f"[{n + 1}/{len(tps)}] P{tp.index:03d}: wrote {path}")
-        files.append(path)
-    return files
+        files[n] = path
+
+    if client is not None and todo:
+        from dask.distributed import as_completed
+
+        futures, pending = {}, {}
+        for n, tp, path, key in todo:
+            pending[n] = [None] * n_twins
+            for j in range(n_twins):
+                futures[client.submit(twin_task, scene, tp, j, params, pure=False)] = (n, j)
+        info = {n: (tp, path, key) for n, tp, path, key in todo}
+        try:
+            for fut in as_completed(futures):
+                n, j = futures[fut]
+                pending[n][j] = fut.result()
+                say(f"[{n + 1}/{len(tps)}] P{info[n][0].index:03d} twin {j + 1}/{n_twins} done")
+                if all(r is not None for r in pending[n]):
+                    finish(n, *info[n], pending.pop(n))
+        finally:
+            for fut in futures:
+                fut.cancel()
+    else:
+        for n, tp, path, key in todo:
+            results = []
+            for j in range(n_twins):
+                say(f"[{n + 1}/{len(tps)}] P{tp.index:03d} twin {j + 1}/{n_twins}")
+                results.append(twin_task(scene, tp, j, params))
+            finish(n, tp, path, key, results)
+    return [files[n] for n in sorted(files)]

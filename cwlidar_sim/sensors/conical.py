@@ -85,6 +85,7 @@ from ..turbulence.surface_layer import surface_layer_parameters
 from .base import CLOUD_BASE_MAX, CLOUD_STRENGTH_MAX, BeamSampler, LidarBase, field_subcell_spread, seed_sequence
 
 __all__ = [
+    "conical_box_yz",
     "ConicalLidar",
     "ConicalRecord",
     "ScanSchedule",
@@ -505,7 +506,7 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
 # ---------------------------------------------------------------------------
 def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: int, *, spacing,
                   lateral_doubling: bool = True, min_extent: float | None = None, extent=None,
-                  hf_compensation: bool = False, dtype=np.float32):
+                  hf_compensation: bool = False, dtype=np.float32, period_x: float | None = None, condition=None):
     """A Mann box holding a conical lidar's cells for a record, placed in the lidar's frame.
 
     Parameters
@@ -541,13 +542,29 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
         The box's high-frequency compensation
         (:func:`cwlidar_sim.turbulence.generate_box`).
     dtype : float32 or float64
+    period_x : float, optional
+        The box's x period [m], exactly (exclusive with ``extent``): the
+        virtual twin's box, whose period is the records' ``U T`` so that each
+        record covers one whole line (:mod:`cwlidar_sim.campaign.twin`).
+        ``nx`` is ``period_x / spacing[0]`` where that is a whole number
+        (the twin's choice: a node per record sample), else the smallest
+        FFT-friendly count with ``period_x / nx <= spacing[0]``; dx is
+        ``period_x / nx``.  Shorter than ``U duration``
+        plus the circle, so the lidar sees the periodic image within the
+        circle's reach (a few seconds) of the record's ends.
+    condition : callable, optional
+        ``condition(box) -> box`` applied to the generated box (all of it,
+        both lateral halves, in the lidar's frame) before one half is kept:
+        the twin conditions it there on the records, since the kept half of
+        a doubled box does not have a periodic box's covariance.
 
     Returns
     -------
     xarray.Dataset
         u, v, w [m/s] on x, y, z; y centred on the lidar, z from below the
         lowest cell; attrs hold the generation settings (``period_x``,
-        ``lateral_doubling``, ``generated_shape``).
+        ``lateral_doubling``, ``generated_shape``) and those ``condition``
+        adds.
 
     Notes
     -----
@@ -576,19 +593,22 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
     dx, dy, dz = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, hi=100.0, lo_open=True))
     lateral_doubling = check_bool("lateral_doubling", lateral_doubling)
     hf_compensation = check_bool("hf_compensation", hf_compensation)
-    ext = 2.0 * params.length_scale if min_extent is None else check_real("min_extent", min_extent, lo=0.0)
-    radius = max(lidar.beam_extent(z)["radius"] for z in lidar.heights)
-    z_lo = min(lidar.beam_extent(z)["z_lo"] for z in lidar.heights)
-    z_hi = max(lidar.beam_extent(z)["z_hi"] for z in lidar.heights)
-    for z in lidar.heights:  # in-situ sensors at the measurement heights
-        z_lo, z_hi = min(z_lo, lidar.position[2] + z), max(z_hi, lidar.position[2] + z)
-    width = max(2.0 * radius + 2.0 * dy, ext)
-    height = max(z_hi - z_lo + 2.0 * dz, ext)
+    radius, z_lo, z_hi, width, height = _lateral_needs(lidar, params, dy, dz, min_extent)
     length = U * duration + 2.0 * radius + 4.0 * dx
+    if period_x is not None:
+        if extent is not None:
+            raise ValueError("conical_field: give period_x or extent, not both")
+        period_x = check_real("period_x", period_x, lo=0.0, hi=1e7, lo_open=True)
     if extent is None:
         ny = int(math.ceil(width / dy)) + 1
         nz = int(math.ceil(height / dz)) + 1
-        nx = _fast_size(int(math.ceil(length / dx)))
+        if period_x is None:
+            nx = _fast_size(int(math.ceil(length / dx)))
+        else:
+            nx = int(round(period_x / dx))
+            if abs(nx * dx - period_x) > 1e-9 * period_x:
+                nx = _fast_size(int(math.ceil(period_x / dx * (1 - 1e-12))))
+            dx = period_x / nx
     else:
         from ..turbulence.grids import grid_for_extent
 
@@ -603,6 +623,8 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
     ny_gen = 2 * ny if lateral_doubling else ny
     box = generate_box(params, (nx, ny_gen, nz), (dx, dy, dz), seed, hf_compensation=hf_compensation, dtype=dtype)
     zc = 0.5 * (z_lo + z_hi)
+    if condition is not None and extent is not None:
+        raise ValueError("conical_field: condition needs the default placement (no extent)")
     if extent is None:
         x0 = lidar.position[0] - radius - dx
         y0 = lidar.position[1] - 0.5 * (ny - 1) * dy
@@ -611,6 +633,9 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
         x0 = lidar.position[0] - radius - 0.5 * (ext3[0] - length + 4.0 * dx)
         y0 = lidar.position[1] - 0.5 * ext3[1]
         zb = zc - 0.5 * ext3[2]
+    if condition is not None:
+        box = box.assign_coords(x=x0 + np.arange(nx) * dx, y=y0 + np.arange(ny_gen) * dy, z=zb + np.arange(nz) * dz)
+        box = condition(box)
     data = {c: (("x", "y", "z"), np.ascontiguousarray(box[c].values[:, :ny, :])) for c in ("u", "v", "w")}
     attrs = dict(box.attrs)
     attrs.update(period_x=nx * dx, lateral_doubling=int(lateral_doubling), generated_shape=(nx, ny_gen, nz))
@@ -618,6 +643,37 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
     coords = {"x": x0 + np.arange(nx) * dx, "y": y0 + np.arange(ny) * dy,
               "z": zb + np.arange(nz) * dz}
     return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def _lateral_needs(lidar, params, dy, dz, min_extent):
+    """(radius, z_lo, z_hi, width, height) [m]: the cone's reach and the kept box's lateral and vertical needs."""
+    ext = 2.0 * params.length_scale if min_extent is None else check_real("min_extent", min_extent, lo=0.0)
+    radius = max(lidar.beam_extent(z)["radius"] for z in lidar.heights)
+    z_lo = min(lidar.beam_extent(z)["z_lo"] for z in lidar.heights)
+    z_hi = max(lidar.beam_extent(z)["z_hi"] for z in lidar.heights)
+    for z in lidar.heights:  # in-situ sensors at the measurement heights
+        z_lo, z_hi = min(z_lo, lidar.position[2] + z), max(z_hi, lidar.position[2] + z)
+    return radius, z_lo, z_hi, max(2.0 * radius + 2.0 * dy, ext), max(z_hi - z_lo + 2.0 * dz, ext)
+
+
+def conical_box_yz(lidar: ConicalLidar, params, *, spacing, lateral_doubling: bool = True,
+                   min_extent: float | None = None):
+    """The y and z nodes [m] of the box :func:`conical_field` generates (both lateral halves; default placement).
+
+    They do not depend on the wind or the record length: the virtual twin
+    uses them to choose the records a box can be conditioned on before it
+    sizes the box's x period from those records' mean speed.
+    """
+    if isinstance(spacing, (int, float, np.integer, np.floating)) and not isinstance(spacing, bool):
+        spacing = (spacing,) * 3
+    _, dy, dz = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, hi=100.0, lo_open=True))
+    _, z_lo, z_hi, width, height = _lateral_needs(lidar, params, dy, dz, min_extent)
+    ny = int(math.ceil(width / dy)) + 1
+    nz = int(math.ceil(height / dz)) + 1
+    ny_gen = 2 * ny if check_bool("lateral_doubling", lateral_doubling) else ny
+    y0 = lidar.position[1] - 0.5 * (ny - 1) * dy
+    zb = 0.5 * (z_lo + z_hi) - 0.5 * (nz - 1) * dz
+    return y0 + np.arange(ny_gen) * dy, zb + np.arange(nz) * dz
 
 
 def _fast_size(n: int) -> int:

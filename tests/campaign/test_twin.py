@@ -72,8 +72,9 @@ def test_condition_on_is_validated_by_name_and_round_trips(tmp_path):
     assert "condition_on" not in plain.as_dict()["turbulence"]
 
 
-def test_conditioned_scenes_run_only_as_twins_and_conical_scenes_refuse_records():
+def test_conditioned_scenes_run_only_as_twins_staring_and_conical():
     from cwlidar_sim.campaign import bundled_scene
+    from cwlidar_sim.campaign.conical import run_unit
     from cwlidar_sim.campaign.planning import scene_params
     from cwlidar_sim.campaign.scene import scene_from_dict
     from cwlidar_sim.campaign.staring import run_period
@@ -82,8 +83,13 @@ def test_conditioned_scenes_run_only_as_twins_and_conical_scenes_refuse_records(
     with pytest.raises(ValueError, match="run it with 'cwlidar-sim twin'"):
         run_period(s, 0, scene_params(s)[0])
     d = bundled_scene("cs").as_dict()
-    d["turbulence"]["condition_on"] = [{"path": "m.csv"}]
-    with pytest.raises(ValueError, match="a conical scene cannot be conditioned on records yet"):
+    d["turbulence"]["condition_on"] = [{"path": "m.csv", "position": [0.0, 0.0, 40.0]}]
+    c = scene_from_dict(d)
+    assert c.turbulence.condition_on[0].position == (0.0, 0.0, 40.0) and scene_from_dict(c.as_dict()) == c
+    with pytest.raises(ValueError, match="run it with 'cwlidar-sim twin'"):
+        run_unit(c, 0)
+    d["turbulence"]["condition_on"] = [{"path": "m.csv", "nois": 0.1}]
+    with pytest.raises(ValueError, match=r"condition_on\[0\]: unknown key\(s\) for RecordSpec: \['nois'\]"):
         scene_from_dict(d)
 
 

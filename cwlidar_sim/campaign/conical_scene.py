@@ -65,7 +65,7 @@ import numpy as np
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
 from .conical_period import default_spacing
 from .lidar_spec import ConicalLidarSpec
-from .spec import Spec, check_condition_on, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
+from .spec import Spec, check_condition_on, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS"]
 
@@ -120,13 +120,8 @@ class ScanSpec(Spec):
     refocus_time: float = 0.0
 
     def __post_init__(self):
-        h = tuple(self.heights)
-        if not 1 <= len(h) <= 20:
-            raise ValueError(f"scan.heights needs 1 to 20 heights, got {len(h)}")
-        h = tuple(check_real(f"scan.heights[{i}]", z, lo=1.0, hi=1000.0) for i, z in enumerate(h))
-        if len(set(h)) != len(h):
-            raise ValueError(f"scan.heights must be distinct, got {h}")
-        set_field(self, "heights", h)
+        set_field(self, "heights", check_distinct_reals("scan.heights", self.heights, count=(1, 20), noun="heights",
+                                                        lo=1.0, hi=1000.0))
         r = tuple(self.scan_revs)
         if not r:
             raise ValueError("scan.scan_revs needs at least one scan length, e.g. [1, 3]")
@@ -144,8 +139,8 @@ class ScanSpec(Spec):
         set_field(self, "revs_per_height", check_int("scan.revs_per_height", self.revs_per_height, lo=1, hi=10000))
         set_field(self, "refocus_time", check_real("scan.refocus_time", self.refocus_time, lo=0.0, hi=100.0))
         if self.cycle:
-            if len(h) < 2:
-                raise ValueError(f"scan.cycle = true cycles through the heights and needs at least 2, got {list(h)}; "
+            if len(self.heights) < 2:
+                raise ValueError(f"scan.cycle = true cycles through the heights and needs at least 2, got {list(self.heights)}; "
                                  f"allowed: cycle = false for one height")
             bad = [n for n in self.scan_revs if self.revs_per_height % n]
             if bad:

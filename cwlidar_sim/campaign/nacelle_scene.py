@@ -55,7 +55,7 @@ import numpy as np
 
 from .._validation import check_bool, check_int, check_real, check_seed, check_str
 from .lidar_spec import LidarSpecBase
-from .spec import Spec, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
+from .spec import Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
 
 __all__ = ["NacelleScanSpec", "NacelleTurbulenceSpec", "NacellePeriodSpec", "NacelleLidarSpec",
            "NacellePlatformSpec", "PLATFORM_DOFS", "NacelleScene"]
@@ -139,13 +139,8 @@ class NacelleScanSpec(Spec):
     theory_beams: int = 8
 
     def __post_init__(self):
-        f = tuple(self.focus_distances)
-        if not 1 <= len(f) <= 10:
-            raise ValueError(f"scan.focus_distances needs 1 to 10 focus distances, got {len(f)}")
-        f = tuple(check_real(f"scan.focus_distances[{i}]", r, lo=10.0, hi=1000.0) for i, r in enumerate(f))
-        if len(set(f)) != len(f):
-            raise ValueError(f"scan.focus_distances must be distinct, got {f}")
-        set_field(self, "focus_distances", f)
+        set_field(self, "focus_distances", check_distinct_reals("scan.focus_distances", self.focus_distances,
+                                                                count=(1, 10), noun="focus distances", lo=10.0, hi=1000.0))
         b = tuple(check_real(f"scan.beam_azimuths_deg[{i}]", a) for i, a in enumerate(self.beam_azimuths_deg))
         set_field(self, "beam_azimuths_deg", b)
         set_field(self, "rotor_radius", check_real("scan.rotor_radius", self.rotor_radius, lo=0.0, hi=200.0,

@@ -19,11 +19,11 @@ from __future__ import annotations
 import dataclasses
 import os
 
-from .._validation import check_keys, check_str
+from .._validation import check_keys, check_real, check_str
 
 __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field", "check_scene_name",
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
-           "parse_toml"]
+           "parse_toml", "check_distinct_reals"]
 
 #: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`);
 #: raised whenever stored periods would differ from what the code now computes (3: the gridded
@@ -79,6 +79,21 @@ class Spec:
         """Build from a TOML-shaped mapping; unknown keys are rejected by name."""
         check_keys(cls, d, required=cls._required)
         return cls(**d)
+
+
+def check_distinct_reals(name: str, values, *, count: tuple, noun: str, lo: float, hi: float) -> tuple:
+    """A scene's list of distinct reals (heights, focus distances) as a checked tuple.
+
+    ``count`` is the (min, max) number of items, each ``name[i]`` in [lo, hi]; a wrong count, an
+    item out of range or a repeated value is a ValueError naming the field.
+    """
+    v = tuple(values)
+    if not count[0] <= len(v) <= count[1]:
+        raise ValueError(f"{name} needs {count[0]} to {count[1]} {noun}, got {len(v)}")
+    v = tuple(check_real(f"{name}[{i}]", x, lo=lo, hi=hi) for i, x in enumerate(v))
+    if len(set(v)) != len(v):
+        raise ValueError(f"{name} must be distinct, got {v}")
+    return v
 
 
 def check_scene_name(name) -> str:

@@ -58,14 +58,13 @@ Example
 from __future__ import annotations
 
 import dataclasses
-import os
 
 import numpy as np
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
 from .conical_period import default_spacing
 from .lidar_spec import ConicalLidarSpec
-from .spec import Spec, check_condition_on, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
+from .spec import Spec, check_condition_on, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS"]
 
@@ -421,4 +420,4 @@ class ConicalScene(Spec):
 
     def resolve(self, path: str) -> str:
         """A path of the scene file, relative to the scene's folder."""
-        return path if os.path.isabs(path) else os.path.join(self.base_dir, path)
+        return resolve_path(self.base_dir, path)

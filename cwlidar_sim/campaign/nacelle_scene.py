@@ -55,7 +55,7 @@ import numpy as np
 
 from .._validation import check_bool, check_int, check_real, check_seed, check_str
 from .lidar_spec import LidarSpecBase
-from .spec import Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, set_field
+from .spec import Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
 
 __all__ = ["NacelleScanSpec", "NacelleTurbulenceSpec", "NacellePeriodSpec", "NacelleLidarSpec",
            "NacellePlatformSpec", "PLATFORM_DOFS", "NacelleScene"]
@@ -318,7 +318,7 @@ class NacellePlatformSpec(Spec):
         from ..sensors.platform import PlatformMotion
 
         if self.csv:
-            path = self.csv if os.path.isabs(self.csv) else os.path.join(base_dir, self.csv)
+            path = resolve_path(base_dir, self.csv)
             if not os.path.isfile(path):
                 raise ValueError(f"platform.csv: no file {path!r} (resolved relative to the scene file)")
             data = np.genfromtxt(path, delimiter=",", names=True, dtype=np.float64)

@@ -48,13 +48,12 @@ Example
 from __future__ import annotations
 
 import dataclasses
-import os
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
 from .conical_scene import ConicalScene
 from .lidar_spec import CHAIN_TIERS, LidarSpecBase
 from .spec import (SCENE_KINDS, Spec, check_condition_on, check_periods, check_scene_keys, check_scene_name,
-                   parse_toml, periods_from_dict, read_text_file, set_field)
+                   parse_toml, periods_from_dict, read_text_file, resolve_path, set_field)
 
 __all__ = [
     "FIELD_KINDS",
@@ -437,7 +436,7 @@ class Scene(Spec):
 
     def resolve(self, path: str) -> str:
         """A path of the scene file, relative to the scene's folder."""
-        return path if os.path.isabs(path) else os.path.join(self.base_dir, path)
+        return resolve_path(self.base_dir, path)
 
 
 def loads_scene(text: str, *, base_dir: str = "."):

@@ -23,7 +23,7 @@ from .._validation import check_keys, check_real, check_str
 
 __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field", "check_scene_name",
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
-           "parse_toml", "check_distinct_reals"]
+           "parse_toml", "check_distinct_reals", "resolve_path"]
 
 #: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`);
 #: raised whenever stored periods would differ from what the code now computes (3: the gridded
@@ -79,6 +79,11 @@ class Spec:
         """Build from a TOML-shaped mapping; unknown keys are rejected by name."""
         check_keys(cls, d, required=cls._required)
         return cls(**d)
+
+
+def resolve_path(base_dir: str, path: str) -> str:
+    """A path named in a scene file: absolute as given, else relative to the scene file's folder ``base_dir``."""
+    return path if os.path.isabs(path) else os.path.join(base_dir, path)
 
 
 def check_distinct_reals(name: str, values, *, count: tuple, noun: str, lo: float, hi: float) -> tuple:

@@ -68,11 +68,6 @@ def line_spectra(params: MannParameters, n: int, dx: float):
     return _line_spectra(params, check_int("n", n, lo=2), check_real("dx", dx, lo=0.0, lo_open=True))
 
 
-def _one_point_parallel(k1_k, params):
-    """one_point_spectra as one (4, n) array (the quadrature runs on the package's threads)."""
-    return np.array(one_point_spectra(k1_k, params))
-
-
 _line_knots_lock = threading.Lock()
 
 
@@ -100,7 +95,8 @@ def _line_knots(params, x_lo, x_hi):
     with _line_knots_lock:
         missing = [int(i) for i in j if int(i) not in store]
     if missing:
-        vals = _one_point_parallel(np.exp(np.array(missing) * h), params).T
+        # the quadrature runs on the package's threads (turbulence.spectra)
+        vals = np.array(one_point_spectra(np.exp(np.array(missing) * h), params)).T
         with _line_knots_lock:
             store.update(zip(missing, vals))
     with _line_knots_lock:

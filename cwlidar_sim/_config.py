@@ -82,6 +82,53 @@ def apply_numba_threads() -> int:
     return n
 
 
+# ---------------------------------------------------------------------------
+# Long-lived worker threads, shared by every parallel pass of the package
+# ---------------------------------------------------------------------------
+_pool_lock = threading.Lock()
+_pool = None
+_pool_size = 0
+_in_pool = threading.local()
+
+
+def _mark_pool_thread():
+    _in_pool.flag = True
+
+
+def _forget_pool():
+    # a forked child inherits the executor but not its threads
+    global _pool, _pool_lock, _pool_size
+    _pool, _pool_size = None, 0
+    _pool_lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool)
+
+
+def in_pool_thread() -> bool:
+    """True when called from one of the package's worker threads (nested parallel passes run inline)."""
+    return getattr(_in_pool, "flag", False)
+
+
+def get_pool(n: int):
+    """The package's pool of ``n`` worker threads, made once and kept (a new count makes a new pool).
+
+    Starting a thread costs about 0.6 ms on the 2-core VMs this runs on, and
+    a campaign period makes thousands of parallel passes (row FFTs, box
+    slabs, fits); idle threads cost nothing.
+    """
+    global _pool, _pool_size
+    with _pool_lock:
+        if _pool is None or _pool_size != n:
+            old = _pool
+            _pool = ThreadPoolExecutor(n, thread_name_prefix="cwlidar_sim", initializer=_mark_pool_thread)
+            _pool_size = n
+            if old is not None:
+                old.shutdown(wait=False)
+        return _pool
+
+
 def run_static(tasks, worker_fn) -> None:
     """Run ``worker_fn(w, task)`` for every task on the configured threads.
 
@@ -89,11 +136,14 @@ def run_static(tasks, worker_fn) -> None:
     task's result independent of the worker that runs it (tasks are cut by
     data index, and each carries its own random stream), so the outcome is
     the same for any thread count.  ``worker_fn`` should release the GIL
-    (numba ``nogil`` kernels, FFTW, numpy's random generators do).
+    (numba ``nogil`` kernels, FFTW, numpy's random generators do).  The
+    threads are the package's long-lived pool (:func:`get_pool`); called from
+    one of them, the tasks run inline.
     """
     tasks = list(tasks)
-    nthreads = min(get_num_threads(), len(tasks))
-    if nthreads <= 1:
+    n = get_num_threads()
+    nthreads = min(n, len(tasks))
+    if nthreads <= 1 or in_pool_thread():
         for t in tasks:
             worker_fn(0, t)
         return
@@ -102,6 +152,6 @@ def run_static(tasks, worker_fn) -> None:
         for t in tasks[w::nthreads]:
             worker_fn(w, t)
 
-    with ThreadPoolExecutor(nthreads) as ex:
-        for f in [ex.submit(run, w) for w in range(nthreads)]:
-            f.result()
+    pool = get_pool(n)
+    for f in [pool.submit(run, w) for w in range(nthreads)]:
+        f.result()

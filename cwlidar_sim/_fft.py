@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 import pyfftw
 
-from ._config import get_num_threads, run_static as _run_chunks
+from ._config import get_num_threads, get_pool, in_pool_thread, run_static as _run_chunks
 
 #: Target number of complex elements in one chunk of a batched pass.
 _CHUNK_ELEMENTS = 1 << 17
@@ -311,48 +311,9 @@ class LineC2C:
 
 
 # ---------------------------------------------------------------------------
-# Dynamic scheduling on long-lived threads (box generator and signal chain).
+# Dynamic scheduling on the package's long-lived threads (box generator and signal chain).
 # ---------------------------------------------------------------------------
 import itertools as _itertools  # noqa: E402
-import os as _os  # noqa: E402
-import threading as _threading  # noqa: E402
-
-_pool_lock = _threading.Lock()
-_pool = None
-_pool_size = 0
-_in_pool = _threading.local()
-
-
-def _mark_pool_thread():
-    _in_pool.flag = True
-
-
-def _forget_pool():
-    # a forked child inherits the executor but not its threads
-    global _pool, _pool_lock, _pool_size
-    _pool, _pool_size = None, 0
-    _pool_lock = _threading.Lock()
-
-
-if hasattr(_os, "register_at_fork"):
-    _os.register_at_fork(after_in_child=_forget_pool)
-
-
-def _get_pool(n):
-    # Starting a thread costs about 0.6 ms on the 2-core VMs this runs on;
-    # a box makes eight parallel passes, so its threads are kept between
-    # calls (idle threads cost nothing; a new thread count gets a new pool).
-    global _pool, _pool_size
-    from concurrent.futures import ThreadPoolExecutor
-
-    with _pool_lock:
-        if _pool is None or _pool_size != n:
-            old = _pool
-            _pool = ThreadPoolExecutor(n, thread_name_prefix="cwlidar_sim", initializer=_mark_pool_thread)
-            _pool_size = n
-            if old is not None:
-                old.shutdown(wait=False)
-        return _pool
 
 
 def run_dynamic(tasks, worker_fn) -> None:
@@ -370,7 +331,7 @@ def run_dynamic(tasks, worker_fn) -> None:
     tasks = list(tasks)
     n = get_num_threads()
     nthreads = min(n, len(tasks))
-    if nthreads <= 1 or getattr(_in_pool, "flag", False):
+    if nthreads <= 1 or in_pool_thread():
         for t in tasks:
             worker_fn(0, t)
         return
@@ -382,7 +343,7 @@ def run_dynamic(tasks, worker_fn) -> None:
                 return
             worker_fn(w, tasks[i])
 
-    pool = _get_pool(n)
+    pool = get_pool(n)
     for f in [pool.submit(run, w) for w in range(nthreads)]:
         f.result()
 

@@ -30,7 +30,8 @@ import math
 
 import numpy as np
 
-from .._validation import check_real
+from .._validation import check_choice, check_real
+from ._gridded import gridded_lag_tasks
 from .instrument import Instrument
 from .noise import lag_coefficients, noise_floor
 from .spectral import _as_2d, _signal_lag_rows, _weights, cnr_linear
@@ -55,9 +56,24 @@ def signal_rows(instrument, vlos_es, amp_s, a_d, *, method: str = "gridded") -> 
     """
     from .._fft import rfft_rows
 
-    lags = _signal_lag_rows(instrument, vlos_es, amp_s, a_d, method)
-    sig = np.ascontiguousarray(rfft_rows(lags).real)
-    np.maximum(sig, 0.0, out=sig)
+    check_choice("method", method, ("exact", "gridded"))
+    if method == "exact":
+        lags = _signal_lag_rows(instrument, vlos_es, amp_s, a_d, method)
+        sig = np.ascontiguousarray(rfft_rows(lags).real)
+        np.maximum(sig, 0.0, out=sig)
+        return sig
+    # gridded: the cosine sums, their fold and transform a task at a time in the worker's cache
+    n = instrument.n_fft
+    x = np.ascontiguousarray(np.asarray(vlos_es, dtype=np.float64) / instrument.bin_speed)
+    if x.ndim != 2:
+        raise ValueError(f"vlos_es must be 2-D (estimates, cells), got shape {x.shape}")
+    sig = np.empty((x.shape[0], n // 2 + 1))
+
+    def real_part(lo, hi, f_rjk):
+        np.maximum(f_rjk[:, 0, :].real, 0.0, out=sig[lo:hi])
+
+    gridded_lag_tasks(x, np.ascontiguousarray(amp_s, dtype=np.float64), np.ones(2 * n),
+                      np.ascontiguousarray(a_d, dtype=np.float64), n, n, 1, real_part)
     return sig
 
 

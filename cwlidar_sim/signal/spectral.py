@@ -98,6 +98,7 @@ import math
 import numpy as np
 
 from .._validation import check_choice, check_int, check_real
+from ._gridded import GRID_HALF_WIDTH, gridded_lag_tasks  # noqa: F401  (GRID_HALF_WIDTH: part of the notes)
 from ._tasks import _ROWS_PER_TASK, _rng, _run_tasks
 from .noise import (  # noqa: F401  (re-exported: part of tier 2's public names)
     _G_CUT,
@@ -431,55 +432,6 @@ def continuum_lags(instrument, speed_spread: float, correlation_time: float = ma
     return t_max, int(math.ceil(t_max / n))
 
 
-#: Half-width (grid points) of the Gaussian of the gridded cosine sums: error ~1e-13 of C(0)
-#: with a grid of twice the needed lags (benchmarks/bench_subbin.py measures it).
-GRID_HALF_WIDTH = 14
-
-
-def _gridding(t_used: int):
-    """Grid length M, Gaussian width tau_g, weights e_j and the deconvolution for t < t_used lags."""
-    from scipy.fft import next_fast_len
-
-    k = 2 * t_used
-    m = int(next_fast_len(2 * k, real=True))
-    r = m / k
-    w = GRID_HALF_WIDTH
-    tau = math.pi * w / (k * k * r * (r - 0.5))
-    h = 2.0 * math.pi / m
-    e_j = np.exp(-((np.arange(-w, w + 1) * h) ** 2) / (4.0 * tau))
-    deconv = math.sqrt(math.pi / tau) * np.exp(np.arange(t_used) ** 2 * tau) / m
-    return m, tau, e_j, deconv
-
-
-def _gridded_lags(x, amp, g, r_d, n, t_used, lags):
-    """lags[e] of continuum_moments from Gaussian-gridded cosine sums (method 'gridded')."""
-    from . import _kernels as K
-    from .._fft import rfft_rows
-
-    m, tau, e_j, deconv = _gridding(t_used)
-    ne = x.shape[0]
-    rows = 64
-    block = 4 * rows
-    for b0 in range(0, ne, block):
-        b1 = min(ne, b0 + block)
-        grid = np.empty((b1 - b0, m))
-
-        def dep(t, b0=b0, b1=b1, grid=grid):
-            lo = b0 + t * rows
-            hi = min(b1, lo + rows)
-            K.gaussian_deposit_rows(x, amp, n, tau, e_j, lo, hi, grid[lo - b0:hi - b0])
-
-        _run_tasks(-(-(b1 - b0) // rows), dep)
-        f = rfft_rows(grid)
-
-        def fold(t, b0=b0, b1=b1, f=f):
-            lo = b0 + t * rows
-            hi = min(b1, lo + rows)
-            K.gridded_lag_rows(f[lo - b0:hi - b0], deconv, g, r_d, n, t_used, lo, hi, np.empty(g.size), lags)
-
-        _run_tasks(-(-(b1 - b0) // rows), fold)
-
-
 def _signal_lag_rows(instrument, vlos_es, amp_s, a_d, method: str = "gridded"):
     """Folded lag sequences of the exact expected signal spectrum (:func:`cwlidar_sim.signal.exact.signal_rows`).
 
@@ -521,7 +473,10 @@ def _signal_lag_rows(instrument, vlos_es, amp_s, a_d, method: str = "gridded"):
 
         _run_tasks(-(-ne // _ROWS_PER_TASK), fold)
     else:
-        _gridded_lags(x, amp, ones, a_d, n, n, lags)
+        def keep(lo, hi, lags_rjn):
+            lags[lo:hi] = lags_rjn
+
+        gridded_lag_tasks(x, amp, ones, a_d, n, n, 1, keep, transform=False)
     return lags.reshape(ne, n)
 
 
@@ -602,7 +557,6 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
     x = np.ascontiguousarray(v / instrument.bin_speed)
     amp = np.ascontiguousarray(0.5 * cnr * w)
     ne = x.shape[0]
-    lags = np.empty((ne, n_j + 1, n))
     nt = -(-ne // _ROWS_PER_TASK)
 
     def fold(t):
@@ -610,10 +564,28 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
                              min(ne, (t + 1) * _ROWS_PER_TASK), np.empty((n_j + 2) * n), lags)
 
     if method == "exact":
+        lags = np.empty((ne, n_j + 1, n))
         _run_tasks(nt, fold)
-    else:
-        _gridded_lags(x, amp, g, r_d, n, min(t_max, (n_j + 1) * n), lags)
-    return _lag_moments(instrument, lags, cnr_gain_e)
+        return _lag_moments(instrument, lags, cnr_gain_e)
+    # gridded: every stage of a task of estimates in the worker's cache (signal._gridded)
+    gain = _check_gain(cnr_gain_e, ne)
+    fn = _fold_noise(instrument)
+    noise = noise_floor(instrument)
+    mean = np.empty((ne, instrument.n_bins))
+    var = np.empty_like(mean)
+    looks = np.empty_like(mean)
+    mb = float(instrument.blocks_per_estimate)
+
+    tail = np.empty(instrument.n_bins)
+    K.noise_tail(fn, n_j + 1, mb, tail)
+
+    def moments(lo, hi, f_rjk):
+        if gain is not None:
+            f_rjk *= gain[lo:hi, None, None]
+        K.continuum_moment_rows(f_rjk, fn, tail, noise, mb, 0, hi - lo, mean[lo:hi], var[lo:hi], looks[lo:hi])
+
+    gridded_lag_tasks(x, amp, g, r_d, n, min(t_max, (n_j + 1) * n), n_j + 1, moments)
+    return mean, var, looks
 
 
 def _continuum_setup(instrument, speed_spread, correlation_time):
@@ -634,10 +606,8 @@ def _lag_moments(instrument, lags, cnr_gain_e=None):
     n_j = nj1 - 1
     nt = -(-ne // _ROWS_PER_TASK)
     fn = _fold_noise(instrument)
-    if cnr_gain_e is not None:
-        c = np.asarray(cnr_gain_e, dtype=np.float64)
-        if c.shape != (ne,) or not np.all(np.isfinite(c)) or np.any(c <= 0):
-            raise ValueError(f"cnr_gain_e must have shape ({ne},) with finite values > 0")
+    c = _check_gain(cnr_gain_e, ne)
+    if c is not None:
         lags *= c[:, None, None]
     f = rfft_rows(lags.reshape(ne * (n_j + 1), n)).reshape(ne, n_j + 1, n // 2 + 1)
     noise = noise_floor(instrument)
@@ -645,13 +615,24 @@ def _lag_moments(instrument, lags, cnr_gain_e=None):
     var = np.empty_like(mean)
     looks = np.empty_like(mean)
     m = float(instrument.blocks_per_estimate)
+    tail = np.empty(instrument.n_bins)
+    K.noise_tail(fn, n_j + 1, m, tail)
 
     def mom(t):
-        K.continuum_moment_rows(f, fn, noise, m, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK), mean, var,
+        K.continuum_moment_rows(f, fn, tail, noise, m, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK), mean, var,
                                 looks)
 
     _run_tasks(nt, mom)
     return mean, var, looks
+
+
+def _check_gain(cnr_gain_e, ne):
+    if cnr_gain_e is None:
+        return None
+    c = np.asarray(cnr_gain_e, dtype=np.float64)
+    if c.shape != (ne,) or not np.all(np.isfinite(c)) or np.any(c <= 0):
+        raise ValueError(f"cnr_gain_e must have shape ({ne},) with finite values > 0")
+    return c
 
 
 def sample_moments(mean_ef, var_ef, seed, *, e0: int = 0):

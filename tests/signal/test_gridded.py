@@ -15,6 +15,7 @@ import pytest
 from cwlidar_sim.signal import PROTOTYPE_2003, estimate
 from cwlidar_sim.signal import _kernels as K
 from cwlidar_sim.signal import spectral as S
+from cwlidar_sim.signal._gridded import gridding
 from cwlidar_sim.signal.spectral import continuum_moments, sample_moments
 
 import reference  # noqa: E402
@@ -28,7 +29,7 @@ def test_gaussian_deposit_against_reference():
     # speeds anywhere, aliased beyond Nyquist, negative, on the grid's ends (theta near 0 and 2 pi)
     x = np.concatenate([rng.uniform(-700, 1300, (2, 40)), np.array([[0.0, 1e-9, 511.9999999, -1e-9, 256.0] * 8])])
     amp = rng.uniform(0, 1, x.shape[1])
-    m, tau, e_j, _ = S._gridding(484)
+    m, tau, e_j, _ = gridding(484)
     out = np.empty((x.shape[0], m))
     K.gaussian_deposit_rows(x, amp, n, tau, e_j, 0, x.shape[0], out)
     for e in range(x.shape[0]):
@@ -44,7 +45,7 @@ def test_gridded_cosine_sums_against_the_definition(t_used):
     n = 512
     x = rng.uniform(-600, 600, (3, 50))
     amp = rng.uniform(0, 1, 50)
-    m, tau, e_j, deconv = S._gridding(t_used)
+    m, tau, e_j, deconv = gridding(t_used)
     grid = np.empty((3, m))
     K.gaussian_deposit_rows(x, amp, n, tau, e_j, 0, 3, grid)
     c = 2.0 * np.fft.rfft(grid).real[:, :t_used] * deconv
@@ -120,3 +121,35 @@ def test_signal_lag_rows_exact_is_lag_sequence_kernel_and_gridded_agrees():
         assert np.array_equal(_signal_lag_rows(inst, v, amp, a_d, method="exact"), ref)
         g = _signal_lag_rows(inst, v, amp, a_d, method="gridded")
         assert np.max(np.abs(g - ref)) < 3e-13 * 2 * amp.sum()
+
+
+def test_exp_small_is_exp_to_an_ulp_on_its_range():
+    z = np.linspace(-0.25, 0.25, 20001)
+    got = np.array([K.exp_small(v) for v in z[::50]])
+    want = np.exp(z[::50])
+    assert np.max(np.abs(got / want - 1.0)) < 4.5e-16
+    # the series is only valid on |z| <= 0.25: at z = 1 the truncation is visible
+    assert abs(K.exp_small(1.0) / math.e - 1.0) > 1e-12
+
+
+@pytest.mark.parametrize("nj", [1, 3])
+def test_gridded_fold_is_fold_block_lags_bit_for_bit(nj):
+    from cwlidar_sim.signal._gridded import fold_factors
+
+    rng = np.random.default_rng(11)
+    n = 64
+    t_used = nj * n - 5
+    m, _, _, deconv = gridding(t_used)
+    g_t = np.zeros((nj + 1) * n)
+    g_t[:t_used] = np.exp(-np.arange(t_used) / 50.0)
+    r_d = rng.uniform(0.5, 1.0, n)
+    f_em = rng.normal(size=(4, m // 2 + 1)) + 1j * rng.normal(size=(4, m // 2 + 1))
+    a, b = fold_factors(g_t, r_d, n, nj)
+    out = np.empty((4, nj, n))
+    K.gridded_lag_rows(f_em, deconv, a, b, 0, 4, np.empty(nj * n), out)
+    for e in range(4):
+        c_t = np.zeros((nj + 1) * n)
+        c_t[:t_used] = 2.0 * f_em[e, :t_used].real * deconv
+        ref = np.empty((nj, n))
+        K.fold_block_lags(c_t, g_t, r_d, n, ref)
+        assert np.array_equal(out[e], ref)

@@ -65,6 +65,8 @@ from .continuum import (  # noqa: F401
     cell_cosines_row,
     continuum_lag_rows,
     continuum_moment_rows,
+    exp_small,
+    noise_tail,
     fold_block_lags,
     gamma_moment_rows,
     gaussian_deposit_rows,

@@ -24,8 +24,6 @@ _DEFAULT_BOUNDS = {"length_scale": (0.5, 5000.0), "gamma": (0.0, 8.0)}
 # (checked on one_point_spectra), which gives the initial L.
 _KL_PEAK_33 = 2.0
 _DEFAULT_GAMMA = 3.0
-# k1 values per one_point_spectra call in a worker thread.
-_CHUNK = 8
 
 
 @dataclasses.dataclass(frozen=True)
@@ -72,19 +70,10 @@ class MannFit:
 
 
 def _model_spectra(k_k, L, gamma):
-    """Two-sided (F11, F22, F33, F13) for alpha_eps = 1, shape (4, n)."""
-    from .. import _config
+    """Two-sided (F11, F22, F33, F13) for alpha_eps = 1, shape (4, n) (the bins shared among the threads)."""
     from ..turbulence import MannParameters, one_point_spectra
 
-    p = MannParameters(1.0, L, gamma)
-    out = np.empty((4, k_k.size))
-    tasks = [(i, min(k_k.size, i + _CHUNK)) for i in range(0, k_k.size, _CHUNK)]
-
-    def work(_w, t):
-        out[:, t[0] : t[1]] = one_point_spectra(k_k[t[0] : t[1]], p)
-
-    _config.run_static(tasks, work)
-    return out
+    return np.array(one_point_spectra(k_k, MannParameters(1.0, L, gamma)))
 
 
 def _check_pair(name, value, lo, hi):

@@ -25,11 +25,15 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(6)
 _PANEL_RATIO = 2.0
 _DECADES_BELOW = 3.0  # first panel edge at 1e-3 of the local scale
 _DECADES_ABOVE = 5.0  # the k^(-11/3) tail beyond 1e5 x the scale: ~1e-8 of a one-point spectrum
-# The one-point quadrature's own panels (with edges about the shear peak, _onepoint_nodes):
-# ratio 3, 7 points per panel, the cut of half_line_nodes.
-_ONEPOINT_RATIO = 3.0
-_ONEPOINT_DECADES_ABOVE = 5.0
-_ONEPOINT_GL = np.polynomial.legendre.leggauss(7)
+# The one-point quadrature's rules (panel ratio, Gauss-Legendre points, decades above the larger
+# scale), each with edges about the shear peak (_onepoint_nodes): 'fine' within 3e-7 for Gamma 0..8,
+# 'coarse' within 2.5e-4 with 0.3 of the nodes (a search's model, fitting.fit_mann's first stage).
+_ONEPOINT_RULES = {
+    "fine": (3.0, np.polynomial.legendre.leggauss(7), 5.0),
+    "coarse": (4.0, np.polynomial.legendre.leggauss(5), 4.0),
+}
+#: Names of the one-point quadrature rules (``one_point_spectra(..., rule=...)``).
+ONEPOINT_RULES = tuple(_ONEPOINT_RULES)
 
 
 def half_line_nodes(scale: float, upper: float = math.inf, top_scale: float | None = None, *,
@@ -96,11 +100,11 @@ def _shear_peak(k1, L, gamma, tab):
     return -0.5 * (lo + hi) * k1
 
 
-def _onepoint_nodes(k1, L, gamma, k2_max, k3_max, tab):
+def _onepoint_nodes(k1, L, gamma, k2_max, k3_max, tab, rule="fine"):
     """(k2 nodes, weights folded onto k2 >= 0), (k3 nodes, weights) of one row of the one-point quadrature.
 
-    Panels of ratio :data:`_ONEPOINT_RATIO` with 7 Gauss-Legendre points about
-    0 on both axes, cut :data:`_ONEPOINT_DECADES_ABOVE` decades above the
+    Rule 'fine': panels of ratio 3 with 7 Gauss-Legendre points about
+    0 on both axes, cut 5 decades above the
     larger scale, and on the k3 axis extra edges about the shear peak
     (:func:`_shear_peak`): at ``k3* +- (0.5, 1, 2, 4) k1`` and ``k3* (1 +-
     0.5)``.  Against a reference with about 20 times the nodes (panel ratio
@@ -108,17 +112,19 @@ def _onepoint_nodes(k1, L, gamma, k2_max, k3_max, tab):
     sqrt(F11 F33)) for Gamma in 0..8 and k1 L in 3e-3..100, with 0.68 of the
     nodes of the ratio-2, 6-point panels without those edges, which were off
     by up to 1.4e-4 at Gamma = 8 (``tests/turbulence/test_spectra.py``).
+    Rule 'coarse': ratio 4, 5 points, 4 decades, the same edges: within 2.5e-4.
     """
+    ratio, gl, above = _ONEPOINT_RULES[rule]
     s, tp = _scales(k1, L)
-    x2, w2 = _gl_on(_half_line_edges(s, k2_max, tp, _ONEPOINT_RATIO, _ONEPOINT_DECADES_ABOVE), *_ONEPOINT_GL)
-    e3 = _half_line_edges(s, k3_max, tp, _ONEPOINT_RATIO, _ONEPOINT_DECADES_ABOVE)
+    x2, w2 = _gl_on(_half_line_edges(s, k2_max, tp, ratio, above), *gl)
+    e3 = _half_line_edges(s, k3_max, tp, ratio, above)
     e3 = np.concatenate([-e3[::-1], e3[1:]])
     if gamma > 0.0 and k1 > 0.0:
         c = _shear_peak(k1, L, gamma, tab)
         extra = [c] + [c + f * k1 for f in (-4.0, -2.0, -1.0, -0.5, 0.5, 1.0, 2.0, 4.0)] + [0.5 * c, 1.5 * c]
         extra = [e for e in extra if e3[0] < e < e3[-1]]
         e3 = np.unique(np.concatenate([e3, extra]))
-    x3, w3 = _gl_on(e3, *_ONEPOINT_GL)
+    x3, w3 = _gl_on(e3, *gl)
     # Even in k2 for the components returned: fold k2 < 0 onto k2 > 0.
     return (x2, 2.0 * w2), (x3, w3)
 
@@ -129,10 +135,10 @@ def _scales(k1: float, L: float):
     return (min(k1, 1.0 / L) if k1 != 0.0 else 1.0 / L), max(k1, 1.0 / L)
 
 
-def _onepoint_raw(k1_k, params, k2_max, k3_max):
+def _onepoint_raw(k1_k, params, k2_max, k3_max, rule="fine"):
     """(F11, F22, F33, F13) at each k1 with |k2| <= k2_max, |k3| <= k3_max."""
     k1_k = np.ascontiguousarray(k1_k, dtype=float)
-    args = (params.length_scale, params.gamma, k2_max, k3_max)
+    args = (params.length_scale, params.gamma, k2_max, k3_max, rule)
     if k1_k.size <= _ONEPOINT_CACHED:
         out = _onepoint_cached(k1_k.tobytes(), *args)
     else:
@@ -148,19 +154,19 @@ _ONEPOINT_CACHED = 8192
 
 
 @functools.lru_cache(maxsize=64)
-def _onepoint_cached(k1_bytes, L, gamma, k2_max, k3_max):
+def _onepoint_cached(k1_bytes, L, gamma, k2_max, k3_max, rule="fine"):
     """:func:`_onepoint_unscaled`, kept per process (read-only).
 
     The quadrature depends on L and Gamma only: alpha_eps is a factor applied
     after, so the periods of a campaign at one height (one L and Gamma, other
     speeds and so other alpha_eps) share it, bit for bit.
     """
-    out = _onepoint_unscaled(np.frombuffer(k1_bytes, dtype=float), L, gamma, k2_max, k3_max)
+    out = _onepoint_unscaled(np.frombuffer(k1_bytes, dtype=float), L, gamma, k2_max, k3_max, rule)
     out.setflags(write=False)
     return out
 
 
-def _onepoint_unscaled(k1_k, L, gamma, k2_max, k3_max):
+def _onepoint_unscaled(k1_k, L, gamma, k2_max, k3_max, rule="fine"):
     """The quadrature of :func:`_onepoint_raw` without the prefactor: (n_k1, 6).
 
     Rows go to the package's threads in tasks of at most :data:`_ONEPOINT_ROWS`; each
@@ -178,7 +184,7 @@ def _onepoint_unscaled(k1_k, L, gamma, k2_max, k3_max):
         lo, hi = t
         rows2, rows3 = [], []
         for k1 in k1_k[lo:hi]:
-            r2, r3 = _onepoint_nodes(float(k1), L, gamma, k2_max, k3_max, tab)
+            r2, r3 = _onepoint_nodes(float(k1), L, gamma, k2_max, k3_max, tab, rule)
             rows2.append(r2)
             rows3.append(r3)
         n2 = max(len(r[0]) for r in rows2)
@@ -199,7 +205,8 @@ def _onepoint_unscaled(k1_k, L, gamma, k2_max, k3_max):
     return out
 
 
-def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k3_max: float = math.inf):
+def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k3_max: float = math.inf,
+                      rule: str = "fine"):
     """One-point cross-spectra F_ij(k1) = double integral of Phi_ij dk2 dk3.
 
     Parameters
@@ -211,6 +218,11 @@ def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k
         Restrict the integral to |k2| <= k2_max, |k3| <= k3_max [rad/m], e.g.
         ``pi / dy`` and ``pi / dz`` for what a grid of spacing (dy, dz) can
         hold.  Default: the whole plane.
+    rule : {'fine', 'coarse'}
+        Quadrature rule (:data:`ONEPOINT_RULES`): 'fine' (the default) is
+        within 3e-7 of each spectrum for Gamma in 0..8; 'coarse', with 0.3 of
+        its nodes, within 2.5e-4, for a search that 'fine' then finishes
+        (:func:`cwlidar_sim.analysis.fit_mann`).
 
     Returns
     -------
@@ -222,17 +234,20 @@ def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k
     -----
     Tensor-product Gauss-Legendre quadrature on geometric panels about the
     local scale min(|k1|, 1/L), with extra panel edges about the shear peak on
-    the k3 axis (where k3 + beta k1 = 0); relative accuracy about 1e-6 at
-    Gamma = 0 (tested against the von Karman closed forms) and 1e-5 for Gamma
-    up to 8 (tested against a quadrature with six times the nodes per axis).
+    the k3 axis (where k3 + beta k1 = 0); relative accuracy about 1e-7 at
+    Gamma = 0 (tested against the von Karman closed forms at 1e-6) and 3e-7
+    for Gamma up to 8 (tested at 1e-6 against an independent quadrature,
+    ``tests/reference.py``).
     """
+    if rule not in _ONEPOINT_RULES:
+        raise ValueError(f"rule must be one of {ONEPOINT_RULES}, got {rule!r}")
     _check_params(params)
     k2_max = check_real("k2_max", k2_max, lo=0.0, lo_open=True) if not math.isinf(k2_max) else math.inf
     k3_max = check_real("k3_max", k3_max, lo=0.0, lo_open=True) if not math.isinf(k3_max) else math.inf
     k1 = np.asarray(k1, dtype=float)
     if not np.all(np.isfinite(k1)):
         raise ValueError("k1 must be finite; allowed: any finite wavenumber in rad/m")
-    F = _onepoint_raw(np.abs(k1.ravel()), params, k2_max, k3_max)
+    F = _onepoint_raw(np.abs(k1.ravel()), params, k2_max, k3_max, rule)
     return tuple(F[:, i].reshape(k1.shape) for i in range(4))
 
 

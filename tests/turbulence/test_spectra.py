@@ -146,3 +146,15 @@ def test_sheared_one_point_spectra_against_an_independent_quadrature(gamma, kl):
     got = one_point_spectra(np.array([k1]), MannParameters(1.0, L, gamma))[:3]
     for g, r in zip(got, ref):
         assert g[0] == pytest.approx(r, rel=1e-6)
+
+
+@pytest.mark.parametrize("gamma, kl", [(0.0, 0.3), (3.9, 0.03), (8.0, 0.3), (8.0, 1.0)])
+def test_coarse_rule_is_within_its_stated_accuracy(gamma, kl):
+    L = 18.76
+    k1 = kl / L
+    ref = reference.mann_one_point(k1, 1.0, L, gamma)
+    got = one_point_spectra(np.array([k1]), MannParameters(1.0, L, gamma), rule="coarse")[:3]
+    for g, r in zip(got, ref):
+        assert g[0] == pytest.approx(r, rel=2.5e-4)
+    with pytest.raises(ValueError, match="rule"):
+        one_point_spectra(np.array([k1]), MannParameters(1.0, L, gamma), rule="fast")

@@ -54,6 +54,7 @@ from .processing import (
     Flag,
     background_spectrum,
     estimate,
+    estimate_variants,
     threshold_levels,
 )
 from .spectral import (
@@ -72,7 +73,7 @@ __all__ = [
     "expected_spectrum", "sample_spectra", "speckle_looks", "line_shape", "line_shape_table", "fejer",
     "window_samples", "cnr_linear",
     "simulate_signal_spectra", "synthesize_samples",
-    "ESTIMATORS", "Flag", "FAIL_FLAGS", "DopplerEstimates", "estimate", "background_spectrum", "noise_floor",
+    "ESTIMATORS", "Flag", "FAIL_FLAGS", "DopplerEstimates", "estimate", "estimate_variants", "background_spectrum", "noise_floor",
     "threshold_levels",
     "TIERS", "simulate_uniform", "uniform_report",
     "run_chain", "ChainSettings", "FocusGroup", "ChainRecord", "homodyne_flags", "SPECKLE_MODELS", "VARIANT_KEYS",

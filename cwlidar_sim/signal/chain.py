@@ -101,7 +101,7 @@ import numpy as np
 
 from .._validation import check_bool, check_choice, check_int, check_memory, check_real
 from .instrument import Instrument
-from .processing import FAIL_FLAGS, Flag, background_gain, background_spectrum, estimate
+from .processing import FAIL_FLAGS, Flag, background_gain, background_spectrum, estimate_variants
 from .spectral import _draw_rows, _speckle_draws, continuum_moments, line_shape_table, sample_moments, speckle_looks
 from .exact import ar1_rho, signal_rows
 from .noise import lag_coefficients, noise_floor
@@ -420,8 +420,8 @@ class _Group:
         if self.gain_e is not None:
             spec = spec * self.gain_e[e0:e1, None]
         sel = self.g.index_e[e0:e1]
-        for name, pinst in self.procs:
-            est = estimate(spec, pinst, self.bg, line_table=self.table)
+        ests = estimate_variants(spec, [pinst for _, pinst in self.procs], self.bg, line_table=self.table)
+        for (name, _), est in zip(self.procs, ests):
             self.out[name][0][sel] = est.speed_e
             self.out[name][1][sel] = est.flags_e
 

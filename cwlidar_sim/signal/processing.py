@@ -67,6 +67,7 @@ __all__ = [
     "noise_floor",
     "background_spectrum",
     "estimate",
+    "estimate_variants",
     "check_estimator",
 ]
 
@@ -336,12 +337,48 @@ def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_bac
     -------
     DopplerEstimates
     """
+    return estimate_variants(spectra_ef, [instrument], background_f, estimators=[estimator],
+                             n_background=n_background, line_table=line_table)[0]
+
+
+def estimate_variants(spectra_ef, instruments, background_f=None, *, estimators=None, n_background=None,
+                      line_table=None) -> list:
+    """:func:`estimate` for several processings of the same spectra, which are read once.
+
+    Parameters
+    ----------
+    spectra_ef, background_f, n_background, line_table
+        As :func:`estimate` (``line_table`` and the window and resolution
+        taken from ``instruments[0]``).
+    instruments : sequence of Instrument
+        One per processing variant (thresholds, estimators, guards may
+        differ); their resolution (``n_fft``, window, bins) must agree.
+    estimators : sequence of (str or None), optional
+        Estimator overrides, one per instrument.
+
+    Returns
+    -------
+    list of DopplerEstimates
+        One per instrument, each equal (bit for bit) to :func:`estimate`
+        with that instrument.
+    """
     from . import _kernels as K
 
-    name = instrument.estimator if estimator is None else estimator
-    est_id = check_estimator(name)
+    instruments = list(instruments)
+    if not instruments:
+        raise ValueError("instruments must hold at least one Instrument")
+    first = instruments[0]
+    estimators = [None] * len(instruments) if estimators is None else list(estimators)
+    if len(estimators) != len(instruments):
+        raise ValueError(f"estimators has {len(estimators)} entries for {len(instruments)} instruments")
+    for i, inst in enumerate(instruments[1:], 1):
+        if (inst.n_fft, inst.window, inst.n_bins) != (first.n_fft, first.window, first.n_bins):
+            raise ValueError(f"instruments[{i}] has n_fft/window {inst.n_fft}/{inst.window!r}, "
+                             f"instruments[0] {first.n_fft}/{first.window!r}; allowed: equal")
+    names = [inst.estimator if e is None else e for inst, e in zip(instruments, estimators)]
+    est_id = np.array([check_estimator(n) for n in names], dtype=np.int64)
     spec = np.ascontiguousarray(spectra_ef, dtype=np.float64)
-    nf = instrument.n_bins
+    nf = first.n_bins
     if spec.ndim == 1:
         spec = spec[None, :]
     if spec.ndim != 2 or spec.shape[1] != nf:
@@ -356,27 +393,42 @@ def estimate(spectra_ef, instrument, background_f=None, *, estimator=None, n_bac
     _run_tasks(n_tasks, check)
     if not ok.all():
         raise ValueError("spectra_ef must be finite and >= 0")
-    bg = noise_floor(instrument) if background_f is None else np.asarray(background_f, dtype=np.float64)
+    bg = noise_floor(first) if background_f is None else np.asarray(background_f, dtype=np.float64)
     if bg.shape != (nf,):
         raise ValueError(f"background_f must have shape ({nf},), got {bg.shape}")
     if not np.all(np.isfinite(bg)) or np.any(bg <= 0):
         raise ValueError("background_f must be finite and > 0 in every bin")
     if line_table is None:
-
-        line_table = line_shape_table(instrument.n_fft, instrument.window)
+        line_table = line_shape_table(first.n_fft, first.window)
     table, over = line_table
-    thr = threshold_levels(instrument, n_background=n_background)
-    guard = instrument.edge_guard_speed / instrument.bin_speed
-    x = np.empty(ne)
-    flags = np.empty(ne, dtype=np.uint8)
+    thr = [threshold_levels(inst, n_background=n_background) for inst in instruments]
+    v_args = (
+        np.array([inst.first_bin for inst in instruments], dtype=np.int64),
+        np.full(len(instruments), nf - 1, dtype=np.int64),
+        np.array([_THR_IDS[inst.threshold_kind] for inst in instruments], dtype=np.int64),
+        np.array([float(inst.threshold_value) for inst in instruments]),
+        np.array([t["raise_factor"] for t in thr], dtype=np.float64),
+        np.array([t["raise_offset"] for t in thr], dtype=np.float64),
+        np.array([t["sigma_y"] for t in thr], dtype=np.float64),
+        np.array([t["detect"] for t in thr], dtype=np.float64),
+        est_id,
+        _WIN_IDS[first.window],
+        np.array([inst.second_peak_fraction for inst in instruments], dtype=np.float64),
+        np.array([inst.edge_guard_speed / inst.bin_speed for inst in instruments], dtype=np.float64),
+        table, over, first.n_fft, _ML_HALF_WIDTH,
+    )
+    x = np.empty((len(instruments), ne))
+    flags = np.empty((len(instruments), ne), dtype=np.uint8)
     inv_bg = 1.0 / bg
-    args = (instrument.first_bin, nf - 1, _THR_IDS[instrument.threshold_kind], float(instrument.threshold_value),
-            thr["raise_factor"], thr["raise_offset"], thr["sigma_y"], thr["detect"], est_id, _WIN_IDS[instrument.window],
-            instrument.second_peak_fraction, guard, table, over, instrument.n_fft, _ML_HALF_WIDTH)
 
     def run(t):
-        K.process_rows(spec, inv_bg, *args, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK), x, flags)
+        K.process_rows_variants(spec, inv_bg, *v_args, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK), x,
+                                flags)
 
     _run_tasks(n_tasks, run)
-    freq = x * instrument.bin_width
-    return DopplerEstimates(speed_e=freq * instrument.speed_per_hz, frequency_e=freq, flags_e=flags, estimator=name)
+    out = []
+    for v, (inst, name) in enumerate(zip(instruments, names)):
+        freq = x[v] * inst.bin_width
+        out.append(DopplerEstimates(speed_e=freq * inst.speed_per_hz, frequency_e=freq, flags_e=flags[v],
+                                    estimator=name))
+    return out

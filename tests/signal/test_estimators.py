@@ -158,3 +158,47 @@ def test_registry_rejects_unknown_and_bad_spectra():
         estimate(np.full(P.n_bins, np.nan), P)
     with pytest.raises(ValueError, match="background_f"):
         estimate(np.ones(P.n_bins), P, np.zeros(P.n_bins))
+
+
+def test_variants_share_one_reading_and_equal_estimate_bit_for_bit():
+    """estimate_variants (the chain's processing of every variant) is estimate per instrument, bit for bit."""
+    from cwlidar_sim.signal import estimate_variants
+
+    rng = np.random.default_rng(12)
+    inst = P.replace(n_fft=128, blocks_per_estimate=200)
+    nf = inst.n_bins
+    spec = np.abs(1 + rng.normal(0, 0.08, (300, nf)))
+    c = rng.uniform(8, 50, 300)
+    spec += 2.0 * fejer(np.arange(nf)[None, :] - c[:, None], 128) / 128
+    variants = [inst, inst.replace(threshold_raise_percent=10.0), inst.replace(estimator="centroid"),
+                inst.replace(estimator="peak"), inst.replace(threshold_kind="peak_fraction", threshold_value=0.3),
+                inst.replace(edge_guard_speed=2.0, second_peak_fraction=0.5)]
+    bg = 1.0 + 0.01 * rng.uniform(size=nf)
+    got = estimate_variants(spec, variants, bg, estimators=[None, None, None, None, None, "ml"])
+    from cwlidar_sim.signal import _kernels as K
+    from cwlidar_sim.signal import processing as PR
+    from cwlidar_sim.signal.spectral import line_shape_table
+
+    table, over = line_shape_table(inst.n_fft, inst.window)
+    for v, (g, est) in enumerate(zip(got, [None, None, None, None, None, "ml"])):
+        # the single-processing kernel, one row at a time, with the arguments estimate() always built
+        vi = variants[v]
+        thr = threshold_levels(vi)
+        x = np.empty(spec.shape[0])
+        fl = np.empty(spec.shape[0], dtype=np.uint8)
+        K.process_rows(spec, 1.0 / bg, vi.first_bin, nf - 1, PR._THR_IDS[vi.threshold_kind], float(vi.threshold_value),
+                       thr["raise_factor"], thr["raise_offset"], thr["sigma_y"], thr["detect"],
+                       PR.check_estimator(est or vi.estimator), PR._WIN_IDS[vi.window], vi.second_peak_fraction,
+                       vi.edge_guard_speed / vi.bin_speed, table, over, vi.n_fft, PR._ML_HALF_WIDTH, 0,
+                       spec.shape[0], x, fl)
+        assert np.array_equal(g.frequency_e, x * vi.bin_width, equal_nan=True), v
+        assert np.array_equal(g.flags_e, fl), v
+        assert g.estimator == (est or vi.estimator)
+        want = estimate(spec, vi, bg, estimator=est)
+        assert np.array_equal(g.speed_e, want.speed_e, equal_nan=True), v
+    # the variants differ from each other (the test is not of one processing six times)
+    assert len({g.speed_e[np.isfinite(g.speed_e)].sum() for g in got}) == len(got)
+    with pytest.raises(ValueError, match="n_fft/window"):
+        estimate_variants(spec, [inst, inst.replace(n_fft=256)])
+    with pytest.raises(ValueError, match="estimators"):
+        estimate_variants(spec, [inst], estimators=[None, None])

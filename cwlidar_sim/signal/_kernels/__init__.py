@@ -41,6 +41,8 @@ from .processing import (  # noqa: F401
     process_kernel,
     process_one,
     process_rows,
+    process_rows_variants,
+    process_shat,
     valid_spectra_rows,
 )
 from .heterodyne import (  # noqa: F401

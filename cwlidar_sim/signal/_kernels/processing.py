@@ -128,6 +128,15 @@ def process_one(spec, inv_bg, k_lo, k_hi, thr_kind, thr_value, raise_factor, rai
     nf = spec.shape[0]
     for k in range(nf):
         shat[k] = spec[k] * inv_bg[k]
+    return process_shat(shat, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, detect, est_id,
+                        win_id, second_frac, guard_bins, table, oversample, n_fft, ml_half)
+
+
+@numba.njit(**NJIT)
+def process_shat(shat, k_lo, k_hi, thr_kind, thr_value, raise_factor, raise_offset, sigma_y, detect, est_id, win_id,
+                 second_frac, guard_bins, table, oversample, n_fft, ml_half):
+    """:func:`process_one` from ``shat = S / B`` (read only), so several processings can share it."""
+    nf = shat.shape[0]
     # threshold on y = S/B - 1
     if thr_kind == THR_SIGMA:
         t = thr_value * sigma_y
@@ -230,6 +239,28 @@ def process_rows(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_facto
                             detect, est_id, win_id, second_frac, guard_bins, table, oversample, n_fft, ml_half, shat)
         out_x_e[e] = x
         out_flags_e[e] = fl
+
+
+@numba.njit(**NJIT)
+def process_rows_variants(spec_ef, inv_bg_f, k_lo_v, k_hi_v, thr_kind_v, thr_value_v, raise_factor_v, raise_offset_v,
+                          sigma_y_v, detect_v, est_id_v, win_id, second_frac_v, guard_v, table, oversample, n_fft,
+                          ml_half, r_lo, r_hi, out_x_ve, out_flags_ve):
+    """Rows ``r_lo .. r_hi - 1`` through every processing variant v (one ``S / B`` per row, read once).
+
+    Each variant's result is that of :func:`process_rows` with its own
+    arguments (the ``*_v`` arrays), bit for bit.
+    """
+    shat = np.empty(spec_ef.shape[1])
+    for e in range(r_lo, r_hi):
+        row = spec_ef[e]
+        for k in range(row.shape[0]):
+            shat[k] = row[k] * inv_bg_f[k]
+        for v in range(k_lo_v.shape[0]):
+            x, fl = process_shat(shat, k_lo_v[v], k_hi_v[v], thr_kind_v[v], thr_value_v[v], raise_factor_v[v],
+                                 raise_offset_v[v], sigma_y_v[v], detect_v[v], est_id_v[v], win_id, second_frac_v[v],
+                                 guard_v[v], table, oversample, n_fft, ml_half)
+            out_x_ve[v, e] = x
+            out_flags_ve[v, e] = fl
 
 
 @numba.njit(**NJIT_PARALLEL)

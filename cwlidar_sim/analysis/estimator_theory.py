@@ -241,7 +241,7 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
     EstimatorTransfer
     """
     from ..signal.instrument import Instrument
-    from ..signal.processing import ESTIMATORS, estimate
+    from ..signal.processing import ESTIMATORS, estimate_variants
     from ..signal.spectral import continuum_moments, sample_moments
     from ..turbulence import MannParameters, covariances, generate_line, subcell_variance
 
@@ -331,8 +331,8 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
             spec = sample_moments(mean, var, key, e0=c0)
             if gain != 1.0:
                 spec *= gain
-            for a, pinst in enumerate(insts):
-                v_ex[a, c0:c1] = estimate(spec, pinst).speed_e
+            for a, e in enumerate(estimate_variants(spec, insts)):
+                v_ex[a, c0:c1] = e.speed_e
         u_f = np.fft.rfft(u_x - u_x.mean())
         R = []
         for a in range(len(est)):

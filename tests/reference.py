@@ -672,18 +672,27 @@ def signal_block_normals(key, block, n, noise_std=1.0):
     return noise_std * np.array(out[:n])
 
 
-def signal_tone_tables(dtheta_es, ln, group):
-    """Reference for ``tone_tables_kernel``: exp(i q theta) by cos/sin of each angle."""
-    ne, ns = np.shape(dtheta_es)
-    rot = np.zeros((ne, ns, group), complex)
-    step = np.zeros((ne, ns, 4))
-    for e in range(ne):
-        for s in range(ns):
-            th = dtheta_es[e][s]
-            for q in range(group):
-                rot[e, s, q] = complex(math.cos(q * th), math.sin(q * th))
-            step[e, s] = (math.cos(group * th), math.sin(group * th), math.cos(ln * th), math.sin(ln * th))
-    return rot.real, rot.imag, step
+def signal_tone_tables(phase_s, dtheta_s, n_fft, m_blocks, cells=4):
+    """Reference for ``tone_tables_kernel`` (one estimate): cos/sin of each angle on its own.
+
+    Returns ``tab[g, k, n]`` (cos(theta_s n) for k < cells, sin for k >= cells, s = cells g + k mod
+    cells; padding cells: theta = 0) and the block phasors ``exp(i (phase_s + theta_s N i))``,
+    shape (M, cells * groups), padding cells 1."""
+    ns = len(dtheta_s)
+    ng = -(-ns // cells)
+    tab = np.zeros((ng, 2 * cells, n_fft))
+    ph = np.ones((m_blocks, cells * ng), complex)
+    for s in range(cells * ng):
+        g, c = divmod(s, cells)
+        th = float(dtheta_s[s]) if s < ns else 0.0
+        for n in range(n_fft):
+            tab[g, c, n] = math.cos(th * n)
+            tab[g, cells + c, n] = math.sin(th * n)
+        if s < ns:
+            for i in range(m_blocks):
+                a = float(phase_s[s]) + th * n_fft * i
+                ph[i, s] = complex(math.cos(a), math.sin(a))
+    return tab, ph.real, ph.imag
 
 
 def signal_gaussian_deposit(x_s, amp_s, n_fft, m, tau_g, half):

@@ -20,7 +20,7 @@ from cwlidar_sim import _config
 from cwlidar_sim._fft import rfft_rows
 from cwlidar_sim.signal import CS_SERIES, PROTOTYPE_2003, noise_floor, simulate_signal_spectra, synthesize_samples
 from cwlidar_sim.signal import _kernels as K
-from cwlidar_sim.signal.heterodyne import _filter_powers, _InOrder, noise_filter
+from cwlidar_sim.signal.heterodyne import _filter_powers, _InOrder, _tone_tables, noise_filter
 from cwlidar_sim.signal.spectral import continuum_moments, noise_correlation
 
 import reference  # noqa: E402
@@ -123,10 +123,7 @@ def test_synth_blocks_coloured_against_reference():
     phase = rng.uniform(0, 2 * np.pi, (ne, ns))
     dth = rng.uniform(-3.1, 3.1, (ne, ns))
     win = np.ones(n)
-    rr = np.empty((ne, ns, K.TONE_GROUP))
-    ri = np.empty((ne, ns, K.TONE_GROUP))
-    st = np.empty((ne, ns, 4))
-    K.tone_tables_kernel(dth, n // n_sub, rr, ri, st)
+    tab, ph_re, ph_im = _tone_tables(phase, dth, n, m)
     cf = noise_filter(PROTOTYPE_2003.replace(n_fft=n))
     pw = _filter_powers(cf, n)
     acc, words, tails = np.empty(n), np.empty(n // 2, dtype=np.uint64), np.empty(n, dtype=np.int64)
@@ -134,7 +131,7 @@ def test_synth_blocks_coloured_against_reference():
     state = np.zeros(2)
     # in two calls: the state carries over from the first to the second
     for lo, hi in ((0, 4), (4, nb)):
-        K.synth_blocks_kernel(np.uint64(5), 7, lo, hi, m, n_sub, are, aim, phase, dth, rr, ri, st, 1.0, win, False,
+        K.synth_blocks_kernel(np.uint64(5), 7, lo, hi, m, n_sub, are, aim, tab, ph_re, ph_im, 1.0, win, False,
                               np.empty((0, 0)), np.uint64(77), 10, cf, pw, state, acc, words, tails, out[lo:hi])
     ref_state = [0.0, 0.0]
     ref = reference.signal_synth_blocks(5, 7, 0, nb, m, n_sub, are, aim, phase, dth, 1.0, win,

@@ -44,7 +44,7 @@ from .processing import (  # noqa: F401
     valid_spectra_rows,
 )
 from .heterodyne import (  # noqa: F401
-    TONE_GROUP,
+    TONE_CELLS,
     COLOUR_SEGMENTS,
     add_tones,
     ar1_amplitudes_kernel,

@@ -208,7 +208,7 @@ def tone_tables_kernel(phase_s, dtheta_s, n_fft, tab_gkn, ph_re_is, ph_im_is):
                 ph_im_is[i, s] = er * fi[1, q] + ei * fr[1, q]
 
 
-@numba.njit(**NJIT)
+@numba.njit(**NJIT, inline='always')
 def _tones_group(cr_s, ci_s, tab_gkn, g, lo, hi, out_n):
     """``out_n[n] += sum_c (cr cos - ci sin)`` over the 4 cells of group g, ``lo <= n < hi``, in float32.
 
@@ -233,7 +233,7 @@ def _tones_group(cr_s, ci_s, tab_gkn, g, lo, hi, out_n):
             x[n] += ((a0 * c0[n] - b0 * s0[n]) + (a1 * c1[n] - b1 * s1[n])) + ((a2 * c2[n] - b2 * s2[n]) + (a3 * c3[n] - b3 * s3[n]))
 
 
-@numba.njit(**NJIT)
+@numba.njit(**NJIT, inline='always')
 def add_tones(n_sub, amp_re_st, amp_im_st, t0, ph_re_s, ph_im_s, tab_gkn, cr_s, ci_s, out_n):
     """``out_n[n] = sum_s Re(a_s exp(i phi_s) exp(i dtheta_s n))`` (float32), ``a_s`` constant over each of n_sub sub-steps.
 

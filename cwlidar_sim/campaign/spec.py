@@ -28,8 +28,9 @@ __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field"
 #: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`);
 #: raised whenever stored periods would differ from what the code now computes (3: the gridded
 #: tier-2 cosine sums, the nacelle coherence theory as the estimate sees it; 4: the fused gridded
-#: tasks, 2048-point grids for A2012, whose tier-2 numbers differ at the rounding level).
-RESULTS_VERSION = 4
+#: tasks, 2048-point grids for A2012, whose tier-2 numbers differ at the rounding level; 5: tier 3's
+#: tones from per-estimate tables summed in float32, other bits of the same law).
+RESULTS_VERSION = 5
 #: Scene kinds: ``kind`` in a scene file (default 'staring').
 SCENE_KINDS = ("staring", "conical", "nacelle")
 

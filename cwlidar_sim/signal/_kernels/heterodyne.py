@@ -303,7 +303,9 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     ci_s = np.empty(ncs)
     tone_n = np.zeros(nn, dtype=np.float32)  # stays 0 without tones
     for b in range(b_lo, b_hi):
-        block_normals(stream_start(key, block0 + b), noise_std, words_w, tails_n, acc_n)
+        # coloured: the normals times b_1, as colour_noise_block takes them
+        block_normals(stream_start(key, block0 + b), noise_std * cf_8[1] if coloured else noise_std, words_w, tails_n,
+                      acc_n)
         e = b // m_blocks
         i = b - e * m_blocks
         if coloured:
@@ -447,25 +449,28 @@ def colour_start(key, estimate, cf_8, state_2):
 
 @numba.njit(**NJIT)
 def colour_noise_block(acc_n, cf_8, pw_2n, state_2):
-    """In place, white normals ``z`` -> ``y = a0 z + u_1 + u_2``, ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``.
+    """In place, scaled white normals ``w = b_1 z`` -> ``y = a0 z + u_1 + u_2``, ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``.
 
-    ``cf_8 = (a0, b_1, b_2, rho_1, rho_2, ...)``; ``state_2`` holds
+    ``cf_8 = (a0, b_1, b_2, rho_1, rho_2, ...)`` with ``b_1 > 0`` (as
+    :func:`cwlidar_sim.signal.heterodyne.noise_filter` makes it).  The input
+    is the normals times ``b_1`` (:func:`synth_blocks_kernel` draws them so,
+    which saves a multiplication per sample): ``u_1[n] = rho_1 u_1[n-1] +
+    w[n]``, ``u_2[n] = rho_2 u_2[n-1] + k_2 w[n]``, ``y = (k_0 w + u_1) +
+    u_2`` with ``k_0 = a0 / b_1``, ``k_2 = b_2 / b_1``.  ``state_2`` holds
     ``u_c[-1]`` on entry and ``u_c[N-1]`` on return; ``pw_2n[c, k] =
     rho_c^(k+1)``.  The recursion is computed as a blocked scan, so that its
     serial latency is shared by :data:`COLOUR_SEGMENTS` = S segments: with
     ``G = N // S``, segment s < S - 1 is samples ``[sG, (s+1)G)`` and the last
     one ``[(S-1)G, N)``.  Pass 1 runs the S segments side by side from a zero
-    state, ``l_c[k] = rho_c l_c[k-1] + b_c z``, and stores ``(a0 z + l_1) +
-    l_2``; pass 2 adds ``pw_1[k] C_1 + pw_2[k] C_2``, ``C_c`` the state
-    before the segment, carried as ``C_c <- pw_c[len - 1] C_c + l_c[end]``.
-    Exact in exact arithmetic; the rounding differs from the serial
-    recursion's by a few ulp (``tests/reference.py::signal_colour_noise``
-    repeats this order).
+    state and stores ``(k_0 w + l_1) + l_2``; pass 2 adds ``pw_1[k] C_1 +
+    pw_2[k] C_2``, ``C_c`` the state before the segment, carried as ``C_c <-
+    pw_c[len - 1] C_c + l_c[end]``.  Exact in exact arithmetic; the rounding
+    differs from the serial recursion's by a few ulp
+    (``tests/reference.py::signal_colour_noise`` repeats this order).
     """
     nn = acc_n.shape[0]
-    a0 = cf_8[0]
-    b1 = cf_8[1]
-    b2 = cf_8[2]
+    k0 = cf_8[0] / cf_8[1]
+    k2 = cf_8[2] / cf_8[1]
     r1 = cf_8[3]
     r2 = cf_8[4]
     g = nn // COLOUR_SEGMENTS
@@ -477,26 +482,26 @@ def colour_noise_block(acc_n, cf_8, pw_2n, state_2):
     # four independent chains per component: their latencies overlap
     for k in range(g):
         z = x0[k]
-        p0 = r1 * p0 + b1 * z
-        q0 = r2 * q0 + b2 * z
-        x0[k] = (a0 * z + p0) + q0
+        p0 = r1 * p0 + z
+        q0 = r2 * q0 + k2 * z
+        x0[k] = (k0 * z + p0) + q0
         z = x1[k]
-        p1 = r1 * p1 + b1 * z
-        q1 = r2 * q1 + b2 * z
-        x1[k] = (a0 * z + p1) + q1
+        p1 = r1 * p1 + z
+        q1 = r2 * q1 + k2 * z
+        x1[k] = (k0 * z + p1) + q1
         z = x2[k]
-        p2 = r1 * p2 + b1 * z
-        q2 = r2 * q2 + b2 * z
-        x2[k] = (a0 * z + p2) + q2
+        p2 = r1 * p2 + z
+        q2 = r2 * q2 + k2 * z
+        x2[k] = (k0 * z + p2) + q2
         z = x3[k]
-        p3 = r1 * p3 + b1 * z
-        q3 = r2 * q3 + b2 * z
-        x3[k] = (a0 * z + p3) + q3
+        p3 = r1 * p3 + z
+        q3 = r2 * q3 + k2 * z
+        x3[k] = (k0 * z + p3) + q3
     for n in range(COLOUR_SEGMENTS * g, nn):
         z = acc_n[n]
-        p3 = r1 * p3 + b1 * z
-        q3 = r2 * q3 + b2 * z
-        acc_n[n] = (a0 * z + p3) + q3
+        p3 = r1 * p3 + z
+        q3 = r2 * q3 + k2 * z
+        acc_n[n] = (k0 * z + p3) + q3
     c1 = state_2[0]
     c2 = state_2[1]
     for s in range(COLOUR_SEGMENTS):

@@ -28,7 +28,9 @@ Implementation notes
   run down to the cores left instead of stalling it.
 * Samples (``_kernels.synth_blocks_kernel``): per block, the shot noise from
   the block's counter-based stream (splitmix64 words, inverse-CDF table
-  normals, :func:`_kernels.block_normals`); the tones as sums over cells of
+  normals, :func:`_kernels.block_normals_tab2`: tier 2's table in the centre,
+  second-level tables in the tails beyond |z| = 2.66 instead of Acklam's
+  formula); the tones as sums over cells of
   ``c_s cos(theta_s n) - d_s sin(theta_s n)``, ``c_s + i d_s = a_s exp(i
   phi_s)`` the cell's amplitude times its phasor at the block's start, from
   per-estimate tables of ``cos/sin(theta_s n)``, n < N, and of the blocks'

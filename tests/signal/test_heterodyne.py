@@ -121,13 +121,14 @@ def test_block_normals_against_reference_and_normal_pair():
         assert np.array_equal(out, 0.7 * np.array(pairs[:n]))
 
 
-def test_block_normals_are_standard_normal():
+@pytest.mark.parametrize("fn", ["block_normals", "block_normals_tab2"])
+def test_block_normals_are_standard_normal(fn):
     n_blocks, n = 2048, 512
     z = np.empty((n_blocks, n))
     words = np.empty(n // 2, dtype=np.uint64)
     tails = np.empty(n, dtype=np.int64)
     for b in range(n_blocks):
-        K.block_normals(np.uint64(K.stream_start(np.uint64(3), b)), 1.0, words, tails, z[b])
+        getattr(K, fn)(np.uint64(K.stream_start(np.uint64(3), b)), 1.0, words, tails, z[b])
     z = z.ravel()
     size = z.size
     # moments of N(0, 1): sd of the sample mean 1/sqrt(n), of the mean of z^2 sqrt(2/n), of z^4 sqrt(96/n)
@@ -137,10 +138,46 @@ def test_block_normals_are_standard_normal():
     # tails (the Acklam branch beyond |z| = 2.66): binomial counts within 4.5 sd
     from scipy.special import ndtr
 
-    for c in (2.0, 3.0, 4.0):
+    for c in (2.0, 2.66, 3.0, 3.5, 4.0):
         p = 2 * ndtr(-c)
         k = np.count_nonzero(np.abs(z) > c)
         assert abs(k - p * size) < 4.5 * math.sqrt(p * (1 - p) * size), c
+
+
+def test_block_normals_tab2_against_block_normals_and_reference():
+    # the centre bit for bit as block_normals, the tails from the second-level tables
+    n_blocks, n = 400, 63
+    words = np.empty(32, dtype=np.uint64)
+    tails = np.empty(n, dtype=np.int64)
+    a, b = np.empty(n), np.empty(n)
+    n_tail = 0
+    for blk in range(n_blocks):
+        st = np.uint64(K.stream_start(np.uint64(8), blk))
+        K.block_normals(st, 0.7, words, tails, a)
+        K.block_normals_tab2(st, 0.7, words, tails, b)
+        centre = np.abs(a) < 0.7 * 2.6
+        assert np.array_equal(a[centre], b[centre])
+        n_tail += np.count_nonzero(a != b)
+        # against exact ndtri: the central table's 1e-4, the tails' tables 1e-5
+        ref = reference.signal_block_normals(8, blk, n, 0.7)
+        assert np.allclose(b[centre], ref[centre], rtol=0, atol=0.7e-4)
+        assert np.allclose(b[~centre], ref[~centre], rtol=0, atol=0.7e-5)
+    # about 0.8 % of the samples are in the tails (binomial count within 4.5 sd)
+    p = 2 * 64 / 2**14
+    assert abs(n_tail - p * n_blocks * n) < 4.5 * math.sqrt(p * n_blocks * n)
+
+
+def test_tail_normal_against_ndtri():
+    from scipy.special import ndtri
+
+    # both tails, the second-level tables and Acklam's outer cells (u < 2^16, u >= 2^32 - 2^16)
+    lo = np.concatenate([np.arange(0, 2**16, 37), np.arange(2**16, 2**24, 7919), [2**24 - 1]])
+    u = np.concatenate([lo, 2**32 - 1 - lo]).astype(np.uint64)
+    got = np.array([K.tail_normal(x) for x in u])
+    want = ndtri((u.astype(np.float64) + 0.5) / 2**32)
+    assert np.all(np.abs(got - want) < 1e-5)
+    far = (u < 2**16) | (u >= 2**32 - 2**16)
+    assert np.allclose(got[far], want[far], rtol=2e-9, atol=0)
 
 
 @pytest.mark.parametrize("ns", [1, 3, 4, 5, 9])

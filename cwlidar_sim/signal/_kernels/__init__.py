@@ -22,11 +22,13 @@ from __future__ import annotations
 from .rng import (  # noqa: F401
     acklam,
     block_normals,
+    block_normals_tab2,
     mix64,
     normal_pair,
     normal_pair_polar,
     normal_u32,
     stream_start,
+    tail_normal,
 )
 from .spectral import (  # noqa: F401
     expected_signal_kernel,

@@ -8,7 +8,8 @@ import numba
 import numpy as np
 
 from ..._config import NJIT, NJIT_PARALLEL
-from .rng import _GOLDEN, _START_STREAM, _TWOPI, block_normals, mix64, normal_pair, normal_pair_polar, stream_start
+from .rng import (_GOLDEN, _START_STREAM, _TWOPI, block_normals, block_normals_tab2, mix64, normal_pair,
+                  normal_pair_polar, stream_start)
 
 
 # ---------------------------------------------------------------------------
@@ -273,7 +274,7 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     estimate ``e = b // M``; its phasors ``exp(i phase0_s) = ph_*_ebs[e, i,
     s]`` and the tones' tables ``tab_egkn[e]`` come from
     :func:`tone_tables_kernel`; noise from stream ``block0 + b``
-    (:func:`block_normals`: table normals, where synth_kernel uses the
+    (:func:`block_normals_tab2`: table normals, where synth_kernel uses the
     polar method); amplitudes ``amp_*_st[s, b n_sub + j]``, j < n_sub.
     The tones are summed in float32 (:func:`add_tones`) and added to the
     float64 noise (and ``extra``), then the window is applied and the sum
@@ -304,8 +305,8 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     tone_n = np.zeros(nn, dtype=np.float32)  # stays 0 without tones
     for b in range(b_lo, b_hi):
         # coloured: the normals times b_1, as colour_noise_block takes them
-        block_normals(stream_start(key, block0 + b), noise_std * cf_8[1] if coloured else noise_std, words_w, tails_n,
-                      acc_n)
+        block_normals_tab2(stream_start(key, block0 + b), noise_std * cf_8[1] if coloured else noise_std, words_w,
+                           tails_n, acc_n)
         e = b // m_blocks
         i = b - e * m_blocks
         if coloured:

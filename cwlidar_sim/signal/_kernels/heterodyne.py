@@ -276,9 +276,11 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     :func:`tone_tables_kernel`; noise from stream ``block0 + b``
     (:func:`block_normals_tab2`: table normals, where synth_kernel uses the
     polar method); amplitudes ``amp_*_st[s, b n_sub + j]``, j < n_sub.
-    The tones are summed in float32 (:func:`add_tones`) and added to the
-    float64 noise (and ``extra``), then the window is applied and the sum
-    rounded to float32.  Every block depends only on
+    The tones are summed in float32 (:func:`add_tones`), those of all the
+    call's blocks first, into the rows of ``out_bn`` (their tables stay in
+    the cache, which the noise's table lookups would flush block by block);
+    then block by block the float64 noise (and ``extra``) is added to the
+    row, the window applied and the sum rounded to float32.  Every block depends only on
     its own inputs, so the result does not depend on how blocks are split
     between calls or threads (serial and ``nogil``: worker threads call it
     on disjoint blocks).  ``extra_et`` (rows: the chunk's estimates, M N
@@ -302,7 +304,13 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     ncs = TONE_CELLS * tab_egkn.shape[1]
     cr_s = np.empty(ncs)
     ci_s = np.empty(ncs)
-    tone_n = np.zeros(nn, dtype=np.float32)  # stays 0 without tones
+    # the tones of every block first, into the output rows: the tables stay in the cache
+    if tones:
+        for b in range(b_lo, b_hi):
+            e = b // m_blocks
+            i = b - e * m_blocks
+            add_tones(n_sub, amp_re_st, amp_im_st, b * n_sub, ph_re_ebs[e, i], ph_im_ebs[e, i], tab_egkn[e], cr_s,
+                      ci_s, out_bn[b - b_lo])
     for b in range(b_lo, b_hi):
         # coloured: the normals times b_1, as colour_noise_block takes them
         block_normals_tab2(stream_start(key, block0 + b), noise_std * cf_8[1] if coloured else noise_std, words_w,
@@ -317,16 +325,20 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
             xr = extra_et[e, i * nn:(i + 1) * nn]
             for n in range(nn):
                 acc_n[n] += xr[n]
+        o = out_bn[b - b_lo]
         if tones:
-            add_tones(n_sub, amp_re_st, amp_im_st, b * n_sub, ph_re_ebs[e, i], ph_im_ebs[e, i], tab_egkn[e], cr_s,
-                      ci_s, tone_n)
-        r = b - b_lo
-        if use_window:
+            if use_window:
+                for n in range(nn):
+                    o[n] = np.float32((acc_n[n] + o[n]) * window_n[n])
+            else:
+                for n in range(nn):
+                    o[n] = np.float32(acc_n[n] + o[n])
+        elif use_window:
             for n in range(nn):
-                out_bn[r, n] = np.float32((acc_n[n] + tone_n[n]) * window_n[n])
+                o[n] = np.float32(acc_n[n] * window_n[n])
         else:
             for n in range(nn):
-                out_bn[r, n] = np.float32(acc_n[n] + tone_n[n])
+                o[n] = np.float32(acc_n[n])
 
 
 @numba.njit(**NJIT)

@@ -8,7 +8,7 @@ import numba
 import numpy as np
 
 from ..._config import NJIT, NJIT_PARALLEL
-from .rng import (_GOLDEN, _START_STREAM, _TWOPI, block_normals, block_normals_tab2, mix64, normal_pair,
+from .rng import (_GOLDEN, _START_STREAM, block_normals, block_normals_tab2, mix64, normal_pair,
                   normal_pair_polar, stream_start)
 
 

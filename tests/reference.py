@@ -672,18 +672,27 @@ def signal_block_normals(key, block, n, noise_std=1.0):
     return noise_std * np.array(out[:n])
 
 
-def signal_tone_tables(dtheta_es, ln, group):
-    """Reference for ``tone_tables_kernel``: exp(i q theta) by cos/sin of each angle."""
-    ne, ns = np.shape(dtheta_es)
-    rot = np.zeros((ne, ns, group), complex)
-    step = np.zeros((ne, ns, 4))
-    for e in range(ne):
-        for s in range(ns):
-            th = dtheta_es[e][s]
-            for q in range(group):
-                rot[e, s, q] = complex(math.cos(q * th), math.sin(q * th))
-            step[e, s] = (math.cos(group * th), math.sin(group * th), math.cos(ln * th), math.sin(ln * th))
-    return rot.real, rot.imag, step
+def signal_tone_tables(phase_s, dtheta_s, n_fft, m_blocks, cells=4):
+    """Reference for ``tone_tables_kernel`` (one estimate): cos/sin of each angle on its own.
+
+    Returns ``tab[g, k, n]`` (cos(theta_s n) for k < cells, sin for k >= cells, s = cells g + k mod
+    cells; padding cells: theta = 0) and the block phasors ``exp(i (phase_s + theta_s N i))``,
+    shape (M, cells * groups), padding cells 1."""
+    ns = len(dtheta_s)
+    ng = -(-ns // cells)
+    tab = np.zeros((ng, 2 * cells, n_fft))
+    ph = np.ones((m_blocks, cells * ng), complex)
+    for s in range(cells * ng):
+        g, c = divmod(s, cells)
+        th = float(dtheta_s[s]) if s < ns else 0.0
+        for n in range(n_fft):
+            tab[g, c, n] = math.cos(th * n)
+            tab[g, cells + c, n] = math.sin(th * n)
+        if s < ns:
+            for i in range(m_blocks):
+                a = float(phase_s[s]) + th * n_fft * i
+                ph[i, s] = complex(math.cos(a), math.sin(a))
+    return tab, ph.real, ph.imag
 
 
 def signal_gaussian_deposit(x_s, amp_s, n_fft, m, tau_g, half):
@@ -709,16 +718,20 @@ def signal_colour_start(key, estimate, cf):
     return [cf[5] * z0, cf[6] * z0 + cf[7] * z1]
 
 
-def signal_colour_noise(z_n, cf, state, segments=4):
+def signal_colour_noise(w_n, cf, state, segments=4):
     """Reference for ``colour_noise_block``: the blocked scan in the kernel's order of operations.
 
-    ``y = a0 z + u_1 + u_2``, ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``, from ``state`` (u_c[-1]);
-    the block is cut into ``segments`` segments (the last takes the remainder), each scanned
-    from zero (``(a0 z + l_1) + l_2``), then ``rho_c^(k+1) C_c`` added with the carried state
-    ``C_c``.  Returns (y, new state).  Plain Python floats: the same IEEE operations as the kernel.
+    The input is the white normals times ``b_1`` (``w = b_1 z``, as the kernel takes them);
+    ``y = a0 z + u_1 + u_2``, ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``, from ``state`` (u_c[-1]),
+    as ``u_1 = rho_1 u_1 + w``, ``u_2 = rho_2 u_2 + k_2 w``, ``y = (k_0 w + u_1) + u_2``
+    (``k_0 = a0 / b_1``, ``k_2 = b_2 / b_1``).  The block is cut into ``segments`` segments
+    (the last takes the remainder), each scanned from zero, then ``rho_c^(k+1) C_c`` added
+    with the carried state ``C_c``.  Returns (y, new state).  Plain Python floats: the same
+    IEEE operations as the kernel.
     """
     a0, b1, b2, r1, r2 = (float(c) for c in cf[:5])
-    n = len(z_n)
+    k0, k2 = a0 / b1, b2 / b1
+    n = len(w_n)
     g = n // segments
     bounds = [(s * g, n if s == segments - 1 else (s + 1) * g) for s in range(segments)]
     y = [0.0] * n
@@ -726,10 +739,10 @@ def signal_colour_noise(z_n, cf, state, segments=4):
     for lo, hi in bounds:
         p = q = 0.0
         for k in range(lo, hi):
-            z = float(z_n[k])
-            p = r1 * p + b1 * z
-            q = r2 * q + b2 * z
-            y[k] = (a0 * z + p) + q
+            w = float(w_n[k])
+            p = r1 * p + w
+            q = r2 * q + k2 * w
+            y[k] = (k0 * w + p) + q
         ends.append((p, q))
     # the powers rho^(k+1) by repeated multiplication, as _filter_powers makes them
     pw1, pw2 = [r1], [r2]
@@ -779,7 +792,7 @@ def signal_synth_blocks(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
             ckey, ce0, cf, state = colour
             if i == 0:
                 state[:] = signal_colour_start(ckey, ce0 + e, cf)
-            x, state[:] = signal_colour_noise(x, cf, state)
+            x, state[:] = signal_colour_noise(float(cf[1]) * x, cf, state)
         for s in range(ns):
             for k in range(n):
                 ph = phase_es[e][s] + dtheta_es[e][s] * (n * i + k)

@@ -28,13 +28,20 @@ Implementation notes
   run down to the cores left instead of stalling it.
 * Samples (``_kernels.synth_blocks_kernel``): per block, the shot noise from
   the block's counter-based stream (splitmix64 words, inverse-CDF table
-  normals, :func:`_kernels.block_normals`); per cell, the tone
-  ``Re(a exp(i (phase0 + theta n)))`` by a float64 phasor re-anchored from
-  cos/sin of the exact block phase at every block and rotated by
-  ``exp(i G theta)`` every G = 32 samples, the samples in between from a
-  table of ``exp(i q theta)`` (no sin/cos per sample, and a loop the compiler
-  vectorises); cells are summed in float64 and rounded to float32 once.
-  Amplitudes: one AR(1) stream per cell (a task per cell).
+  normals, :func:`_kernels.block_normals_tab2`: tier 2's table in the centre,
+  second-level tables in the tails beyond |z| = 2.66 instead of Acklam's
+  formula); the tones as sums over cells of
+  ``c_s cos(theta_s n) - d_s sin(theta_s n)``, ``c_s + i d_s = a_s exp(i
+  phi_s)`` the cell's amplitude times its phasor at the block's start, from
+  per-estimate tables of ``cos/sin(theta_s n)``, n < N, and of the blocks'
+  phasors (:func:`_tone_tables`, each entry a product of two or three factors
+  from cos/sin of their own angles,
+  so no error grows along a block or an estimate).  The tones are summed in
+  float32, four cells per pass over the block (a loop that vectorises eight
+  samples wide), and added to the float64 noise before the single rounding
+  of each sample to float32: their rounding (6e-8 of the tones' amplitude)
+  is that of the float32 samples and FFT themselves.  Amplitudes: one AR(1)
+  stream per cell (a task per cell).
 * The result does not depend on the number of threads, on the chunking or
   on the scheduling: every block and every partial sum depends on its own
   indices only.
@@ -348,20 +355,44 @@ class _Synth:
         if nt:
             self.last_re = are[:, -1].copy()
             self.last_im = aim[:, -1].copy()
-        g = K.TONE_GROUP
-        dth = np.ascontiguousarray(self.dtheta_es[e0:e1])
-        rot_re = np.empty((ne, ns, g))
-        rot_im = np.empty((ne, ns, g))
-        step = np.empty((ne, ns, 4))
-        K.tone_tables_kernel(dth, self.L, rot_re, rot_im, step)
+        tab, ph_re, ph_im = _tone_tables(self.phase_es[e0:e1], self.dtheta_es[e0:e1], inst.n_fft, m, run)
         if self.cont is None:
             extra = np.empty((0, 0))
         else:
             extra = np.empty((ne, self.cont.n_samples))
             run(ne, lambda w, i: self.cont.fill(w, e0 + i, extra[i]))
-        return (np.uint64(self.key_noise), e0 * m, m, self.n_sub, are, aim,
-                np.ascontiguousarray(self.phase_es[e0:e1]), dth, rot_re, rot_im, step, 1.0, self.win, self.use_window,
-                extra, np.uint64(self.key_c), e0, self.cf, self.pw)
+        return (np.uint64(self.key_noise), e0 * m, m, self.n_sub, are, aim, tab, ph_re, ph_im, 1.0, self.win,
+                self.use_window, extra, np.uint64(self.key_c), e0, self.cf, self.pw)
+
+
+def _tone_tables(phase_es, dtheta_es, n_fft, m_blocks, run=None):
+    """Inputs of the tones in :func:`_kernels.synth_blocks_kernel`: per estimate, tables and block phasors.
+
+    ``tab[e, g, k, n]`` (float32) holds ``cos(theta_s n)``, ``sin(theta_s n)``
+    of the cells of group g (:data:`_kernels.TONE_CELLS` per group, the last
+    one padded with silent cells) and ``ph_*[e, i, s]`` the phasor ``exp(i
+    (phase_es[e, s] + theta_s N i))`` of block i (:func:`_kernels.tone_tables_kernel`).
+    ``run(n_tasks, fn)`` runs ``fn(worker, e)`` for each estimate (default: in turn).
+    """
+    from . import _kernels as K
+
+    ne, ns = dtheta_es.shape
+    ng = (ns + K.TONE_CELLS - 1) // K.TONE_CELLS
+    tab = np.empty((ne, ng, 2 * K.TONE_CELLS, n_fft), dtype=np.float32)
+    ph_re = np.empty((ne, m_blocks, K.TONE_CELLS * ng))
+    ph_im = np.empty((ne, m_blocks, K.TONE_CELLS * ng))
+
+    def one(w, e):
+        K.tone_tables_kernel(np.ascontiguousarray(phase_es[e]), np.ascontiguousarray(dtheta_es[e]), n_fft, tab[e],
+                             ph_re[e], ph_im[e])
+
+    if ns:
+        if run is None:
+            for e in range(ne):
+                one(None, e)
+        else:
+            run(ne, one)
+    return tab, ph_re, ph_im
 
 
 def _task_blocks(n_fft: int) -> int:

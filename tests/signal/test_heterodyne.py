@@ -9,6 +9,7 @@ from cwlidar_sim import _config
 from cwlidar_sim._fft import rfft_rows
 from cwlidar_sim.signal import PROTOTYPE_2003, simulate_signal_spectra, synthesize_samples, window_samples
 from cwlidar_sim.signal import _kernels as K
+from cwlidar_sim.signal.heterodyne import _tone_tables
 
 import reference  # noqa: E402
 
@@ -120,13 +121,14 @@ def test_block_normals_against_reference_and_normal_pair():
         assert np.array_equal(out, 0.7 * np.array(pairs[:n]))
 
 
-def test_block_normals_are_standard_normal():
+@pytest.mark.parametrize("fn", ["block_normals", "block_normals_tab2"])
+def test_block_normals_are_standard_normal(fn):
     n_blocks, n = 2048, 512
     z = np.empty((n_blocks, n))
     words = np.empty(n // 2, dtype=np.uint64)
     tails = np.empty(n, dtype=np.int64)
     for b in range(n_blocks):
-        K.block_normals(np.uint64(K.stream_start(np.uint64(3), b)), 1.0, words, tails, z[b])
+        getattr(K, fn)(np.uint64(K.stream_start(np.uint64(3), b)), 1.0, words, tails, z[b])
     z = z.ravel()
     size = z.size
     # moments of N(0, 1): sd of the sample mean 1/sqrt(n), of the mean of z^2 sqrt(2/n), of z^4 sqrt(96/n)
@@ -136,48 +138,96 @@ def test_block_normals_are_standard_normal():
     # tails (the Acklam branch beyond |z| = 2.66): binomial counts within 4.5 sd
     from scipy.special import ndtr
 
-    for c in (2.0, 3.0, 4.0):
+    for c in (2.0, 2.66, 3.0, 3.5, 4.0):
         p = 2 * ndtr(-c)
         k = np.count_nonzero(np.abs(z) > c)
         assert abs(k - p * size) < 4.5 * math.sqrt(p * (1 - p) * size), c
 
 
-def test_tone_tables_against_reference():
-    dth = np.array([[0.3, -2.9, 3.1], [1e-4, 1.7, -0.6]])
-    rr = np.empty((2, 3, K.TONE_GROUP))
-    ri = np.empty((2, 3, K.TONE_GROUP))
-    st = np.empty((2, 3, 4))
-    K.tone_tables_kernel(dth, 40, rr, ri, st)
-    ref_r, ref_i, ref_s = reference.signal_tone_tables(dth, 40, K.TONE_GROUP)
-    # complex recurrence over G = 32 steps: a few ulp per step
-    assert np.allclose(rr, ref_r, rtol=0, atol=1e-13) and np.allclose(ri, ref_i, rtol=0, atol=1e-13)
-    assert np.allclose(st, ref_s, rtol=0, atol=1e-15)
+def test_block_normals_tab2_against_block_normals_and_reference():
+    # the centre bit for bit as block_normals, the tails from the second-level tables
+    n_blocks, n = 400, 63
+    words = np.empty(32, dtype=np.uint64)
+    tails = np.empty(n, dtype=np.int64)
+    a, b = np.empty(n), np.empty(n)
+    n_tail = 0
+    for blk in range(n_blocks):
+        st = np.uint64(K.stream_start(np.uint64(8), blk))
+        K.block_normals(st, 0.7, words, tails, a)
+        K.block_normals_tab2(st, 0.7, words, tails, b)
+        centre = np.abs(a) < 0.7 * 2.6
+        assert np.array_equal(a[centre], b[centre])
+        n_tail += np.count_nonzero(a != b)
+        # against exact ndtri: the central table's 1e-4, the tails' tables 1e-5
+        ref = reference.signal_block_normals(8, blk, n, 0.7)
+        assert np.allclose(b[centre], ref[centre], rtol=0, atol=0.7e-4)
+        assert np.allclose(b[~centre], ref[~centre], rtol=0, atol=0.7e-5)
+    # about 0.8 % of the samples are in the tails (binomial count within 4.5 sd)
+    p = 2 * 64 / 2**14
+    assert abs(n_tail - p * n_blocks * n) < 4.5 * math.sqrt(p * n_blocks * n)
 
 
-@pytest.mark.parametrize("n, n_sub", [(80, 2), (80, 5), (64, 1)])
-def test_synth_blocks_against_reference(n, n_sub):
-    # L = 40 (one group of 32 and a remainder), L = 16 (remainder only), L = 64 (two whole groups)
+def test_tail_normal_against_ndtri():
+    from scipy.special import ndtri
+
+    # both tails, the second-level tables and Acklam's outer cells (u < 2^16, u >= 2^32 - 2^16)
+    lo = np.concatenate([np.arange(0, 2**16, 37), np.arange(2**16, 2**24, 7919), [2**24 - 1]])
+    u = np.concatenate([lo, 2**32 - 1 - lo]).astype(np.uint64)
+    got = np.array([K.tail_normal(x) for x in u])
+    want = ndtri((u.astype(np.float64) + 0.5) / 2**32)
+    assert np.all(np.abs(got - want) < 1e-5)
+    far = (u < 2**16) | (u >= 2**32 - 2**16)
+    assert np.allclose(got[far], want[far], rtol=2e-9, atol=0)
+
+
+@pytest.mark.parametrize("ns", [1, 3, 4, 5, 9])
+def test_tone_tables_against_reference(ns):
+    # N = 80: table factors exp(i theta 32 j) exp(i theta q); M = 150: phasor factors over 64 blocks and a remainder
+    rng = np.random.default_rng(ns)
+    phase = rng.uniform(0, 2 * np.pi, ns)
+    dth = rng.uniform(-3.1, 3.1, ns)
+    dth[0] = 1e-4
+    n, m = 80, 150
+    tab, ph_re, ph_im = _tone_tables(phase[None], dth[None], n, m)
+    ref_tab, ref_re, ref_im = reference.signal_tone_tables(phase, dth, n, m, K.TONE_CELLS)
+    # tables rounded to float32 (|cos| <= 1: 6e-8); the phasors from products of three factors (a few ulp)
+    # and angles theta N i up to 4e4 rad (rounding 7e-12 in either)
+    assert tab.shape[1:] == ref_tab.shape
+    assert np.allclose(tab[0], ref_tab, rtol=0, atol=1.2e-7)
+    assert np.allclose(ph_re[0], ref_re, rtol=0, atol=5e-11) and np.allclose(ph_im[0], ref_im, rtol=0, atol=5e-11)
+    # padding cells of the last group: no tone (cos 1, sin 0, phasor 1)
+    ncs = tab.shape[1] * K.TONE_CELLS
+    assert np.all(ph_re[0][:, ns:ncs] == 1.0) and np.all(ph_im[0][:, ns:ncs] == 0.0)
+
+
+@pytest.mark.parametrize("n, n_sub, ns", [(80, 2, 3), (80, 5, 3), (64, 1, 3), (64, 1, 5), (64, 4, 9)])
+def test_synth_blocks_against_reference(n, n_sub, ns):
+    # one group with a padding cell (3), two groups (5), three (9); sub-steps of 40, 16, 64, 16 samples
     rng = np.random.default_rng(11)
-    ns, m, ne = 3, 3, 3
+    m, ne = 3, 3
     nb = m * ne
     are = rng.normal(size=(ns, nb * n_sub))
     aim = rng.normal(size=(ns, nb * n_sub))
     phase = rng.uniform(0, 2 * np.pi, (ne, ns))
     dth = rng.uniform(-3.1, 3.1, (ne, ns))
     win = np.sin(np.pi * np.arange(n) / n) ** 2
-    rr = np.empty((ne, ns, K.TONE_GROUP))
-    ri = np.empty((ne, ns, K.TONE_GROUP))
-    st = np.empty((ne, ns, 4))
-    K.tone_tables_kernel(dth, n // n_sub, rr, ri, st)
+    tab, ph_re, ph_im = _tone_tables(phase, dth, n, m)
     out = np.empty((5, n), dtype=np.float32)
     acc, words, tails = np.empty(n), np.empty(n // 2, dtype=np.uint64), np.empty(n, dtype=np.int64)
     # blocks 2..6 of the chunk span three estimates
-    K.synth_blocks_kernel(np.uint64(5), 7, 2, 7, m, n_sub, are, aim, phase, dth, rr, ri, st, 0.7, win, True,
+    K.synth_blocks_kernel(np.uint64(5), 7, 2, 7, m, n_sub, are, aim, tab, ph_re, ph_im, 0.7, win, True,
                           np.empty((0, 0)), np.uint64(0), 0, np.zeros(0), np.zeros((2, 0)), np.zeros(2), acc, words,
                           tails, out)
     ref = reference.signal_synth_blocks(5, 7, 2, 7, m, n_sub, are, aim, phase, dth, 0.7, win)
-    # table normals (|dz| < 1e-4, times 0.7), float32 rounding of |x| < 10 (6e-7), rotations (1e-13)
+    # table normals (|dz| < 1e-4, times 0.7); the tones in float32 (|sum| < 15: 1e-6); float32 output (1e-6)
     assert np.allclose(out, ref, rtol=0, atol=1e-4)
+    # the tones alone (noise_std 0) against the reference, to the float32 tones' rounding
+    K.synth_blocks_kernel(np.uint64(5), 7, 2, 7, m, n_sub, are, aim, tab, ph_re, ph_im, 0.0, win, True,
+                          np.empty((0, 0)), np.uint64(0), 0, np.zeros(0), np.zeros((2, 0)), np.zeros(2), acc, words,
+                          tails, out)
+    ref = reference.signal_synth_blocks(5, 7, 2, 7, m, n_sub, are, aim, phase, dth, 0.0, win)
+    scale = np.abs(are).max() + np.abs(aim).max()
+    assert np.allclose(out, ref, rtol=0, atol=4 * ns * scale * 2.0**-24)
 
 
 def test_power_sum_and_combine_against_reference():

@@ -20,7 +20,7 @@ from cwlidar_sim import _config
 from cwlidar_sim._fft import rfft_rows
 from cwlidar_sim.signal import CS_SERIES, PROTOTYPE_2003, noise_floor, simulate_signal_spectra, synthesize_samples
 from cwlidar_sim.signal import _kernels as K
-from cwlidar_sim.signal.heterodyne import _filter_powers, _InOrder, noise_filter
+from cwlidar_sim.signal.heterodyne import _filter_powers, _InOrder, _tone_tables, noise_filter
 from cwlidar_sim.signal.spectral import continuum_moments, noise_correlation
 
 import reference  # noqa: E402
@@ -94,14 +94,16 @@ def test_colour_noise_block_against_reference_and_recursion(n):
     pw = _filter_powers(cf, n)
     rng = np.random.default_rng(n)
     z = rng.standard_normal((3, n))
-    y = z.copy()
+    # the kernel takes the normals times b_1
+    y = cf[1] * z
     st = np.array([0.7, -1.1])
     ref_st = list(st)
     serial = []
     u1, u2 = st
     for b in range(3):
+        w = y[b].copy()
         K.colour_noise_block(y[b], cf, pw, st)
-        r, ref_st = reference.signal_colour_noise(z[b], cf, ref_st)
+        r, ref_st = reference.signal_colour_noise(w, cf, ref_st)
         # the same IEEE operations in the same order
         assert np.array_equal(y[b], r)
         for v in z[b]:
@@ -123,10 +125,7 @@ def test_synth_blocks_coloured_against_reference():
     phase = rng.uniform(0, 2 * np.pi, (ne, ns))
     dth = rng.uniform(-3.1, 3.1, (ne, ns))
     win = np.ones(n)
-    rr = np.empty((ne, ns, K.TONE_GROUP))
-    ri = np.empty((ne, ns, K.TONE_GROUP))
-    st = np.empty((ne, ns, 4))
-    K.tone_tables_kernel(dth, n // n_sub, rr, ri, st)
+    tab, ph_re, ph_im = _tone_tables(phase, dth, n, m)
     cf = noise_filter(PROTOTYPE_2003.replace(n_fft=n))
     pw = _filter_powers(cf, n)
     acc, words, tails = np.empty(n), np.empty(n // 2, dtype=np.uint64), np.empty(n, dtype=np.int64)
@@ -134,7 +133,7 @@ def test_synth_blocks_coloured_against_reference():
     state = np.zeros(2)
     # in two calls: the state carries over from the first to the second
     for lo, hi in ((0, 4), (4, nb)):
-        K.synth_blocks_kernel(np.uint64(5), 7, lo, hi, m, n_sub, are, aim, phase, dth, rr, ri, st, 1.0, win, False,
+        K.synth_blocks_kernel(np.uint64(5), 7, lo, hi, m, n_sub, are, aim, tab, ph_re, ph_im, 1.0, win, False,
                               np.empty((0, 0)), np.uint64(77), 10, cf, pw, state, acc, words, tails, out[lo:hi])
     ref_state = [0.0, 0.0]
     ref = reference.signal_synth_blocks(5, 7, 0, nb, m, n_sub, are, aim, phase, dth, 1.0, win,

@@ -22,11 +22,13 @@ from __future__ import annotations
 from .rng import (  # noqa: F401
     acklam,
     block_normals,
+    block_normals_tab2,
     mix64,
     normal_pair,
     normal_pair_polar,
     normal_u32,
     stream_start,
+    tail_normal,
 )
 from .spectral import (  # noqa: F401
     expected_signal_kernel,
@@ -46,7 +48,7 @@ from .processing import (  # noqa: F401
     valid_spectra_rows,
 )
 from .heterodyne import (  # noqa: F401
-    TONE_GROUP,
+    TONE_CELLS,
     COLOUR_SEGMENTS,
     add_tones,
     ar1_amplitudes_kernel,

@@ -8,7 +8,8 @@ import numba
 import numpy as np
 
 from ..._config import NJIT, NJIT_PARALLEL
-from .rng import _GOLDEN, _START_STREAM, _TWOPI, block_normals, mix64, normal_pair, normal_pair_polar, stream_start
+from .rng import (_GOLDEN, _START_STREAM, block_normals, block_normals_tab2, mix64, normal_pair,
+                  normal_pair_polar, stream_start)
 
 
 # ---------------------------------------------------------------------------
@@ -132,97 +133,154 @@ def power_average_kernel(spec_bf, m_blocks, scale, out_ef):
 # ---------------------------------------------------------------------------
 # tier 3, fused path: one block at a time into a worker's FFT input buffer
 # ---------------------------------------------------------------------------
-#: Samples per group of the tone loop: the tone's phasor is stepped once per
-#: group and the samples of a group come from a table of ``exp(i j theta)``,
-#: so the inner loop has no carried dependence and vectorises.
-TONE_GROUP = 32
+#: Cells per group of the tone tables (:func:`tone_tables_kernel`); the tones
+#: of a group are summed sample by sample in one pass (:func:`_tones_group`).
+TONE_CELLS = 4
+#: ``exp(i theta n)``, n < N, is ``exp(i theta S j) exp(i theta q)``, ``n = S j + q``.
+_TAB_SPLIT = 32
+#: The block phasor ``exp(i theta N i)`` is ``exp(i theta N S h) exp(i theta N l)``, ``i = S h + l``.
+_PH_SPLIT = 64
 
 
 @numba.njit(**NJIT)
-def tone_tables_kernel(dtheta_es, ln, rot_re_esq, rot_im_esq, step_es4):
-    """Rotation factors of each cell's tone in each estimate (speeds are constant over an estimate).
-
-    ``rot[e, s, q] = exp(i q dtheta)`` for q < G = :data:`TONE_GROUP` by the
-    complex recurrence (error O(G * 1e-16)); ``step[e, s] = (cos G dtheta,
-    sin G dtheta, cos L dtheta, sin L dtheta)`` from their own cos/sin, L the
-    sub-step length.
-    """
-    ne, ns = dtheta_es.shape
-    for e in range(ne):
-        for s in range(ns):
-            th = dtheta_es[e, s]
-            c1 = math.cos(th)
-            s1 = math.sin(th)
-            rr = 1.0
-            ri = 0.0
-            for q in range(TONE_GROUP):
-                rot_re_esq[e, s, q] = rr
-                rot_im_esq[e, s, q] = ri
-                rr, ri = rr * c1 - ri * s1, rr * s1 + ri * c1
-            step_es4[e, s, 0] = math.cos(TONE_GROUP * th)
-            step_es4[e, s, 1] = math.sin(TONE_GROUP * th)
-            step_es4[e, s, 2] = math.cos(ln * th)
-            step_es4[e, s, 3] = math.sin(ln * th)
+def _phasor_factors(th, count, split, fac_re_2k, fac_im_2k):
+    """``fac[0, j] = exp(i th split j)``, j < ceil(count / split); ``fac[1, q] = exp(i th q)``, q < split."""
+    for j in range((count + split - 1) // split):
+        a = th * (split * j)
+        fac_re_2k[0, j] = math.cos(a)
+        fac_im_2k[0, j] = math.sin(a)
+    for q in range(split):
+        a = th * q
+        fac_re_2k[1, q] = math.cos(a)
+        fac_im_2k[1, q] = math.sin(a)
 
 
 @numba.njit(**NJIT)
-def add_tones(n_sub, amp_re_j, amp_im_j, phase0, rot_re_q, rot_im_q, step_4, acc_n):
-    """``acc_n[n] += Re(a_j exp(i (phase0 + dtheta n)))``, ``a_j`` constant over sub-step j of L = len / n_sub.
+def tone_tables_kernel(phase_s, dtheta_s, n_fft, tab_gkn, ph_re_is, ph_im_is):
+    """Tone tables of one estimate: ``exp(i dtheta_s n)`` for n < N and the block phasors.
 
-    The phasor ``exp(i (phase0 + dtheta n0))`` starts from cos/sin of
-    ``phase0`` (exact re-anchoring at every block) and is rotated by
-    ``exp(i L dtheta)`` from sub-step to sub-step; ``z = a_j exp(i (phase0 +
-    dtheta n))`` is rotated by ``exp(i G dtheta)`` (G = :data:`TONE_GROUP`)
-    from group to group of G samples, and within a group sample ``n + q`` is
-    ``Re(z exp(i q dtheta))`` with the factors of ``rot_*_q``
-    (:func:`tone_tables_kernel`), so the inner loop has no carried
-    dependence and vectorises.  All in float64: after the at most ``len``
-    rotations of a block the rounding error is O(len * 1e-16) of the amplitude.
+    ``tab_gkn[g, k, n]`` is ``cos(dtheta_s n)`` (k < 4) and ``sin(dtheta_s n)``
+    (k = 4 + c) of cell ``s = 4 g + c`` (:data:`TONE_CELLS` = 4 cells per
+    group; cells ``s >= len(dtheta_s)`` pad the last group: cos 1, sin 0).
+    ``ph[i, s] = exp(i (phase_s + dtheta_s N i))`` is the Doppler phasor of
+    cell s at the start of block i of the estimate, i < ``ph_re_is.shape[0]``
+    (padding cells: 1).  Each value is the complex product of factors from
+    cos/sin of their own angles, ``exp(i theta n) = exp(i theta 32 j) exp(i
+    theta q)`` (``n = 32 j + q``) and ``exp(i phase) exp(i theta N 64 h)
+    exp(i theta N l)`` (``i = 64 h + l``): a few ulp, and no error that grows
+    along the block or the estimate.  ``tab_gkn`` may be float32 (the
+    package's tables are: the tones are summed in float32), the phasors are
+    float64.
     """
-    nn = acc_n.shape[0]
+    ns = dtheta_s.shape[0]
+    ng = tab_gkn.shape[0]
+    nn = tab_gkn.shape[2]
+    mb = ph_re_is.shape[0]
+    kmax = max(nn // _TAB_SPLIT + 1, mb // _PH_SPLIT + 1, _PH_SPLIT)
+    fr = np.empty((2, kmax))
+    fi = np.empty((2, kmax))
+    for s in range(TONE_CELLS * ng):
+        g = s // TONE_CELLS
+        c = s - g * TONE_CELLS
+        if s >= ns:
+            for n in range(nn):
+                tab_gkn[g, c, n] = 1.0
+                tab_gkn[g, TONE_CELLS + c, n] = 0.0
+            for i in range(mb):
+                ph_re_is[i, s] = 1.0
+                ph_im_is[i, s] = 0.0
+            continue
+        th = dtheta_s[s]
+        _phasor_factors(th, nn, _TAB_SPLIT, fr, fi)
+        for n in range(nn):
+            j = n // _TAB_SPLIT
+            q = n - j * _TAB_SPLIT
+            tab_gkn[g, c, n] = fr[0, j] * fr[1, q] - fi[0, j] * fi[1, q]
+            tab_gkn[g, TONE_CELLS + c, n] = fr[0, j] * fi[1, q] + fi[0, j] * fr[1, q]
+        _phasor_factors(th * n_fft, mb, _PH_SPLIT, fr, fi)
+        p0r = math.cos(phase_s[s])
+        p0i = math.sin(phase_s[s])
+        for h in range((mb + _PH_SPLIT - 1) // _PH_SPLIT):
+            er = p0r * fr[0, h] - p0i * fi[0, h]
+            ei = p0r * fi[0, h] + p0i * fr[0, h]
+            for i in range(h * _PH_SPLIT, min(mb, (h + 1) * _PH_SPLIT)):
+                q = i - h * _PH_SPLIT
+                ph_re_is[i, s] = er * fr[1, q] - ei * fi[1, q]
+                ph_im_is[i, s] = er * fi[1, q] + ei * fr[1, q]
+
+
+@numba.njit(**NJIT, inline='always')
+def _tones_group(cr_s, ci_s, tab_gkn, g, lo, hi, out_n):
+    """``out_n[n] += sum_c (cr cos - ci sin)`` over the 4 cells of group g, ``lo <= n < hi``, in float32.
+
+    The four terms are summed as a tree, ``((t0 + t1) + (t2 + t3))``, then
+    added to ``out_n`` (group 0: stored); rows sliced to ``[lo, hi)`` index from 0, provably
+    >= 0, so the loop vectorises (8 lanes).
+    """
+    s = TONE_CELLS * g
+    a0, a1 = np.float32(cr_s[s]), np.float32(cr_s[s + 1])
+    a2, a3 = np.float32(cr_s[s + 2]), np.float32(cr_s[s + 3])
+    b0, b1 = np.float32(ci_s[s]), np.float32(ci_s[s + 1])
+    b2, b3 = np.float32(ci_s[s + 2]), np.float32(ci_s[s + 3])
+    t = tab_gkn[g]
+    c0, c1, c2, c3 = t[0][lo:hi], t[1][lo:hi], t[2][lo:hi], t[3][lo:hi]
+    s0, s1, s2, s3 = t[4][lo:hi], t[5][lo:hi], t[6][lo:hi], t[7][lo:hi]
+    x = out_n[lo:hi]
+    if g == 0:
+        for n in range(hi - lo):
+            x[n] = ((a0 * c0[n] - b0 * s0[n]) + (a1 * c1[n] - b1 * s1[n])) + ((a2 * c2[n] - b2 * s2[n]) + (a3 * c3[n] - b3 * s3[n]))
+    else:
+        for n in range(hi - lo):
+            x[n] += ((a0 * c0[n] - b0 * s0[n]) + (a1 * c1[n] - b1 * s1[n])) + ((a2 * c2[n] - b2 * s2[n]) + (a3 * c3[n] - b3 * s3[n]))
+
+
+@numba.njit(**NJIT, inline='always')
+def add_tones(n_sub, amp_re_st, amp_im_st, t0, ph_re_s, ph_im_s, tab_gkn, cr_s, ci_s, out_n):
+    """``out_n[n] = sum_s Re(a_s exp(i phi_s) exp(i dtheta_s n))`` (float32), ``a_s`` constant over each of n_sub sub-steps.
+
+    ``a_s = amp_*_st[s, t0 + j]`` in sub-step j, ``exp(i phi_s) = ph_*_s[s]``
+    (the block's phasors), ``exp(i dtheta_s n)`` from ``tab_gkn``
+    (:func:`tone_tables_kernel`, float32).  The coefficients ``a_s exp(i
+    phi_s)`` are formed in float64 and rounded to float32; each group of
+    :data:`TONE_CELLS` cells is one pass of :func:`_tones_group`, groups in
+    order.  ``cr_s``, ``ci_s`` (length 4 times the groups) are scratch.
+    """
+    nn = out_n.shape[0]
     ln = nn // n_sub
-    ng = ln // TONE_GROUP
-    cg = step_4[0]
-    sg = step_4[1]
-    cl = step_4[2]
-    sl = step_4[3]
-    pr = math.cos(phase0)
-    pi = math.sin(phase0)
+    ns = amp_re_st.shape[0]
+    ng = tab_gkn.shape[0]
+    for s in range(ns, TONE_CELLS * ng):
+        cr_s[s] = 0.0
+        ci_s[s] = 0.0
     for j in range(n_sub):
-        ar = amp_re_j[j]
-        ai = amp_im_j[j]
-        zr = ar * pr - ai * pi
-        zi = ar * pi + ai * pr
-        n0 = j * ln
-        # whole groups: a constant trip count over a slice (indices provably >= 0),
-        # which the compiler vectorises
-        for gi in range(ng):
-            seg = acc_n[n0 + gi * TONE_GROUP:n0 + (gi + 1) * TONE_GROUP]
-            for q in range(TONE_GROUP):
-                seg[q] += zr * rot_re_q[q] - zi * rot_im_q[q]
-            zr, zi = zr * cg - zi * sg, zr * sg + zi * cg
-        seg = acc_n[n0 + ng * TONE_GROUP:n0 + ln]
-        for q in range(seg.shape[0]):
-            seg[q] += zr * rot_re_q[q] - zi * rot_im_q[q]
-        pr, pi = pr * cl - pi * sl, pr * sl + pi * cl
+        for s in range(ns):
+            ar = amp_re_st[s, t0 + j]
+            ai = amp_im_st[s, t0 + j]
+            cr_s[s] = ar * ph_re_s[s] - ai * ph_im_s[s]
+            ci_s[s] = ar * ph_im_s[s] + ai * ph_re_s[s]
+        for g in range(ng):
+            _tones_group(cr_s, ci_s, tab_gkn, g, j * ln, (j + 1) * ln, out_n)
 
 
 @numba.njit(**NJIT)
-def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp_im_st, phase_es, dtheta_es,
-                        rot_re_esq, rot_im_esq, step_es4, noise_std, window_n, use_window, extra_et, ckey, ce0, cf_8,
-                        pw_2n, state_2, acc_n, words_w, tails_n, out_bn):
+def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp_im_st, tab_egkn, ph_re_ebs, ph_im_ebs,
+                        noise_std, window_n, use_window, extra_et, ckey, ce0, cf_8, pw_2n, state_2, acc_n, words_w,
+                        tails_n, out_bn):
     """Real heterodyne samples of blocks ``b_lo .. b_hi - 1`` of a chunk into rows 0.. of ``out_bn`` (float32).
 
     The signal of :func:`synth_kernel`, ``x[n] = noise_std * xi[n] + sum_s
     Re(a_s e^{i (phase0_s + dtheta_s n)})``, windowed.  Chunk block b is
     global block ``block0 + b``, block ``i = b mod M`` of the chunk's
-    estimate ``e = b // M``, and starts at Doppler phase ``phase0_s =
-    (phase_es[e, s] + dtheta_es[e, s] N i) mod 2 pi``; tone tables from
+    estimate ``e = b // M``; its phasors ``exp(i phase0_s) = ph_*_ebs[e, i,
+    s]`` and the tones' tables ``tab_egkn[e]`` come from
     :func:`tone_tables_kernel`; noise from stream ``block0 + b``
-    (:func:`block_normals`: table normals, where synth_kernel uses the
+    (:func:`block_normals_tab2`: table normals, where synth_kernel uses the
     polar method); amplitudes ``amp_*_st[s, b n_sub + j]``, j < n_sub.
-    Cells are added in order in float64 (:func:`add_tones`), then the window
-    is applied and the sum rounded to float32.  Every block depends only on
+    The tones are summed in float32 (:func:`add_tones`), those of all the
+    call's blocks first, into the rows of ``out_bn`` (their tables stay in
+    the cache, which the noise's table lookups would flush block by block);
+    then block by block the float64 noise (and ``extra``) is added to the
+    row, the window applied and the sum rounded to float32.  Every block depends only on
     its own inputs, so the result does not depend on how blocks are split
     between calls or threads (serial and ``nogil``: worker threads call it
     on disjoint blocks).  ``extra_et`` (rows: the chunk's estimates, M N
@@ -241,32 +299,46 @@ def synth_blocks_kernel(key, block0, b_lo, b_hi, m_blocks, n_sub, amp_re_st, amp
     ``acc_n``, ``words_w``, ``tails_n`` are scratch (lengths N, ceil(N/2), N).
     """
     nn = acc_n.shape[0]
-    ns = phase_es.shape[1]
     coloured = cf_8.shape[0] > 0
+    tones = amp_re_st.shape[0] > 0
+    ncs = TONE_CELLS * tab_egkn.shape[1]
+    cr_s = np.empty(ncs)
+    ci_s = np.empty(ncs)
+    # the tones of every block first, into the output rows: the tables stay in the cache
+    if tones:
+        for b in range(b_lo, b_hi):
+            e = b // m_blocks
+            i = b - e * m_blocks
+            add_tones(n_sub, amp_re_st, amp_im_st, b * n_sub, ph_re_ebs[e, i], ph_im_ebs[e, i], tab_egkn[e], cr_s,
+                      ci_s, out_bn[b - b_lo])
     for b in range(b_lo, b_hi):
-        block_normals(stream_start(key, block0 + b), noise_std, words_w, tails_n, acc_n)
-        t0 = b * n_sub
+        # coloured: the normals times b_1, as colour_noise_block takes them
+        block_normals_tab2(stream_start(key, block0 + b), noise_std * cf_8[1] if coloured else noise_std, words_w,
+                           tails_n, acc_n)
         e = b // m_blocks
         i = b - e * m_blocks
         if coloured:
             if i == 0:
                 colour_start(ckey, ce0 + e, cf_8, state_2)
             colour_noise_block(acc_n, cf_8, pw_2n, state_2)
-        for s in range(ns):
-            ph0 = (phase_es[e, s] + dtheta_es[e, s] * (nn * i)) % _TWOPI
-            add_tones(n_sub, amp_re_st[s, t0:t0 + n_sub], amp_im_st[s, t0:t0 + n_sub], ph0, rot_re_esq[e, s],
-                      rot_im_esq[e, s], step_es4[e, s], acc_n)
         if extra_et.shape[0] > 0:
             xr = extra_et[e, i * nn:(i + 1) * nn]
             for n in range(nn):
                 acc_n[n] += xr[n]
-        r = b - b_lo
-        if use_window:
+        o = out_bn[b - b_lo]
+        if tones:
+            if use_window:
+                for n in range(nn):
+                    o[n] = np.float32((acc_n[n] + o[n]) * window_n[n])
+            else:
+                for n in range(nn):
+                    o[n] = np.float32(acc_n[n] + o[n])
+        elif use_window:
             for n in range(nn):
-                out_bn[r, n] = np.float32(acc_n[n] * window_n[n])
+                o[n] = np.float32(acc_n[n] * window_n[n])
         else:
             for n in range(nn):
-                out_bn[r, n] = np.float32(acc_n[n])
+                o[n] = np.float32(acc_n[n])
 
 
 @numba.njit(**NJIT)
@@ -390,25 +462,28 @@ def colour_start(key, estimate, cf_8, state_2):
 
 @numba.njit(**NJIT)
 def colour_noise_block(acc_n, cf_8, pw_2n, state_2):
-    """In place, white normals ``z`` -> ``y = a0 z + u_1 + u_2``, ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``.
+    """In place, scaled white normals ``w = b_1 z`` -> ``y = a0 z + u_1 + u_2``, ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``.
 
-    ``cf_8 = (a0, b_1, b_2, rho_1, rho_2, ...)``; ``state_2`` holds
+    ``cf_8 = (a0, b_1, b_2, rho_1, rho_2, ...)`` with ``b_1 > 0`` (as
+    :func:`cwlidar_sim.signal.heterodyne.noise_filter` makes it).  The input
+    is the normals times ``b_1`` (:func:`synth_blocks_kernel` draws them so,
+    which saves a multiplication per sample): ``u_1[n] = rho_1 u_1[n-1] +
+    w[n]``, ``u_2[n] = rho_2 u_2[n-1] + k_2 w[n]``, ``y = (k_0 w + u_1) +
+    u_2`` with ``k_0 = a0 / b_1``, ``k_2 = b_2 / b_1``.  ``state_2`` holds
     ``u_c[-1]`` on entry and ``u_c[N-1]`` on return; ``pw_2n[c, k] =
     rho_c^(k+1)``.  The recursion is computed as a blocked scan, so that its
     serial latency is shared by :data:`COLOUR_SEGMENTS` = S segments: with
     ``G = N // S``, segment s < S - 1 is samples ``[sG, (s+1)G)`` and the last
     one ``[(S-1)G, N)``.  Pass 1 runs the S segments side by side from a zero
-    state, ``l_c[k] = rho_c l_c[k-1] + b_c z``, and stores ``(a0 z + l_1) +
-    l_2``; pass 2 adds ``pw_1[k] C_1 + pw_2[k] C_2``, ``C_c`` the state
-    before the segment, carried as ``C_c <- pw_c[len - 1] C_c + l_c[end]``.
-    Exact in exact arithmetic; the rounding differs from the serial
-    recursion's by a few ulp (``tests/reference.py::signal_colour_noise``
-    repeats this order).
+    state and stores ``(k_0 w + l_1) + l_2``; pass 2 adds ``pw_1[k] C_1 +
+    pw_2[k] C_2``, ``C_c`` the state before the segment, carried as ``C_c <-
+    pw_c[len - 1] C_c + l_c[end]``.  Exact in exact arithmetic; the rounding
+    differs from the serial recursion's by a few ulp
+    (``tests/reference.py::signal_colour_noise`` repeats this order).
     """
     nn = acc_n.shape[0]
-    a0 = cf_8[0]
-    b1 = cf_8[1]
-    b2 = cf_8[2]
+    k0 = cf_8[0] / cf_8[1]
+    k2 = cf_8[2] / cf_8[1]
     r1 = cf_8[3]
     r2 = cf_8[4]
     g = nn // COLOUR_SEGMENTS
@@ -420,26 +495,26 @@ def colour_noise_block(acc_n, cf_8, pw_2n, state_2):
     # four independent chains per component: their latencies overlap
     for k in range(g):
         z = x0[k]
-        p0 = r1 * p0 + b1 * z
-        q0 = r2 * q0 + b2 * z
-        x0[k] = (a0 * z + p0) + q0
+        p0 = r1 * p0 + z
+        q0 = r2 * q0 + k2 * z
+        x0[k] = (k0 * z + p0) + q0
         z = x1[k]
-        p1 = r1 * p1 + b1 * z
-        q1 = r2 * q1 + b2 * z
-        x1[k] = (a0 * z + p1) + q1
+        p1 = r1 * p1 + z
+        q1 = r2 * q1 + k2 * z
+        x1[k] = (k0 * z + p1) + q1
         z = x2[k]
-        p2 = r1 * p2 + b1 * z
-        q2 = r2 * q2 + b2 * z
-        x2[k] = (a0 * z + p2) + q2
+        p2 = r1 * p2 + z
+        q2 = r2 * q2 + k2 * z
+        x2[k] = (k0 * z + p2) + q2
         z = x3[k]
-        p3 = r1 * p3 + b1 * z
-        q3 = r2 * q3 + b2 * z
-        x3[k] = (a0 * z + p3) + q3
+        p3 = r1 * p3 + z
+        q3 = r2 * q3 + k2 * z
+        x3[k] = (k0 * z + p3) + q3
     for n in range(COLOUR_SEGMENTS * g, nn):
         z = acc_n[n]
-        p3 = r1 * p3 + b1 * z
-        q3 = r2 * q3 + b2 * z
-        acc_n[n] = (a0 * z + p3) + q3
+        p3 = r1 * p3 + z
+        q3 = r2 * q3 + k2 * z
+        acc_n[n] = (k0 * z + p3) + q3
     c1 = state_2[0]
     c2 = state_2[1]
     for s in range(COLOUR_SEGMENTS):

@@ -60,15 +60,21 @@ def _interp_peak(yl, yc, yr, est_id, win_id):
 
 
 @numba.njit(**NJIT)
-def _ml_profile(shat, lo, hi, x0, table, oversample, n_fft, a0):
-    """Negative Whittle log-likelihood at line position x0, amplitude profiled by Fisher scoring."""
+def _ml_profile(shat, lo, hi, x0, table, oversample, n_fft, a0, g_k):
+    """Negative Whittle log-likelihood at line position x0, amplitude profiled by Fisher scoring.
+
+    ``g_k`` is scratch of at least ``hi - lo``: the line's shape at x0, which
+    the scoring iterations share (it does not depend on the amplitude).
+    """
     g0 = line_value(table, oversample, n_fft, 0.0)
+    for k in range(lo, hi):
+        g_k[k - lo] = (line_value(table, oversample, n_fft, k - x0) + line_value(table, oversample, n_fft, k + x0)) / g0
     a = a0
     for _ in range(12):
         score = 0.0
         info = 0.0
         for k in range(lo, hi):
-            g = (line_value(table, oversample, n_fft, k - x0) + line_value(table, oversample, n_fft, k + x0)) / g0
+            g = g_k[k - lo]
             mu = 1.0 + a * g
             score += g * (shat[k] - mu) / (mu * mu)
             info += g * g / (mu * mu)
@@ -84,8 +90,7 @@ def _ml_profile(shat, lo, hi, x0, table, oversample, n_fft, a0):
         a = a_new
     nll = 0.0
     for k in range(lo, hi):
-        g = (line_value(table, oversample, n_fft, k - x0) + line_value(table, oversample, n_fft, k + x0)) / g0
-        mu = 1.0 + a * g
+        mu = 1.0 + a * g_k[k - lo]
         nll += math.log(mu) + shat[k] / mu
     return nll
 
@@ -96,22 +101,23 @@ def _ml_estimate(shat, kp, k_lo, k_hi, table, oversample, n_fft, half_width):
     lo = max(k_lo, kp - half_width)
     hi = min(k_hi, kp + half_width + 1)
     a0 = max(shat[kp] - 1.0, 1e-6)
+    g_k = np.empty(max(hi - lo, 1))
     gr = 0.5 * (math.sqrt(5.0) - 1.0)
     a = kp - 1.0
     b = kp + 1.0
     c = b - gr * (b - a)
     d = a + gr * (b - a)
-    fc = _ml_profile(shat, lo, hi, c, table, oversample, n_fft, a0)
-    fd = _ml_profile(shat, lo, hi, d, table, oversample, n_fft, a0)
+    fc = _ml_profile(shat, lo, hi, c, table, oversample, n_fft, a0, g_k)
+    fd = _ml_profile(shat, lo, hi, d, table, oversample, n_fft, a0, g_k)
     for _ in range(40):
         if fc < fd:
             b, d, fd = d, c, fc
             c = b - gr * (b - a)
-            fc = _ml_profile(shat, lo, hi, c, table, oversample, n_fft, a0)
+            fc = _ml_profile(shat, lo, hi, c, table, oversample, n_fft, a0, g_k)
         else:
             a, c, fc = c, d, fd
             d = a + gr * (b - a)
-            fd = _ml_profile(shat, lo, hi, d, table, oversample, n_fft, a0)
+            fd = _ml_profile(shat, lo, hi, d, table, oversample, n_fft, a0, g_k)
         if b - a < 1e-6:
             break
     return 0.5 * (a + b)

@@ -275,3 +275,4 @@ def test_quick_cs_is_the_full_runs_first_units():
     assert n == 8 and quick.unit_names() == full.unit_names()[:n]
     assert [quick.unit_seed(i) for i in range(n)] == [full.unit_seed(i) for i in range(n)]
     assert [p for p, _ in quick.units()] == [p for p, _ in full.units()[:n]]
+

@@ -157,17 +157,31 @@ def _as_2d(name, a):
     return arr
 
 
-def _solve(cos_p, sin_p, y_p, m_p, s_p):
-    """Weighted linear least squares of s y on (cos, sin, 1), batched over scans: (n, 3), singular mask."""
+def _normal_matrix(cos_p, sin_p, m_p):
+    """The weighted design (cos, sin, 1) m and its normal matrix, batched over scans: (Xw, G, singular mask).
+
+    They do not depend on the signs, so a fit's sign iterations share them.
+    """
     X = np.stack([cos_p, sin_p, np.ones_like(cos_p)], axis=-1)  # (n, p, 3)
     Xw = X * m_p[..., None]
     G = np.einsum("npi,npj->nij", Xw, X)
-    r = np.einsum("npi,np->ni", Xw, s_p * y_p)
     det = np.linalg.det(G)
     scale = np.einsum("nii->n", G) ** 3 + 1e-300
     bad = ~(np.abs(det) > 1e-12 * scale)
     G[bad] = np.eye(3)
-    return np.linalg.solve(G, r[..., None])[..., 0], bad
+    return Xw, G, bad
+
+
+def _solve(normal, y_p, s_p, rows=None):
+    """Weighted linear least squares of s y on (cos, sin, 1) (``normal``: :func:`_normal_matrix`): (n, 3).
+
+    ``rows``: only those scans (each scan's fit is its own; the batch does not change its bits).
+    """
+    Xw, G, _ = normal
+    if rows is not None:
+        Xw, G, y_p, s_p = Xw[rows], G[rows], y_p[rows], s_p[rows]
+    r = np.einsum("npi,np->ni", Xw, s_p * y_p)
+    return np.linalg.solve(G, r[..., None])[..., 0]
 
 
 def fit_rectified_cosine(azimuth_deg, speed, half_angle_deg: float = 30.0, *, valid=None, reference_deg=None,
@@ -236,17 +250,22 @@ def fit_rectified_cosine(azimuth_deg, speed, half_angle_deg: float = 30.0, *, va
     best_sse = np.full(n_s, np.inf)
     best = np.full((n_s, 3), np.nan)
     trials = [None] + list(np.radians(np.arange(12) * 15.0))
+    normal = _normal_matrix(c_p, s_p, mw)
+    bad = normal[2]
     for t0 in trials:
         sign = np.ones_like(yz) if t0 is None else np.where(np.cos(th - t0) >= 0.0, 1.0, -1.0)
+        act = np.arange(n_s)  # the scans whose signs still change (the others' fits would repeat)
         for _ in range(max_iter):
-            p, bad = _solve(c_p, s_p, yz, mw, sign)
-            lin = p[:, 0:1] * c_p + p[:, 1:2] * s_p + p[:, 2:3]
+            q = _solve(normal, yz, sign, act)
+            ca, sa = c_p[act], s_p[act]
+            lin = q[:, 0:1] * ca + q[:, 1:2] * sa + q[:, 2:3]
             new = np.where(lin >= 0.0, 1.0, -1.0)
-            changed = np.any((new != sign) & m, axis=1)
-            sign = new
-            if not changed.any():
+            changed = np.any((new != sign[act]) & m[act], axis=1)
+            sign[act] = new
+            act = act[changed]
+            if not act.size:
                 break
-        p, bad = _solve(c_p, s_p, yz, mw, sign)
+        p = _solve(normal, yz, sign)
         lin = p[:, 0:1] * c_p + p[:, 1:2] * s_p + p[:, 2:3]
         sse = np.sum(mw * (yz - np.abs(lin)) ** 2, axis=1)
         sse[bad] = np.inf

@@ -145,7 +145,7 @@ def estimate_unit(scene: ConicalScene, index: int) -> dict:
 
 def estimate_bytes(scene: ConicalScene) -> float:
     """Size of a conical scene's results [bytes]: a few hundred numbers per (period, height)."""
-    return 20e3 * len(scene.periods) * len(scene.scan.heights) + 1e6
+    return 20e3 * len(scene.units()) * (len(scene.scan.heights) if scene.scan.cycle else 1) + 1e6
 
 
 def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condition=None, box_options=None):

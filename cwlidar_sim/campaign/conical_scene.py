@@ -18,6 +18,20 @@ Units of work
   A VAD scan may not span a refocus, so every ``scan.scan_revs`` must divide
   ``revs_per_height``.
 
+Periods per height
+------------------
+By default every ``[[period]]`` is run at every height.  With
+``scan.periods_per_height = [n_1, ..., n_k]`` (one count per height, dwell
+mode only) height ``i`` runs ``n_i`` periods that cycle through the
+``[[period]]`` tables as templates: its j-th period is template
+``j mod T`` (T templates), named ``<template>`` on the first pass and
+``<template>_<c>`` on pass ``c >= 1``.  A height's standard errors shrink as
+``1 / sqrt(n_i)``, so the heights whose periods scatter most get the most
+(the bundled ``cs`` scene).  The units run in the order (j, height), so
+where every height runs at least T periods the plan's first T x (heights)
+units are the plain scene's, names, seeds and bits; every unit has its own seed (a template with its
+own ``seed`` spawns one stream per height and pass).
+
 Wind direction
 --------------
 A period's ``wind_direction_deg`` is the direction the mean wind blows
@@ -102,6 +116,11 @@ class ScanSpec(Spec):
     revs_per_height, refocus_time
         The height cycle (``cycle = true`` only): revolutions at each height
         and the time lost refocusing [s].
+    periods_per_height : tuple of int
+        Empty (default): every period at every height.  Otherwise one count
+        per height, each in [1, 10000]: height i runs that many periods,
+        cycling through the ``[[period]]`` tables (module notes); dwell mode
+        only.
     """
 
     heights: tuple = (40.0, 60.0, 80.0, 100.0)
@@ -117,6 +136,7 @@ class ScanSpec(Spec):
     azimuth0_deg: float = 0.0
     revs_per_height: int = 1
     refocus_time: float = 0.0
+    periods_per_height: tuple = ()
 
     def __post_init__(self):
         set_field(self, "heights", check_distinct_reals("scan.heights", self.heights, count=(1, 20), noun="heights",
@@ -149,6 +169,19 @@ class ScanSpec(Spec):
         elif self.revs_per_height != 1 or self.refocus_time != 0.0:
             raise ValueError("scan.revs_per_height and scan.refocus_time set the height cycle; they need "
                              "scan.cycle = true")
+        plan = self.periods_per_height
+        if isinstance(plan, (str, bytes, dict)) or not hasattr(plan, "__len__"):
+            raise TypeError(f"scan.periods_per_height must be a list of integers (one per height), got "
+                            f"{type(plan).__name__} {plan!r}")
+        plan = tuple(check_int(f"scan.periods_per_height[{i}]", n, lo=1, hi=10000) for i, n in enumerate(plan))
+        if plan and len(plan) != len(self.heights):
+            raise ValueError(f"scan.periods_per_height has {len(plan)} counts for {len(self.heights)} heights "
+                             f"{list(self.heights)}; allowed: one count per height, or none (every period at "
+                             f"every height)")
+        if plan and self.cycle:
+            raise ValueError("scan.periods_per_height needs scan.cycle = false (a cycling lidar measures every "
+                             "height in each period); allowed: cycle = false, or no periods_per_height")
+        set_field(self, "periods_per_height", plan)
 
     def block_time(self) -> float:
         """Cycle mode: the time of one height's block, revolutions plus refocus [s]."""
@@ -165,7 +198,15 @@ class ScanSpec(Spec):
     def as_dict(self) -> dict:
         d = super().as_dict()
         d["heights"], d["scan_revs"] = list(self.heights), list(self.scan_revs)
+        if self.periods_per_height:
+            d["periods_per_height"] = list(self.periods_per_height)
+        else:
+            d.pop("periods_per_height", None)
         return d
+
+    def plan(self, n_templates: int) -> tuple:
+        """Periods run at each height (the plan, or ``n_templates`` at every height)."""
+        return self.periods_per_height or (n_templates,) * len(self.heights)
 
     @classmethod
     def from_dict(cls, d: dict) -> "ScanSpec":
@@ -294,7 +335,8 @@ class ConicalScene(Spec):
     name : str
         Used for ``DIR/<name>.nc``; letters, digits, '-', '_'.
     periods : tuple of ConicalPeriodSpec
-        Each is run at every height.
+        Each is run at every height, or they are the templates of
+        ``scan.periods_per_height`` (module notes).
     scan : ScanSpec
     lidar : ConicalLidarSpec
         The instrument and the signal chain (the keys of every scene's ``[lidar]``).
@@ -329,6 +371,12 @@ class ConicalScene(Spec):
         set_field(self, "seed", check_seed("seed", self.seed))
         check_str("description", self.description, allow_empty=True)
         nh = len(self.scan.heights)
+        names = self.unit_names()
+        if len(set(names)) != len(names):
+            dup = sorted({n for n in names if names.count(n) > 1})
+            raise ValueError(f"units {dup[:5]} are named twice: scan.periods_per_height names a template's "
+                             f"later passes <name>_<pass>; allowed: period names that are not another's "
+                             f"<name>_<pass>")
         for p in periods:
             dur = check_real(f"period {p.name!r} duration", self.period_duration(p), lo=10.0, hi=3600.0)
             if self.scan.cycle:
@@ -358,11 +406,32 @@ class ConicalScene(Spec):
         """Length of a period [s]."""
         return self.duration if period.duration is None else period.duration
 
+    def _plan_units(self):
+        """Dwell mode: (period, height, template index, pass) of every unit in run order (module notes)."""
+        tpl, hs = self.periods, self.scan.heights
+        if not self.scan.periods_per_height:
+            return [(p, z, k, 0) for k, p in enumerate(tpl) for z in hs]
+        plan = self.scan.periods_per_height
+        out = []
+        for j in range(max(plan)):
+            k, c = j % len(tpl), j // len(tpl)
+            p = tpl[k] if c == 0 else dataclasses.replace(tpl[k], name=f"{tpl[k].name}_{c}")
+            out.extend((p, z, k, c) for z, n in zip(hs, plan) if j < n)
+        return out
+
     def units(self):
-        """The units in run order: (period, height) pairs (period slowest); in cycle mode (period, heights)."""
+        """The units in run order: (period, height) pairs (period slowest); in cycle mode (period, heights).
+
+        With ``scan.periods_per_height`` the periods are the templates' passes (module notes).
+        """
         if self.scan.cycle:
             return [(p, self.scan.heights) for p in self.periods]
-        return [(p, z) for p in self.periods for z in self.scan.heights]
+        return [(p, z) for p, z, _, _ in self._plan_units()]
+
+    def periods_at(self) -> dict:
+        """Height [m] -> number of periods run there."""
+        n = len(self.periods)
+        return {z: (n if self.scan.cycle else k) for z, k in zip(self.scan.heights, self.scan.plan(n))}
 
     def unit_names(self):
         """Names of the units, ``<period>_z<height>`` (cycle mode: ``<period>``)."""
@@ -377,19 +446,22 @@ class ConicalScene(Spec):
 
     def simulated_hours(self) -> float:
         """Simulated time of all units [h] (dwell: each height its own record; cycle: one record per period)."""
-        per = 1 if self.scan.cycle else len(self.scan.heights)
-        return sum(self.period_duration(p) for p in self.periods) * per / 3600.0
+        if self.scan.cycle:
+            return sum(self.period_duration(p) for p in self.periods) / 3600.0
+        return sum(self.period_duration(p) for p, _ in self.units()) / 3600.0
 
     def unit_seed(self, index: int) -> int:
         """Seed of unit ``index``, from the period's own seed or the scene's (distinct across units)."""
-        p, z = self.units()[index]
         if self.scan.cycle:
+            p, _ = self.units()[index]
             child = np.random.SeedSequence(self.seed if p.seed is None else p.seed,
                                            spawn_key=(index,) if p.seed is None else ())
-        elif p.seed is not None:
-            child = np.random.SeedSequence(p.seed, spawn_key=(self.scan.heights.index(z),))
         else:
-            child = np.random.SeedSequence(self.seed, spawn_key=(index,))
+            p, z, _, c = self._plan_units()[index]
+            if p.seed is None:
+                child = np.random.SeedSequence(self.seed, spawn_key=(index,))
+            else:  # a template with its own seed: one stream per height, and per pass after the first
+                child = np.random.SeedSequence(p.seed, spawn_key=(self.scan.heights.index(z),) + ((c,) if c else ()))
         return int(child.generate_state(2, np.uint64)[0] >> np.uint64(1))
 
     # -- interchange ------------------------------------------------------

@@ -3,8 +3,9 @@
 The scenes ship with the package (``cwlidar_sim/campaign/scenes/*.toml``).
 Quick mode keeps the physics and the geometry and does less: a2012 shortens
 every period (the low-wavenumber end is noisier), cs keeps the first two
-periods at every height (the ratios' standard errors are larger); the full
-run is the reproduction.
+periods at every height instead of its plan of periods per height (the
+full run's first eight units, seeds and bits alike; the ratios' standard
+errors are larger); the full run is the reproduction.
 """
 
 from __future__ import annotations
@@ -34,8 +35,9 @@ def bundled_scene(name: str, *, quick: bool = False) -> Scene:
     scene = loads_scene(bundled_text(name))
     if quick:
         q = BUNDLED[name][1]
-        if scene.kind == "conical":
-            scene = scene.replace(periods=scene.periods[:q])
+        if scene.kind == "conical":  # the first q templates at every height: the full run's first units
+            scene = scene.replace(periods=scene.periods[:q],
+                                  scan=dataclasses.replace(scene.scan, periods_per_height=()))
         elif scene.kind == "nacelle":
             scene = scene.replace(duration=q, periods=tuple(dataclasses.replace(p, duration=None)
                                                             for p in scene.periods))

@@ -579,7 +579,7 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
     """
     import xarray as xr
 
-    from ..turbulence.box import generate_box
+    from ..turbulence.box import generate_box, keep_lateral_rows
     from ..turbulence.parameters import MannParameters
 
     if not isinstance(lidar, ConicalLidar):
@@ -636,7 +636,8 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
     if condition is not None:
         box = box.assign_coords(x=x0 + np.arange(nx) * dx, y=y0 + np.arange(ny_gen) * dy, z=zb + np.arange(nz) * dz)
         box = condition(box)
-    data = {c: (("x", "y", "z"), np.ascontiguousarray(box[c].values[:, :ny, :])) for c in ("u", "v", "w")}
+    keep = (lambda a: np.ascontiguousarray(a[:, :ny, :])) if condition is not None else (lambda a: keep_lateral_rows(a, ny))
+    data = {c: (("x", "y", "z"), keep(box[c].values)) for c in ("u", "v", "w")}
     attrs = dict(box.attrs)
     attrs.update(period_x=nx * dx, lateral_doubling=int(lateral_doubling), generated_shape=(nx, ny_gen, nz))
     del box

@@ -597,6 +597,35 @@ def _scale_inplace(a, f):
         a[i] *= f
 
 
+def keep_lateral_rows(a, ny: int) -> np.ndarray:
+    """``a[:, :ny, :]`` as a C-contiguous array, moved down within ``a``'s own buffer where it can be.
+
+    For a component of :func:`generate_box` (a view into its FFT buffer,
+    padded z-rows) of which only the first ``ny`` y-rows are kept (a
+    laterally doubled box): the kept rows are moved to the buffer's start
+    in x order, which never overwrites a row still to be read (row i's
+    destination ends at (i + 1) ny nz, row i + 1's source starts at
+    (i + 1) ny_gen nz_pad), instead of being copied to new memory (a tenth
+    of the time: no fresh pages to fault in).  ``a`` is spent.  Any other
+    layout is copied.
+    """
+    nx, _, nz = a.shape
+    base = a
+    while isinstance(base, np.ndarray) and base.base is not None:
+        base = base.base
+    base = np.asarray(base)
+    n = nx * ny * nz * a.itemsize
+    s0, s1, s2 = a.strides
+    ok = (base.flags.c_contiguous and base.flags.writeable and base.nbytes >= n and s2 == a.itemsize
+          and s1 >= nz * a.itemsize and s0 >= ny * s1 and a.ctypes.data == base.ctypes.data)
+    if not ok:
+        return np.ascontiguousarray(a[:, :ny, :])
+    out = base.reshape(-1).view(np.uint8)[:n].view(a.dtype).reshape(nx, ny, nz)
+    for i in range(nx):  # row 0 overlaps its own source: numpy copies through a buffer there
+        out[i] = a[i, :ny, :]
+    return out
+
+
 def _as_dataset(arrays, spacing, attrs):
     import xarray as xr
 

@@ -207,3 +207,72 @@ def test_conical_units_get_distinct_seeds_across_periods_and_heights():
     cyc = scene(period("a") + period("b") + period("c"), CYCLE, heights=three, revs="[1, 2]", duration=30.0)
     c = [cyc.unit_seed(i) for i in range(3)]
     assert len(set(c)) == 3
+
+
+# ---------------------------------------------------------------------------
+# periods per height
+# ---------------------------------------------------------------------------
+TWO = "[20.0, 30.0]"
+
+
+def test_periods_per_height_cycle_through_the_templates_with_their_own_names_and_seeds():
+    sc = scene(period("a", 6.0) + period("b", 10.0), "periods_per_height = [5, 2]", heights=TWO)
+    assert sc.unit_names() == ["a_z20", "a_z30", "b_z20", "b_z30", "a_1_z20", "b_1_z20", "a_2_z20"]
+    assert [p.mean_speed for p, _ in sc.units()] == [6.0, 6.0, 10.0, 10.0, 6.0, 10.0, 6.0]
+    assert sc.periods_at() == {20.0: 5, 30.0: 2}
+    assert sc.simulated_hours() == pytest.approx(7 * 10.0 / 3600.0)
+    seeds = [sc.unit_seed(i) for i in range(7)]
+    assert len(set(seeds)) == 7
+    plain = scene(period("a", 6.0) + period("b", 10.0), heights=TWO)  # the first pass is the plain scene
+    assert seeds[:4] == [plain.unit_seed(i) for i in range(4)] and sc.unit_names()[:4] == plain.unit_names()
+    own = scene(period("a", 6.0) + "seed = 12\n" + period("b", 10.0), "periods_per_height = [5, 2]", heights=TWO)
+    s2 = [own.unit_seed(i) for i in range(7)]
+    assert len(set(s2)) == 7 and s2[2:4] == seeds[2:4]  # a template's own seed: a stream per height and pass
+    assert type(sc).from_dict(sc.as_dict()) == sc and sc.as_dict()["scan"]["periods_per_height"] == [5, 2]
+    assert "periods_per_height" not in plain.as_dict()["scan"]
+
+
+@pytest.mark.parametrize("plan, err, match", [
+    ("[3]", ValueError, r"periods_per_height has 1 counts for 2 heights.*one count per height"),
+    ("[3, 0]", ValueError, r"periods_per_height\[1\]=0 is out of range; allowed: \[1, 10000\]"),
+    ("[3, 2.5]", TypeError, r"periods_per_height\[1\] must be an integer"),
+    ('"3, 2"', TypeError, "periods_per_height must be a list of integers"),
+])
+def test_periods_per_height_is_checked_by_name(plan, err, match):
+    with pytest.raises(err, match=match):
+        scene(period("a"), f"periods_per_height = {plan}", heights=TWO)
+
+
+def test_periods_per_height_needs_dwell_and_distinct_unit_names():
+    with pytest.raises(ValueError, match="periods_per_height needs scan.cycle = false"):
+        scene(period("a"), CYCLE + "\nperiods_per_height = [2, 2]", heights=TWO, revs="[1, 2]", duration=30.0)
+    with pytest.raises(ValueError, match=r"units \['a_1_z20'\] are named twice"):
+        scene(period("a") + period("a_1"), "periods_per_height = [3, 1]", heights=TWO)
+    with pytest.raises(ValueError, match=r"unknown key.*periods_per_heigth"):
+        scene(period("a"), "periods_per_heigth = [3, 1]", heights=TWO)
+
+
+def test_a_plan_runs_each_height_its_periods_at_its_templates_speeds(sheared, no_model, tmp_path):
+    """u = a (z - 25 m): every unit's cup reads its template's speed plus its height's shear."""
+    a = 0.05
+    sheared.update(a=a, z0=25.0)
+    sc = scene(period("a", 6.0) + period("b", 10.0), "periods_per_height = [3, 1]", heights=TWO)
+    ds = run_scene(sc, tmp_path, progress=False)
+    assert list(ds.period.values) == ["a_z20", "a_z30", "b_z20", "a_1_z20"]
+    assert list(ds.height.values) == [20.0, 30.0] and list(ds.n_periods.values) == [3, 1]
+    want = [6.0 - 5 * a, 6.0 + 5 * a, 10.0 - 5 * a, 6.0 - 5 * a]
+    np.testing.assert_allclose(ds.cup_mean_unit.values, want, rtol=1e-6)
+    np.testing.assert_allclose(ds.mean_speed_unit.values, [6.0, 6.0, 10.0, 6.0])
+    plain = run_scene(scene(period("a", 6.0) + period("b", 10.0), heights=TWO), progress=False)
+    np.testing.assert_array_equal(ds.lidar_mean_unit.values[:3], plain.lidar_mean_unit.values[:3])
+
+
+def test_quick_cs_is_the_full_runs_first_units():
+    from cwlidar_sim.campaign import bundled_scene
+
+    full, quick = bundled_scene("cs"), bundled_scene("cs", quick=True)
+    n = len(quick.unit_names())
+    assert n == 8 and quick.unit_names() == full.unit_names()[:n]
+    assert [quick.unit_seed(i) for i in range(n)] == [full.unit_seed(i) for i in range(n)]
+    assert [p for p, _ in quick.units()] == [p for p, _ in full.units()[:n]]
+

@@ -433,3 +433,22 @@ def test_shared_plan_inverse_fft_matches_numpy_for_any_thread_count():
             assert all(np.array_equal(outs[0], o) for o in outs[1:])
     finally:
         _config.set_num_threads(old)
+
+
+def test_keeping_a_doubled_box_half_in_its_own_buffer_moves_the_same_numbers():
+    """keep_lateral_rows: a generated box's first ny y-rows, moved within its FFT buffer, are a[:, :ny, :] exactly."""
+    from cwlidar_sim.turbulence.box import keep_lateral_rows
+
+    p = MannParameters(0.05, 20.0, 3.9)
+    for shape in ((32, 24, 10), (30, 16, 9), (20, 12, 16)):
+        box = generate_box(p, shape, (2.0, 2.0, 2.0), 7)
+        for c in ("u", "v", "w"):
+            a = box[c].values
+            assert not a.flags.c_contiguous  # padded z-rows: the in-place path
+            for ny in (shape[1] // 2, shape[1]):
+                want = np.ascontiguousarray(a[:, :ny, :])
+                got = keep_lateral_rows(generate_box(p, shape, (2.0, 2.0, 2.0), 7)[c].values, ny)
+                assert got.flags.c_contiguous and got.shape == want.shape
+                np.testing.assert_array_equal(got, want)
+    plain = np.arange(2 * 6 * 3, dtype=np.float32).reshape(2, 6, 3)[:, ::-1, :]  # a layout it does not move
+    np.testing.assert_array_equal(keep_lateral_rows(plain, 4), plain[:, :4, :])

@@ -569,15 +569,7 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
         return _lag_moments(instrument, lags, cnr_gain_e)
     # gridded: every stage of a task of estimates in the worker's cache (signal._gridded)
     gain = _check_gain(cnr_gain_e, ne)
-    fn = _fold_noise(instrument)
-    noise = noise_floor(instrument)
-    mean = np.empty((ne, instrument.n_bins))
-    var = np.empty_like(mean)
-    looks = np.empty_like(mean)
-    mb = float(instrument.blocks_per_estimate)
-
-    tail = np.empty(instrument.n_bins)
-    K.noise_tail(fn, n_j + 1, mb, tail)
+    fn, tail, noise, mb, mean, var, looks = _moment_setup(instrument, ne, n_j + 1)
 
     def moments(lo, hi, f_rjk):
         if gain is not None:
@@ -603,20 +595,12 @@ def _lag_moments(instrument, lags, cnr_gain_e=None):
     from .._fft import rfft_rows
 
     ne, nj1, n = lags.shape
-    n_j = nj1 - 1
     nt = -(-ne // _ROWS_PER_TASK)
-    fn = _fold_noise(instrument)
     c = _check_gain(cnr_gain_e, ne)
     if c is not None:
         lags *= c[:, None, None]
-    f = rfft_rows(lags.reshape(ne * (n_j + 1), n)).reshape(ne, n_j + 1, n // 2 + 1)
-    noise = noise_floor(instrument)
-    mean = np.empty((ne, instrument.n_bins))
-    var = np.empty_like(mean)
-    looks = np.empty_like(mean)
-    m = float(instrument.blocks_per_estimate)
-    tail = np.empty(instrument.n_bins)
-    K.noise_tail(fn, n_j + 1, m, tail)
+    f = rfft_rows(lags.reshape(ne * nj1, n)).reshape(ne, nj1, n // 2 + 1)
+    fn, tail, noise, m, mean, var, looks = _moment_setup(instrument, ne, nj1)
 
     def mom(t):
         K.continuum_moment_rows(f, fn, tail, noise, m, t * _ROWS_PER_TASK, min(ne, (t + 1) * _ROWS_PER_TASK), mean, var,
@@ -624,6 +608,19 @@ def _lag_moments(instrument, lags, cnr_gain_e=None):
 
     _run_tasks(nt, mom)
     return mean, var, looks
+
+
+def _moment_setup(instrument, ne, nj1):
+    """What the continuum moments of ``ne`` estimates with ``nj1`` block lags need besides the lags: the folded
+    noise, its tail beyond those lags, the noise floor, M, and the mean, variance and looks to fill."""
+    from . import _kernels as K
+
+    fn = _fold_noise(instrument)
+    m = float(instrument.blocks_per_estimate)
+    tail = np.empty(instrument.n_bins)
+    K.noise_tail(fn, nj1, m, tail)
+    mean = np.empty((ne, instrument.n_bins))
+    return fn, tail, noise_floor(instrument), m, mean, np.empty_like(mean), np.empty_like(mean)
 
 
 def _check_gain(cnr_gain_e, ne):

@@ -119,16 +119,10 @@ _U_NT_LO = np.uint64(_NT_LO)
 _U_NT_SPAN = np.uint64(_NT_HI - _NT_LO)
 
 
-@numba.njit(**NJIT)
-def block_normals(state0, noise_std, words_w, tails_n, out_n):
-    """``out_n[:] = noise_std * z`` with z the normals of stream ``state0`` (normal_pair order).
-
-    Word w of the stream is ``mix64(state0 + (w + 1) * golden)`` (what
-    ``normal_pair`` steps through); sample 2w comes from its high 32 bits and
-    sample 2w + 1 from its low 32 bits, both by :func:`normal_u32` (an odd
-    length drops the last low half).  ``words_w`` (>= ceil(n / 2)) and
-    ``tails_n`` (>= n) are scratch.
-    """
+@numba.njit(inline="always", **NJIT)
+def _table_normals(state0, noise_std, words_w, tails_n, out_n):
+    """The part :func:`block_normals` and :func:`block_normals_tab2` share: the stream's words, every
+    sample from the central table, and the indices of the ``cnt`` samples in its tails (returned)."""
     nn = out_n.shape[0]
     nw = (nn + 1) // 2
     # counter-based words: no carried dependence, the loop vectorises
@@ -153,7 +147,21 @@ def block_normals(state0, noise_std, words_w, tails_n, out_n):
         cnt += np.uint64((i - _U_NT_LO) >= _U_NT_SPAN)
     if nn % 2 == 1:
         out_n[nn - 1] = noise_std * normal_u32(words_w[nw - 1] >> _S32)
-    for c in range(int(cnt)):
+    return int(cnt)
+
+
+@numba.njit(**NJIT)
+def block_normals(state0, noise_std, words_w, tails_n, out_n):
+    """``out_n[:] = noise_std * z`` with z the normals of stream ``state0`` (normal_pair order).
+
+    Word w of the stream is ``mix64(state0 + (w + 1) * golden)`` (what
+    ``normal_pair`` steps through); sample 2w comes from its high 32 bits and
+    sample 2w + 1 from its low 32 bits, both by :func:`normal_u32` (an odd
+    length drops the last low half).  ``words_w`` (>= ceil(n / 2)) and
+    ``tails_n`` (>= n) are scratch.
+    """
+    cnt = _table_normals(state0, noise_std, words_w, tails_n, out_n)
+    for c in range(cnt):
         n = tails_n[c]
         z = words_w[n // 2]
         u = (z >> _S32) if n % 2 == 0 else (z & _LO32)
@@ -207,28 +215,8 @@ def block_normals_tab2(state0, noise_std, words_w, tails_n, out_n):
     3.8).  Tier 3's shot noise; tier 2 keeps block_normals.  Scratch as
     block_normals'.
     """
-    nn = out_n.shape[0]
-    nw = (nn + 1) // 2
-    for w in range(nw):
-        words_w[w] = mix64(state0 + np.uint64(w + 1) * _GOLDEN)
-    cnt = np.uint64(0)
-    for w in range(nn // 2):
-        z = words_w[w]
-        u = z >> _S32
-        i = u >> _U_NT_SHIFT
-        f = float(np.int64(u & _NT_FRAC)) * _NT_FSCALE
-        out_n[2 * w] = noise_std * (_NT_PAIR[i, 0] + f * _NT_PAIR[i, 1])
-        tails_n[cnt] = 2 * w
-        cnt += np.uint64((i - _U_NT_LO) >= _U_NT_SPAN)
-        u = z & _LO32
-        i = u >> _U_NT_SHIFT
-        f = float(np.int64(u & _NT_FRAC)) * _NT_FSCALE
-        out_n[2 * w + 1] = noise_std * (_NT_PAIR[i, 0] + f * _NT_PAIR[i, 1])
-        tails_n[cnt] = 2 * w + 1
-        cnt += np.uint64((i - _U_NT_LO) >= _U_NT_SPAN)
-    if nn % 2 == 1:
-        out_n[nn - 1] = noise_std * normal_u32(words_w[nw - 1] >> _S32)
-    for c in range(int(cnt)):
+    cnt = _table_normals(state0, noise_std, words_w, tails_n, out_n)
+    for c in range(cnt):
         n = tails_n[c]
         z = words_w[n // 2]
         u = (z >> _S32) if n % 2 == 0 else (z & _LO32)

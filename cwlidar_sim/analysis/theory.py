@@ -111,20 +111,24 @@ def misaligned_spectra(k1_k, params, theta_deg, zR):
 
     Notes
     -----
-    The k3 integral of Phi at each (k1, k2) is the one the plane generator
-    uses (``turbulence._kernels.plane_kernel``, geometric Gauss-Legendre
-    panels scaled to the mode); the k2 integral runs over the whole line,
+    The k3 integral of Phi at each (k1, k2) runs on the k3 nodes of the
+    one-point quadrature's fine rule for that k1 (geometric Gauss-Legendre
+    panels with extra edges about the shear peak, where k3 + beta k1 = 0;
+    ``turbulence.spectra._onepoint_nodes``, ``_kernels.plane_rows_kernel``);
+    the k2 integral runs over the whole line,
     cut at 0 and at the kink of the weight, ``k2 = -k1 cot theta``, because
     n_i n_j Phi_ij contains the k2-odd Phi_12 and the weight is not even in
-    k2.  The theta = 0 result equals ``one_point_spectra`` (a different
-    quadrature) to 1e-5 relative or better (1e-8 when both are refined), and
-    an independent double integral (tests/reference.py) to 3e-6.  About
-    15-25 ms per k1 value on one core; the nodes are shared among the
+    k2.  The theta = 0 and 90 degree results equal ``one_point_spectra``'s
+    F11 and F22 (a folded quadrature) within 2e-7 for Gamma in 0..8, and an
+    independent double integral (tests/reference.py) within 3e-8 (tested at
+    1e-6).  The plane generator's k3 nodes, which this used before, have no
+    edges about the shear peak: 1e-5 off at Gamma = 3.9, 9e-5 at Gamma = 8.
+    About 15-25 ms per k1 value on one core; the nodes are shared among the
     configured threads.
     """
     from .. import _config
-    from ..turbulence._kernels import plane_kernel
-    from ..turbulence.spectra import half_line_nodes
+    from ..turbulence._kernels import plane_rows_kernel
+    from ..turbulence.spectra import _onepoint_nodes
     from ..turbulence.tensor import _check_params, _prefactor, lifetime_table
 
     _check_params(params)
@@ -144,13 +148,21 @@ def misaligned_spectra(k1_k, params, theta_deg, zR):
     if abs(s) < 1e-15:
         s = 0.0
     L = params.length_scale
+    tab = lifetime_table()
     nodes = [_k2_nodes(kk, c, s, zR, L) for kk in k1]
     sizes = np.array([len(n[0]) for n in nodes])
     k1_m = np.repeat(k1, sizes)
     k2_m = np.concatenate([n[0] for n in nodes])
     w2_m = np.concatenate([n[1] for n in nodes])
-    q3, w3 = half_line_nodes(1.0, math.inf)
-    tab = lifetime_table()
+    # k3: the one-point quadrature's fine rule of each k1, edges about the shear peak included
+    rows3 = [_onepoint_nodes(float(kk), L, params.gamma, math.inf, math.inf, tab, "fine")[1] for kk in k1]
+    n3 = max(len(r[0]) for r in rows3)
+    q3_rj = np.zeros((k1.size, n3))
+    w3_rj = np.zeros((k1.size, n3))
+    for i, (x3, w3) in enumerate(rows3):
+        q3_rj[i, :len(x3)] = x3
+        w3_rj[i, :len(w3)] = w3
+    row_m = np.repeat(np.arange(k1.size), sizes)
     phi_m6 = np.empty((k1_m.size, 6))
     # Fixed chunks by node index: the same arithmetic for any thread count.
     step = 2048
@@ -158,7 +170,8 @@ def misaligned_spectra(k1_k, params, theta_deg, zR):
 
     def work(_w, t):
         lo, hi = t
-        plane_kernel(k1_m[lo:hi], k2_m[lo:hi], q3, w3, L, params.gamma, tab, phi_m6[lo:hi])
+        plane_rows_kernel(k1_m[lo:hi], k2_m[lo:hi], row_m[lo:hi], q3_rj, w3_rj, L, params.gamma, tab,
+                          phi_m6[lo:hi])
 
     _config.run_static(tasks, work)
     # n Phi n for n = (c, s, 0): Phi11 c^2 + Phi22 s^2 + 2 Phi12 c s.

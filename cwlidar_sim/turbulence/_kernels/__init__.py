@@ -29,6 +29,7 @@ from .integrals import (  # noqa: F401
     onepoint_kernel,
     plane_cells_kernel,
     plane_kernel,
+    plane_rows_kernel,
     _gl_block,
     _MAX_DEPTH,
     _STACK,

@@ -172,6 +172,34 @@ def plane_kernel(k1_m, k2_m, q3, w3, L, gamma, tab, out_m6):
 
 
 @numba.njit(**NJIT)
+def plane_rows_kernel(k1_m, k2_m, row_m, q3_rj, w3_rj, L, gamma, tab, out_m6):
+    """Phi integrated over k3 per (k1, k2) node, on the k3 nodes of the node's row.
+
+    Row ``r = row_m[n]`` of ``q3_rj``, ``w3_rj`` holds absolute k3 nodes
+    [rad/m] over the whole line and their weights (zero weights pad a row and
+    are skipped), e.g. the one-point quadrature's with its edges about the
+    shear peak (:func:`cwlidar_sim.turbulence.spectra._onepoint_nodes`).
+    Without the alpha_eps/(4 pi) L^(17/3) factor.
+    """
+    m = np.empty((3, 3))
+    acc = np.empty(6)
+    for n in range(k1_m.shape[0]):
+        k1 = k1_m[n]
+        k2 = k2_m[n]
+        r = row_m[n]
+        for c in range(6):
+            acc[c] = 0.0
+        for j in range(q3_rj.shape[1]):
+            w = w3_rj[r, j]
+            if w == 0.0:
+                continue
+            amplitude(k1, k2, q3_rj[r, j], L, gamma, tab, m)
+            _accumulate_phi(m, w, acc)
+        for c in range(6):
+            out_m6[n, c] = acc[c]
+
+
+@numba.njit(**NJIT)
 def plane_cells_kernel(k1c_n, k2c_n, dk1, dk2, kz, gx, gw, L, gamma, tab, out_n6):
     """Phi integrated over |k3| <= kz and averaged over (k1, k2) cells.
 

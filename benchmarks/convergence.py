@@ -97,6 +97,8 @@ CONICAL = [
     ("size", "default box (own sizing)", {"own_box": True}, False),
     ("size", "no lateral doubling", {"own_box": True, "doubling": False}, False),
     ("size", "lateral size x2", {"own_box": True, "min_extent_factor": 2.0}, False),
+    ("size", "lateral size x4", {"own_box": True, "min_extent_factor": 4.0}, False),
+    ("size", "lateral size x2.05", {"own_box": True, "min_extent_factor": 2.05}, False),
     ("size", "box length x1.5", {"size": (1.5, 1.0, 1.0)}, False),
 ]
 #: staring rows: (group, label, settings, paired); spacing factors of 0.5 m, cell [m]

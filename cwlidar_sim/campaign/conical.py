@@ -68,6 +68,8 @@ UNIT_VARS = {
     "cloud_fraction": ("1", "the cloud's share of the received power (0: clear air)"),
     "sonic_direction": ("degree", "sonic mean direction the wind blows toward, in the lidar's frame "
                                   "(from its azimuth 0 toward +y), in [-180, 180)"),
+    "in_situ_y": ("m", "cross-wind position of the cup and the sonic (the box's node nearest the mast, y = 0)"),
+    "in_situ_height": ("m", "height of the cup and the sonic (the box's node nearest the measurement height)"),
 }
 #: Per-scan-length results of one unit.
 SCAN_VARS = {

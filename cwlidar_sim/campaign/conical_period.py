@@ -34,14 +34,17 @@ Set-up (choices, each stated)
   that the circle diameter ``D = 1.155 z`` spans about 23 cells at every
   height and the scan filter (the dominant one, scale ``l_az >= D``) is well
   resolved; the probe filter (``2 z_R = 5.5 m`` at 40 m, 35 m at 100 m) is
-  resolved by 1.4-3.5 cells.  The cup and the sonic sample the same grid;
-  the grid's missing small scales lower the cup's variance, which the lidar
-  filters anyway: a paired study (docs/convergence.md) finds the ratio
-  0.005 (40 m) and 0.011 (100 m) lower with half the lateral spacing, and
-  no further change at a third and a quarter.
-* Sensors at ``(0, 0, z)`` on the scan axis (CS's mast stood 50 m from the
-  lidars; with Taylor's hypothesis an along-wind offset is only a delay, a
-  cross-wind one lowers the coherence of the largest scales a little).
+  resolved by 1.4-3.5 cells.  The cup and the sonic sample the same grid,
+  on its nodes (next item): a paired study (docs/convergence.md) finds the
+  ratio within 0.002 of the default's with a half and a third of the
+  lateral spacing.
+* Sensors on the scan axis, at the grid node nearest ``(0, 0, z)`` across the
+  wind (:func:`cwlidar_sim.sensors.nearest_node`: at most half a cell off;
+  between nodes a point sensor reads their linear interpolation, an average
+  that lowered the cup's sigma by 1.6-2 % and raised the std ratio by up to
+  0.016, varying with the box's parity and the height).  CS's mast stood 50 m
+  from the lidars; with Taylor's hypothesis an along-wind offset is only a
+  delay, a cross-wind one lowers the coherence of the largest scales a little.
 * The cup: :class:`cwlidar_sim.sensors.cup.Cup` at 10 Hz, distance constant 2.3 m.
 * Direction reference: ``'previous'`` (default): the first scan by the
   sonic's (vane's) 10-minute mean direction, later scans by the previous
@@ -61,7 +64,9 @@ z [m]   std ratio 1 s   std ratio 3 s   model 1 s / 3 s        radial var. ratio
 100     0.760           0.754           0.829 / 0.822          0.21 (0.07)
 ======  ==============  ==============  =====================  ==================
 
-Standard errors about 0.01.  Mean horizontal speed within 0.4 % of the cup's;
+Standard errors about 0.01.  (Measured with the sensors at (0, 0, z), between
+grid nodes: on the nodes the ratios are 0.008 (40 m) to 0.014 (100 m)
+lower.)  Mean horizontal speed within 0.4 % of the cup's;
 12.9 % of the estimates lost or flagged at the zero crossings, 87 % of the
 points used, no scan lost, no ambiguity left.  (Measured with span 5, the
 sensor's default: the scenes' span 30 raises the tier-1 ratio by 0.07 at 40 m
@@ -191,7 +196,9 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
     dict
         Plain numbers (and a few small dicts): ``height``, ``speed``,
         ``seed``, ``tier``, ``spacing``, ``box_shape``, ``lateral_doubling``,
-        ``params`` (dict), ``u_star``, ``sigma_u_target``, ``cup_mean``,
+        ``in_situ_position`` (the cup's and the sonic's (x, y, z) [m], the grid
+        node nearest ``(0, 0, height)`` across the wind; ``in_situ_y`` and
+        ``in_situ_height`` its y and z), ``params`` (dict), ``u_star``, ``sigma_u_target``, ``cup_mean``,
         ``cup_std``, ``sonic_std`` (horizontal speed), ``sonic_radial_variance``
         [m^2/s^2] (the projected point variance, :mod:`cwlidar_sim.analysis.vad`),
         ``sonic_direction`` (the sonic's mean direction in the lidar's frame
@@ -291,7 +298,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
               field_span=None, box_options=None, condition=None) -> list:
     """The box, the lidar at ``heights`` (one: dwell, several: cycle), cups and sonics, fits: one dict per height."""
     from ..analysis.vad import sonic_radial_variance
-    from ..sensors import Cup, Sonic, sample_cup, sample_sonic
+    from ..sensors import Cup, Sonic, nearest_node, sample_cup, sample_sonic
     from ..sensors.conical import conical_field, measure_conical
     from ..turbulence.surface_layer import surface_layer_parameters
     from ..signal.processing import Flag
@@ -347,21 +354,22 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
     in_situ = {}
     for z in heights:
         sel = rec.select(z)
-        pos = (0.0, 0.0, z)
+        # on the grid's nearest node across the wind: between nodes the cup would read their average
+        pos = nearest_node(field, (0.0, 0.0, z))
         cup = Cup(position=pos)
         in_situ[z] = (sel, sample_sonic(field, Sonic(position=pos), sel["time_e"], U),
-                      sample_cup(field, cup, cup.times(duration), U))
+                      sample_cup(field, cup, cup.times(duration), U), pos)
     cost["in_situ"] = time.perf_counter() - t0
     del field
     out = []
     for z in heights:
-        sel, vel_ec, cup_t = in_situ[z]
+        sel, vel_ec, cup_t, pos = in_situ[z]
         sonic_h = np.hypot(vel_ec[:, 0], vel_ec[:, 1])
         flags_e = sel["flags_e"]
         r = {
             "height": z, "speed": U, "seed": seed, "duration": duration, "tier": lidar.tier, "spacing": d,
             "box_shape": box_shape, "box_spacing": box_spacing, "lateral_doubling": bool(lateral_doubling),
-            "params": params.as_dict(), "u_star": ustar, "sigma_u_target": su_target,
+            "in_situ_position": pos, "in_situ_y": pos[1], "in_situ_height": pos[2], "params": params.as_dict(), "u_star": ustar, "sigma_u_target": su_target,
             "cup_mean": float(cup_t.mean()), "cup_std": float(cup_t.std(ddof=1)),
             "sonic_std": float(sonic_h.std(ddof=1)),
             "sonic_radial_variance": sonic_radial_variance(vel_ec, sel["azimuth_e"], lidar.half_angle_deg),

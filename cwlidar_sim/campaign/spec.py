@@ -30,8 +30,9 @@ __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field"
 #: tier-2 cosine sums, the nacelle coherence theory as the estimate sees it; 4: the fused gridded
 #: tasks, 2048-point grids for A2012, whose tier-2 numbers differ at the rounding level, and the
 #: one-point quadrature with edges about the shear peak, whose fits move by ~1e-5; 5: tier 3's
-#: tones from per-estimate tables summed in float32, other bits of the same law).
-RESULTS_VERSION = 5
+#: tones from per-estimate tables summed in float32, other bits of the same law; 6: the
+#: misaligned-beam theory on the one-point quadrature's k3 nodes, its spectra moved by <= 3e-5).
+RESULTS_VERSION = 6
 #: Scene kinds: ``kind`` in a scene file (default 'staring').
 SCENE_KINDS = ("staring", "conical", "nacelle")
 

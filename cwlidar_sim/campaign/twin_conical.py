@@ -30,7 +30,9 @@ def conical_unit_records(scene: ConicalScene, tp, h: int):
 
     Box ``h`` is the dwell height ``scan.heights[h]`` (cycle: the one box,
     h = 0).  A record is used when its position lies inside the generated
-    box (:func:`cwlidar_sim.sensors.conical.conical_box_yz`); U is the mean
+    box (:func:`cwlidar_sim.sensors.conical.conical_box_yz`), at the box's
+    node nearest its position across the wind (where the period's cup and
+    sonic read the field, :func:`cwlidar_sim.sensors.nearest_node`); U is the mean
     of the used records' mean speeds, the box's x period ``U T``.  Raises
     ValueError when no record lies in the box.
     """
@@ -53,6 +55,9 @@ def conical_unit_records(scene: ConicalScene, tp, h: int):
         x, y, z = _rotate_from_lidar(spec.position, theta)
         p = (lidar.position[0] + x, lidar.position[1] + y, lidar.position[2] + z)
         if y_n[0] - 1e-9 <= p[1] <= y_n[-1] + 1e-9 and z_n[0] - 1e-9 <= p[2] <= z_n[-1] + 1e-9:
+            # on the box's nearest node across the wind, where the period's cup and sonic read it
+            # (sensors.nearest_node): a record between nodes would constrain their average
+            p = (p[0], float(y_n[np.argmin(np.abs(y_n - p[1]))]), float(z_n[np.argmin(np.abs(z_n - p[2]))]))
             used.append(i)
             field_pos.append(p)
     if not used:

@@ -53,6 +53,7 @@ from .sonic import (
     A2012_PARTITION,
     Sonic,
     block_average,
+    nearest_node,
     project,
     resample_a2012,
     resample_a2012_times,
@@ -60,7 +61,7 @@ from .sonic import (
 )
 
 __all__ = [
-    "Sonic", "sample_sonic", "project", "resample_a2012", "resample_a2012_times", "block_average",
+    "Sonic", "sample_sonic", "nearest_node", "project", "resample_a2012", "resample_a2012_times", "block_average",
     "A2012_PARTITION", "A2012_OUTPUTS",
     "LidarBase", "BeamSampler",
     "StaringLidar", "LidarRecord", "measure_staring", "expected_spectrum_exact", "instrument_from_spec",

@@ -2,9 +2,12 @@
 
 import math
 
+import numpy as np
 import pytest
 
-from cwlidar_sim.campaign.conical_period import default_spacing, simulate_conical_period
+from cwlidar_sim.campaign.conical_period import _conical_lidar, default_spacing, simulate_conical_period
+from cwlidar_sim.sensors.conical import conical_box_yz
+from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
 
 
 def test_short_period_end_to_end():
@@ -23,5 +26,13 @@ def test_short_period_end_to_end():
     assert s1["radial_variance"] == pytest.approx(s1["radial_variance_ratio"] * r["sonic_radial_variance"])
     # the sonic's projected radial variance: sin^2 Phi (s_u^2 + s_v^2) / 2 + cos^2 Phi s_w^2 > 0
     assert 0 < r["sonic_radial_variance"] < r["sonic_std"] ** 2 * 2
+    # the cup and the sonic on the box's nearest node across the wind (midway they would read an average)
+    x, y, z = r["in_situ_position"]
+    lid = _conical_lidar((20.0,), "los", 1.0, 8, None, 0.0)
+    ys, zs = conical_box_yz(lid, surface_layer_parameters(20.0, 8.0)[0], spacing=1.0)
+    assert x == 0.0 and np.min(np.abs(ys - y)) < 1e-9 and np.min(np.abs(zs - z)) < 1e-9
+    assert abs(y) <= 0.5 and abs(z - 20.0) <= 0.5
+    # (0, 0, 20) itself is off the nodes of this box: the test would not see a sensor left there
+    assert np.min(np.abs(ys)) > 0.1 or np.min(np.abs(zs - 20.0)) > 0.1
     with pytest.raises(ValueError, match=r"scan_revs\[0\]=0"):
         simulate_conical_period(20.0, 3, duration=30.0, scan_revs=(0,))

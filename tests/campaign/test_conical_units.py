@@ -170,9 +170,12 @@ def test_cycling_lidar_gives_each_height_its_share_and_its_own_cup_and_sonic(she
     for r in rows:
         assert r["n_estimates"] == 500 and r["scans"][1]["n_scans"] == 10 and r["scans"][2]["n_scans"] == 5
         assert r["box_shape"] == rows[0]["box_shape"]  # one box
-        cup = U + a * (r["height"] - 25.0)
+        # the cup stands on the box's node nearest its height (at most half a cell, 0.5 m, off)
+        assert abs(r["in_situ_height"] - r["height"]) <= 0.5 and r["in_situ_height"] == r["in_situ_position"][2]
+        cup = U + a * (r["in_situ_height"] - 25.0)
         assert r["cup_mean"] == pytest.approx(cup, rel=1e-6)
-        assert r["scans"][1]["lidar_mean"] / dirichlet(8, DWELL) == pytest.approx(cup, abs=0.06)
+        assert r["scans"][1]["lidar_mean"] / dirichlet(8, DWELL) == pytest.approx(U + a * (r["height"] - 25.0),
+                                                                                  abs=0.06)
         assert r["sonic_radial_variance"] == pytest.approx(0.0, abs=1e-12)  # each sonic: a constant wind
     assert rows[1]["cup_mean"] - rows[0]["cup_mean"] == pytest.approx(10 * a, rel=1e-6)
     with pytest.raises(ValueError, match="must divide revs_per_height"):
@@ -185,7 +188,8 @@ def test_a_cycle_scene_runs_one_unit_per_period_with_results_per_height(sheared,
     ds = run_scene(sc, tmp_path, progress=False)
     assert list(ds.period.values) == ["a_z20", "a_z30"] and list(ds.height.values) == [20.0, 30.0]
     assert list(ds.n_periods.values) == [1, 1]
-    np.testing.assert_allclose(ds.cup_mean_unit.values, [7.75, 8.25], rtol=1e-6)
+    np.testing.assert_allclose(ds.cup_mean_unit.values, 8.0 + 0.05 * (ds.in_situ_height_unit.values - 25.0), rtol=1e-6)
+    np.testing.assert_allclose(ds.in_situ_height_unit.values, [20.0, 30.0], atol=0.5)
     assert ds.std_ratio.dims == ("height", "scan_s") and list(ds.scan_s.values) == [1.0, 2.0]
     assert sorted(p.name for p in (tmp_path / "dirs.periods").iterdir()) == ["000_a.nc"]
     again = run_scene(sc, tmp_path, progress=False)
@@ -260,7 +264,10 @@ def test_a_plan_runs_each_height_its_periods_at_its_templates_speeds(sheared, no
     ds = run_scene(sc, tmp_path, progress=False)
     assert list(ds.period.values) == ["a_z20", "a_z30", "b_z20", "a_1_z20"]
     assert list(ds.height.values) == [20.0, 30.0] and list(ds.n_periods.values) == [3, 1]
-    want = [6.0 - 5 * a, 6.0 + 5 * a, 10.0 - 5 * a, 6.0 - 5 * a]
+    # each cup on its box's node nearest its height (half a cell at most: 0.5 m at 20 m, 0.75 m at 30 m)
+    zc = ds.in_situ_height_unit.values
+    np.testing.assert_allclose(zc, [20.0, 30.0, 20.0, 20.0], atol=0.75)
+    want = np.array([6.0, 6.0, 10.0, 6.0]) + a * (zc - 25.0)
     np.testing.assert_allclose(ds.cup_mean_unit.values, want, rtol=1e-6)
     np.testing.assert_allclose(ds.mean_speed_unit.values, [6.0, 6.0, 10.0, 6.0])
     plain = run_scene(scene(period("a", 6.0) + period("b", 10.0), heights=TWO), progress=False)

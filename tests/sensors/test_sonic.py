@@ -9,6 +9,7 @@ import xarray as xr
 from cwlidar_sim.sensors import (
     Sonic,
     block_average,
+    nearest_node,
     project,
     resample_a2012,
     resample_a2012_times,
@@ -70,6 +71,30 @@ def test_sonic_sees_the_advected_total_wind():
     # projected on a unit direction
     n = np.array([math.cos(0.3), math.sin(0.3), 0.0])
     np.testing.assert_allclose(project(vel, n), vel[:, 0] * n[0] + vel[:, 1] * n[1], rtol=1e-15)
+
+
+def test_a_sonic_between_nodes_reads_their_average_and_on_the_nearest_node_the_node():
+    # u alternates +1, -1 from one lateral node to the next: midway a point sensor reads the
+    # linear interpolation, 0, and loses the variance; nearest_node puts it on a node.
+    ny, nz = 6, 5
+    y = 2.0 * np.arange(ny) - 5.0  # nodes at -5, -3, ..., 5: y = 0 lies midway
+    zc = 10.0 + 2.0 * np.arange(nz)
+    u = np.broadcast_to(np.where(np.arange(ny) % 2 == 0, 1.0, -1.0)[None, :, None], (N, ny, nz)).copy()
+    zero = np.zeros((N, ny, nz))
+    box = xr.Dataset({c: (("x", "y", "z"), a) for c, a in (("u", u), ("v", zero), ("w", zero))},
+                     coords={"x": DX * np.arange(N), "y": y, "z": zc})
+    t = Sonic(position=(0.0, 0.0, 14.0)).times(2.0)
+    mid = sample_sonic(box, Sonic(position=(10.0, 0.0, 14.0)), t, 3.0)
+    np.testing.assert_allclose(mid[:, 0], 3.0, atol=1e-12)
+    pos = nearest_node(box, (10.0, 0.0, 14.7))
+    assert pos[0] == 10.0 and pos[1] in (-1.0, 1.0) and pos[2] == 14.0
+    on = sample_sonic(box, Sonic(position=pos), t, 3.0)
+    np.testing.assert_allclose(np.abs(on[:, 0] - 3.0), 1.0, atol=1e-12)
+    # x untouched unless asked; a line has no lateral axes to move along
+    assert nearest_node(box, (10.3, 0.2, 13.2), axes=("x",))[0] == pytest.approx(10.5)
+    assert nearest_node(line(np.zeros(N)), (1.3, 0.4, 0.7)) == (1.3, 0.4, 0.7)
+    with pytest.raises(ValueError, match="axes"):
+        nearest_node(box, (0.0, 0.0, 0.0), axes=("q",))
 
 
 def test_sonic_noise_is_white_seeded_and_of_the_set_level():

@@ -128,7 +128,7 @@ def misaligned_spectra(k1_k, params, theta_deg, zR):
     """
     from .. import _config
     from ..turbulence._kernels import plane_rows_kernel
-    from ..turbulence.spectra import _onepoint_nodes
+    from ..turbulence.spectra import _onepoint_nodes, _padded_rows
     from ..turbulence.tensor import _check_params, _prefactor, lifetime_table
 
     _check_params(params)
@@ -155,13 +155,8 @@ def misaligned_spectra(k1_k, params, theta_deg, zR):
     k2_m = np.concatenate([n[0] for n in nodes])
     w2_m = np.concatenate([n[1] for n in nodes])
     # k3: the one-point quadrature's fine rule of each k1, edges about the shear peak included
-    rows3 = [_onepoint_nodes(float(kk), L, params.gamma, math.inf, math.inf, tab, "fine")[1] for kk in k1]
-    n3 = max(len(r[0]) for r in rows3)
-    q3_rj = np.zeros((k1.size, n3))
-    w3_rj = np.zeros((k1.size, n3))
-    for i, (x3, w3) in enumerate(rows3):
-        q3_rj[i, :len(x3)] = x3
-        w3_rj[i, :len(w3)] = w3
+    q3_rj, w3_rj = _padded_rows([_onepoint_nodes(float(kk), L, params.gamma, math.inf, math.inf, tab, "fine")[1]
+                                 for kk in k1])
     row_m = np.repeat(np.arange(k1.size), sizes)
     phi_m6 = np.empty((k1_m.size, 6))
     # Fixed chunks by node index: the same arithmetic for any thread count.

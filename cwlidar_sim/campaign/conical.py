@@ -68,8 +68,11 @@ UNIT_VARS = {
     "cloud_fraction": ("1", "the cloud's share of the received power (0: clear air)"),
     "sonic_direction": ("degree", "sonic mean direction the wind blows toward, in the lidar's frame "
                                   "(from its azimuth 0 toward +y), in [-180, 180)"),
-    "in_situ_y": ("m", "cross-wind position of the cup and the sonic (the box's node nearest the mast, y = 0)"),
-    "in_situ_height": ("m", "height of the cup and the sonic (the box's node nearest the measurement height)"),
+}
+#: Per-unit coordinates of the cup and the sonic: (axis of ``in_situ_position``, units, long name).
+POSITION_VARS = {
+    "in_situ_y": (1, "m", "cross-wind position of the cup and the sonic (the box's node nearest the mast, y = 0)"),
+    "in_situ_height": (2, "m", "height of the cup and the sonic (the box's node nearest the measurement height)"),
 }
 #: Per-scan-length results of one unit.
 SCAN_VARS = {
@@ -212,6 +215,9 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
     dv = {}
     for key, (units, long) in UNIT_VARS.items():
         dv[key] = (("period",), np.array([float(r[key]) for r in rows]), {"units": units, "long_name": long})
+    for key, (axis, units, long) in POSITION_VARS.items():
+        dv[key] = (("period",), np.array([float(r["in_situ_position"][axis]) for r in rows]),
+                   {"units": units, "long_name": long})
     for key, (units, long) in SCAN_VARS.items():
         src = _FROM_SIM.get(key, key)
         vals = [[float(r["scans"][n].get(src, np.nan)) for n in revs] for r in rows]

@@ -197,8 +197,8 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         Plain numbers (and a few small dicts): ``height``, ``speed``,
         ``seed``, ``tier``, ``spacing``, ``box_shape``, ``lateral_doubling``,
         ``in_situ_position`` (the cup's and the sonic's (x, y, z) [m], the grid
-        node nearest ``(0, 0, height)`` across the wind; ``in_situ_y`` and
-        ``in_situ_height`` its y and z), ``params`` (dict), ``u_star``, ``sigma_u_target``, ``cup_mean``,
+        node nearest ``(0, 0, height)`` across the wind), ``params`` (dict),
+        ``u_star``, ``sigma_u_target``, ``cup_mean``,
         ``cup_std``, ``sonic_std`` (horizontal speed), ``sonic_radial_variance``
         [m^2/s^2] (the projected point variance, :mod:`cwlidar_sim.analysis.vad`),
         ``sonic_direction`` (the sonic's mean direction in the lidar's frame
@@ -369,7 +369,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         r = {
             "height": z, "speed": U, "seed": seed, "duration": duration, "tier": lidar.tier, "spacing": d,
             "box_shape": box_shape, "box_spacing": box_spacing, "lateral_doubling": bool(lateral_doubling),
-            "in_situ_position": pos, "in_situ_y": pos[1], "in_situ_height": pos[2], "params": params.as_dict(), "u_star": ustar, "sigma_u_target": su_target,
+            "in_situ_position": pos, "params": params.as_dict(), "u_star": ustar, "sigma_u_target": su_target,
             "cup_mean": float(cup_t.mean()), "cup_std": float(cup_t.std(ddof=1)),
             "sonic_std": float(sonic_h.std(ddof=1)),
             "sonic_radial_variance": sonic_radial_variance(vel_ec, sel["azimuth_e"], lidar.half_angle_deg),

@@ -36,6 +36,7 @@ def conical_unit_records(scene: ConicalScene, tp, h: int):
     of the used records' mean speeds, the box's x period ``U T``.  Raises
     ValueError when no record lies in the box.
     """
+    from ..sensors import nearest_node
     from ..sensors.conical import ConicalLidar, conical_box_yz
     from .conical import _tensor_height
     from .conical_period import default_spacing
@@ -55,9 +56,9 @@ def conical_unit_records(scene: ConicalScene, tp, h: int):
         x, y, z = _rotate_from_lidar(spec.position, theta)
         p = (lidar.position[0] + x, lidar.position[1] + y, lidar.position[2] + z)
         if y_n[0] - 1e-9 <= p[1] <= y_n[-1] + 1e-9 and z_n[0] - 1e-9 <= p[2] <= z_n[-1] + 1e-9:
-            # on the box's nearest node across the wind, where the period's cup and sonic read it
-            # (sensors.nearest_node): a record between nodes would constrain their average
-            p = (p[0], float(y_n[np.argmin(np.abs(y_n - p[1]))]), float(z_n[np.argmin(np.abs(z_n - p[2]))]))
+            # on the box's nearest node across the wind, where the period's cup and sonic read it:
+            # a record between nodes would constrain their average
+            p = nearest_node({"y": y_n, "z": z_n}, p)
             used.append(i)
             field_pos.append(p)
     if not used:

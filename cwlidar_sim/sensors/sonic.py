@@ -184,9 +184,10 @@ def nearest_node(field, position, axes=("y", "z")) -> tuple:
 
     Parameters
     ----------
-    field : xarray.Dataset
-        A line, plane or box with coordinates named ``x``, ``y``, ``z`` [m]
-        (only those present among ``axes`` are moved).
+    field : xarray.Dataset or mapping
+        A line, plane or box with coordinates named ``x``, ``y``, ``z`` [m],
+        or a mapping of those names to 1-D node coordinates [m] (only the
+        axes present, with more than one node, are moved).
     position : sequence of 3 float
         (x, y, z) [m] in the field's frame.
     axes : sequence of {'x', 'y', 'z'}
@@ -198,13 +199,15 @@ def nearest_node(field, position, axes=("y", "z")) -> tuple:
         The moved position [m].
     """
     pos = [float(v) for v in check_tuple("position", position, 3, lambda n, v: check_real(n, v))]
+    coords = getattr(field, "coords", field)
     for a in axes:
         if a not in ("x", "y", "z"):
             raise ValueError(f"axes must name 'x', 'y' or 'z', got {a!r}")
-        if a in field.coords and field.sizes.get(a, 1) > 1:
-            c = np.asarray(field[a].values, dtype=np.float64)
-            i = "xyz".index(a)
-            pos[i] = float(c[int(np.argmin(np.abs(c - pos[i])))])
+        if a in coords:
+            c = np.asarray(coords[a], dtype=np.float64).ravel()
+            if c.size > 1:
+                i = "xyz".index(a)
+                pos[i] = float(c[int(np.argmin(np.abs(c - pos[i])))])
     return tuple(pos)
 
 

@@ -129,6 +129,17 @@ def _onepoint_nodes(k1, L, gamma, k2_max, k3_max, tab, rule="fine"):
     return (x2, 2.0 * w2), (x3, w3)
 
 
+def _padded_rows(rows):
+    """Rows of (nodes, weights) of different lengths as two arrays padded with zero weights (the kernels skip them)."""
+    n = max(len(x) for x, _ in rows)
+    q = np.zeros((len(rows), n))
+    w = np.zeros((len(rows), n))
+    for i, (x, v) in enumerate(rows):
+        q[i, :len(x)] = x
+        w[i, :len(v)] = v
+    return q, w
+
+
 def _scales(k1: float, L: float):
     """Smallest and largest wavenumber scales of Phi(k1, ., .)."""
     k1 = abs(k1)
@@ -187,15 +198,8 @@ def _onepoint_unscaled(k1_k, L, gamma, k2_max, k3_max, rule="fine"):
             r2, r3 = _onepoint_nodes(float(k1), L, gamma, k2_max, k3_max, tab, rule)
             rows2.append(r2)
             rows3.append(r3)
-        n2 = max(len(r[0]) for r in rows2)
-        n3 = max(len(r[0]) for r in rows3)
-        q2 = np.zeros((hi - lo, n2))
-        w2 = np.zeros_like(q2)
-        q3 = np.zeros((hi - lo, n3))
-        w3 = np.zeros_like(q3)
-        for i, ((a, b), (c, d)) in enumerate(zip(rows2, rows3)):
-            q2[i, : len(a)], w2[i, : len(b)] = a, b
-            q3[i, : len(c)], w3[i, : len(d)] = c, d
+        q2, w2 = _padded_rows(rows2)
+        q3, w3 = _padded_rows(rows3)
         onepoint_kernel(np.ascontiguousarray(k1_k[lo:hi]), q2, w2, q3, w3, L, gamma, tab, out[lo:hi])
 
     # Rows differ in cost (their node counts differ): small tasks keep the threads evenly loaded

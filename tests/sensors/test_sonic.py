@@ -88,6 +88,8 @@ def test_a_sonic_between_nodes_reads_their_average_and_on_the_nearest_node_the_n
     np.testing.assert_allclose(mid[:, 0], 3.0, atol=1e-12)
     pos = nearest_node(box, (10.0, 0.0, 14.7))
     assert pos[0] == 10.0 and pos[1] in (-1.0, 1.0) and pos[2] == 14.0
+    # node coordinates given as a mapping (e.g. a box's planned nodes) give the same node
+    assert nearest_node({"y": y, "z": zc}, (10.0, 0.0, 14.7)) == pos
     on = sample_sonic(box, Sonic(position=pos), t, 3.0)
     np.testing.assert_allclose(np.abs(on[:, 0] - 3.0), 1.0, atol=1e-12)
     # x untouched unless asked; a line has no lateral axes to move along

@@ -275,8 +275,10 @@ def process_kernel(spec_ef, inv_bg_f, k_lo, k_hi, thr_kind, thr_value, raise_fac
                    second_frac, guard_bins, table, oversample, n_fft, ml_half, out_x_e, out_flags_e):
     """:func:`process_one` over every estimate (rows of ``spec_ef``).
 
-    The package calls :func:`process_rows` from its own threads
-    (``processing._run_tasks``); this prange form is kept for direct use.
+    The package runs :func:`process_rows_variants` from its own threads
+    (``processing._run_tasks``); this single-processing prange form and
+    :func:`process_rows` are kept as the independent forms the tests check it
+    against (tests/signal/test_spectral.py, test_estimators.py).
     """
     ne = spec_ef.shape[0]
     n_chunk = 64

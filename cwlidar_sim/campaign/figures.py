@@ -40,6 +40,19 @@ def _grid(n):
     return rows, cols
 
 
+def _margins(fig, *, left=0.8, right=0.15, bottom=0.55, top=0.4, wspace=None, hspace=None):
+    """Fixed margins in inches (whatever the figure size) instead of ``tight_layout``.
+
+    ``tight_layout`` measures every tick label of every log axis before the
+    figure is drawn again to be saved: half the drawing time of an A2012
+    run's figures (2.6 of 5.7 s).  These figures have one layout each, so
+    their margins are set once here.
+    """
+    w, h = fig.get_size_inches()
+    fig.subplots_adjust(left=left / w, right=1.0 - right / w, bottom=bottom / h, top=1.0 - top / h,
+                        wspace=wspace, hspace=hspace)
+
+
 def _label(ds, i):
     return (f"period {ds.period.values[i]}: U = {float(ds.mean_speed[i]):.1f} m/s, "
             f"misalignment {float(ds.misalignment[i]):+.1f}°")
@@ -70,7 +83,7 @@ def plot_spectra(ds):
         ax.set_visible(False)
     axes.flat[0].legend(fontsize=8)
     fig.suptitle("Spectra of the radial speed, 10-min segments averaged over each period")
-    fig.tight_layout()
+    _margins(fig, top=0.7, wspace=0.08, hspace=0.35)
     return fig
 
 
@@ -113,7 +126,7 @@ def plot_transfer(ds, which="ratio"):
     ax.set_title(title)
     ax.set_ylabel("spectral transfer function")
     ax.legend(fontsize=7)
-    fig.tight_layout()
+    _margins(fig)
     return fig
 
 
@@ -135,7 +148,7 @@ def plot_methods(ds, i=None):
     ax.set_title(_label(ds, i))
     ax.set_ylabel("spectral transfer function")
     ax.legend(fontsize=8)
-    fig.tight_layout()
+    _margins(fig)
     return fig
 
 
@@ -164,7 +177,7 @@ def plot_misalignment(ds, theta_deg=5.0, i=None):
                  f"αε$^{{2/3}}$ = {p.alpha_eps:.3g}, L = {p.length_scale:.3g} m, Γ = {p.gamma:.3g}", fontsize=9)
     ax.set_ylabel("spectral ratio")
     ax.legend(fontsize=8)
-    fig.tight_layout()
+    _margins(fig, top=0.55)
     return fig
 
 
@@ -204,7 +217,7 @@ def plot_variants(ds, group="threshold", i=None):
         ax.set_title(f"{title}, {_label(ds, i)}", fontsize=9)
     axes[0].set_ylabel("spectral transfer function")
     axes[0].legend(fontsize=8)
-    fig.tight_layout()
+    _margins(fig, top=0.35, wspace=0.05)
     return fig
 
 
@@ -225,7 +238,7 @@ def plot_estimator_theory(ds, i=None):
     ax.set_title(f"the estimator is part of the filter ({_label(ds, i)})", fontsize=9)
     ax.set_ylabel("Re$(\\chi)^2/F_{v_s}^2$")
     ax.legend(fontsize=7)
-    fig.tight_layout()
+    _margins(fig, top=0.35)
     return fig
 
 

@@ -22,6 +22,7 @@ from .tensor import (  # noqa: F401
     LOG_X_LO,
     matrix_from_params,
     _accumulate_phi,
+    accumulate_phi_at,
 )
 from .integrals import (  # noqa: F401
     cell_average_kernel,

@@ -9,7 +9,7 @@ import numba
 import numpy as np
 
 from ..._config import NJIT
-from .tensor import _accumulate_phi, amplitude
+from .tensor import accumulate_phi_at
 
 
 @numba.njit(**NJIT)
@@ -19,7 +19,6 @@ def onepoint_kernel(k1_k, q2_kq, w2_kq, q3_kq, w3_kq, L, gamma, tab, out_k6):
     ``out_k6[k]`` receives (Phi11, Phi22, Phi33, Phi13, Phi12, Phi23)
     integrated, without the alpha_eps/(4 pi) L^(17/3) factor.
     """
-    m = np.empty((3, 3))
     for ik in range(k1_k.shape[0]):
         acc = np.zeros(6)
         for a in range(q2_kq.shape[1]):
@@ -30,8 +29,7 @@ def onepoint_kernel(k1_k, q2_kq, w2_kq, q3_kq, w3_kq, L, gamma, tab, out_k6):
                 wb = w3_kq[ik, b]
                 if wb == 0.0:
                     continue
-                amplitude(k1_k[ik], q2_kq[ik, a], q3_kq[ik, b], L, gamma, tab, m)
-                _accumulate_phi(m, wa * wb, acc)
+                accumulate_phi_at(k1_k[ik], q2_kq[ik, a], q3_kq[ik, b], L, gamma, tab, wa * wb, acc)
         for c in range(6):
             out_k6[ik, c] = acc[c]
 
@@ -41,7 +39,7 @@ _STACK = 512
 
 
 @numba.njit(**NJIT)
-def _gl_block(lo, hi, gx, gw, L, gamma, tab, m, acc):
+def _gl_block(lo, hi, gx, gw, L, gamma, tab, acc):
     # Product Gauss-Legendre over one box; acc gets the integral of Phi.
     h0 = 0.5 * (hi[0] - lo[0])
     h1 = 0.5 * (hi[1] - lo[1])
@@ -52,8 +50,8 @@ def _gl_block(lo, hi, gx, gw, L, gamma, tab, m, acc):
     for a in range(gx.shape[0]):
         for b in range(gx.shape[0]):
             for c in range(gx.shape[0]):
-                amplitude(c0 + h0 * gx[a], c1 + h1 * gx[b], c2 + h2 * gx[c], L, gamma, tab, m)
-                _accumulate_phi(m, h0 * h1 * h2 * gw[a] * gw[b] * gw[c], acc)
+                accumulate_phi_at(c0 + h0 * gx[a], c1 + h1 * gx[b], c2 + h2 * gx[c], L, gamma, tab,
+                                  h0 * h1 * h2 * gw[a] * gw[b] * gw[c], acc)
 
 
 @numba.njit(**NJIT)
@@ -66,7 +64,6 @@ def cell_integral(lo0, hi0, gx, gw, L, gamma, tab, acc):
     they are not (or are negligibly small).  Elsewhere one product
     Gauss-Legendre block per box suffices: Phi varies on scales >= |k|.
     """
-    m = np.empty((3, 3))
     st_lo = np.empty((_STACK, 3))
     st_hi = np.empty((_STACK, 3))
     st_d = np.empty(_STACK, np.int64)
@@ -92,7 +89,7 @@ def cell_integral(lo0, hi0, gx, gw, L, gamma, tab, acc):
             elif hi[i] < 0.0:
                 dist2 += hi[i] * hi[i]
         if dist2 >= emax * emax or depth >= _MAX_DEPTH or top + 8 > _STACK:
-            _gl_block(lo, hi, gx, gw, L, gamma, tab, m, acc)
+            _gl_block(lo, hi, gx, gw, L, gamma, tab, acc)
             continue
         # Bisect every side longer than half the longest one.
         nsplit = 0
@@ -153,7 +150,6 @@ def plane_kernel(k1_m, k2_m, q3, w3, L, gamma, tab, out_m6):
     q3/w3 are normalised nodes on [0, inf) for unit scale; for each mode
     they are stretched by the mode's scale and used for both signs of k3.
     """
-    m = np.empty((3, 3))
     for n in range(k1_m.shape[0]):
         k1 = k1_m[n]
         k2 = k2_m[n]
@@ -163,10 +159,8 @@ def plane_kernel(k1_m, k2_m, q3, w3, L, gamma, tab, out_m6):
         for j in range(q3.shape[0]):
             x = q3[j] * sc
             w = w3[j] * sc
-            amplitude(k1, k2, x, L, gamma, tab, m)
-            _accumulate_phi(m, w, acc)
-            amplitude(k1, k2, -x, L, gamma, tab, m)
-            _accumulate_phi(m, w, acc)
+            accumulate_phi_at(k1, k2, x, L, gamma, tab, w, acc)
+            accumulate_phi_at(k1, k2, -x, L, gamma, tab, w, acc)
         for c in range(6):
             out_m6[n, c] = acc[c]
 
@@ -181,7 +175,6 @@ def plane_rows_kernel(k1_m, k2_m, row_m, q3_rj, w3_rj, L, gamma, tab, out_m6):
     shear peak (:func:`cwlidar_sim.turbulence.spectra._onepoint_nodes`).
     Without the alpha_eps/(4 pi) L^(17/3) factor.
     """
-    m = np.empty((3, 3))
     acc = np.empty(6)
     for n in range(k1_m.shape[0]):
         k1 = k1_m[n]
@@ -193,8 +186,7 @@ def plane_rows_kernel(k1_m, k2_m, row_m, q3_rj, w3_rj, L, gamma, tab, out_m6):
             w = w3_rj[r, j]
             if w == 0.0:
                 continue
-            amplitude(k1, k2, q3_rj[r, j], L, gamma, tab, m)
-            _accumulate_phi(m, w, acc)
+            accumulate_phi_at(k1, k2, q3_rj[r, j], L, gamma, tab, w, acc)
         for c in range(6):
             out_m6[n, c] = acc[c]
 

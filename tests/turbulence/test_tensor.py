@@ -81,3 +81,28 @@ def test_matches_mannrs_tensor():
         theirs = np.asarray(t.tensor(tuple(K_N3[n])), dtype=float)
         # mannrs works in float32 with its own lifetime approximation.
         np.testing.assert_allclose(theirs, ours, rtol=2e-2, atol=2e-3 * np.abs(ours).max())
+
+
+def test_quadrature_accumulator_is_the_matrix_form():
+    # accumulate_phi_at (the quadratures' inner loop, held in registers) must give the bits of
+    # amplitude + _accumulate_phi, and M M^T of the plain-Python reference within its lifetime error.
+    from cwlidar_sim.turbulence import _kernels as K
+
+    tab = lifetime_table()
+    L, g = P.length_scale, P.gamma
+    pre = P.alpha_eps / (4 * np.pi) * L ** (17.0 / 3.0)
+    extra = np.array([[0.0, 0.0, 0.0], [0.0, -0.2, 0.3]])
+    for n, (k1, k2, k3) in enumerate(np.concatenate([K_N3, extra])):
+        w = 0.5 + n
+        fused = np.zeros(6)
+        K.accumulate_phi_at(k1, k2, k3, L, g, tab, w, fused)
+        m = np.empty((3, 3))
+        K.amplitude(k1, k2, k3, L, g, tab, m)
+        matrix = np.zeros(6)
+        K._accumulate_phi(m, w, matrix)
+        assert np.array_equal(fused, matrix), (k1, k2, k3)
+        if n % 7 == 0 and n < len(K_N3):
+            mr = np.array(reference.mann_amplitude(k1, k2, k3, P.alpha_eps, L, g))
+            ref = mr @ mr.T
+            ref6 = w * np.array([ref[0, 0], ref[1, 1], ref[2, 2], ref[0, 2], ref[0, 1], ref[1, 2]])
+            np.testing.assert_allclose(fused * pre, ref6, rtol=2e-5, atol=2e-5 * np.abs(ref6).max())

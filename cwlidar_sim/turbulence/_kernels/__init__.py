@@ -22,6 +22,7 @@ from .tensor import (  # noqa: F401
     LOG_X_LO,
     matrix_from_params,
     _accumulate_phi,
+    _phi6_of_params,
     accumulate_phi_at,
 )
 from .integrals import (  # noqa: F401
@@ -85,7 +86,6 @@ from .fast_tensor import (  # noqa: F401
     _FSHIFT,
     _nyquist_row,
     _PB,
-    _phi6_of_params,
     _PLOW,
     _PMASK,
     _POW_E,

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..._config import NJIT
 from .rng import _U52, _f64_bits
+from .tensor import _phi6_of_params
 
 #: Lifetime table nodes per octave of (|k| L)^2, and mantissa nodes of
 #: y^(-17/12): 2**_FB and 2**_PB.
@@ -182,22 +183,6 @@ def box_params_many(k1, k2, k3, L, gamma, ftab, fbase, out_n5):
     """box_params for arrays of wave vectors (for tests)."""
     for n in range(k1.shape[0]):
         box_params(k1[n], k2[n], k3[n], L, gamma, ftab, fbase, out_n5[n])
-
-
-@numba.njit(inline="always", **NJIT)
-def _phi6_of_params(p0, p1, p2, p3, p4, k1, k2):
-    # (Phi11, Phi22, Phi33, Phi13, Phi12, Phi23) of M from amplitude
-    # parameters (M as in matrix_from_params; M_22 = 0).
-    m00 = p1 * k2
-    m01 = p3 - p1 * k1
-    m02 = -p0 * k2
-    m10 = -p3 + p2 * k2
-    m11 = -p2 * k1
-    m12 = p0 * k1
-    m20 = p4 * k2
-    m21 = -p4 * k1
-    return (m00 * m00 + m01 * m01 + m02 * m02, m10 * m10 + m11 * m11 + m12 * m12, m20 * m20 + m21 * m21,
-            m00 * m20 + m01 * m21, m00 * m10 + m01 * m11 + m02 * m12, m10 * m20 + m11 * m21)
 
 
 @numba.njit(inline="always", **NJIT)

@@ -112,6 +112,22 @@ def matrix_from_params(p0, p1, p2, p3, p4, k1, k2, out):
     out[2, 2] = 0.0
 
 
+@numba.njit(inline="always", **NJIT)
+def _phi6_of_params(p0, p1, p2, p3, p4, k1, k2):
+    # (Phi11, Phi22, Phi33, Phi13, Phi12, Phi23) of M from amplitude
+    # parameters (M as in matrix_from_params; M_22 = 0).
+    m00 = p1 * k2
+    m01 = p3 - p1 * k1
+    m02 = -p0 * k2
+    m10 = -p3 + p2 * k2
+    m11 = -p2 * k1
+    m12 = p0 * k1
+    m20 = p4 * k2
+    m21 = -p4 * k1
+    return (m00 * m00 + m01 * m01 + m02 * m02, m10 * m10 + m11 * m11 + m12 * m12, m20 * m20 + m21 * m21,
+            m00 * m20 + m01 * m21, m00 * m10 + m01 * m11 + m02 * m12, m10 * m20 + m11 * m21)
+
+
 @numba.njit(**NJIT)
 def amplitude(k1, k2, k3, L, gamma, tab, out):
     """Write M (3x3, without the sqrt(alpha_eps/(4 pi)) L^(17/6) factor) into out."""
@@ -150,21 +166,14 @@ def accumulate_phi_at(k1, k2, k3, L, gamma, tab, w, acc):
     """``acc += w * (M M^T)`` at wave vector k, in the order of :func:`_accumulate_phi`, without a matrix.
 
     The same products and sums as ``amplitude`` followed by ``_accumulate_phi``
-    (the same bits), held in registers: the quadrature kernels' inner loop.
+    (:func:`_phi6_of_params`, which leaves out the terms of M_22 = 0: the same
+    values), held in registers: the quadrature kernels' inner loop.
     """
     p0, p1, p2, p3, p4 = _params_scalars(k1, k2, k3, L, gamma, tab)
-    m00 = p1 * k2
-    m01 = p3 - p1 * k1
-    m02 = -p0 * k2
-    m10 = -p3 + p2 * k2
-    m11 = -p2 * k1
-    m12 = p0 * k1
-    m20 = p4 * k2
-    m21 = -p4 * k1
-    m22 = 0.0
-    acc[0] += w * (m00 * m00 + m01 * m01 + m02 * m02)
-    acc[1] += w * (m10 * m10 + m11 * m11 + m12 * m12)
-    acc[2] += w * (m20 * m20 + m21 * m21 + m22 * m22)
-    acc[3] += w * (m00 * m20 + m01 * m21 + m02 * m22)
-    acc[4] += w * (m00 * m10 + m01 * m11 + m02 * m12)
-    acc[5] += w * (m10 * m20 + m11 * m21 + m12 * m22)
+    a0, a1, a2, a3, a4, a5 = _phi6_of_params(p0, p1, p2, p3, p4, k1, k2)
+    acc[0] += w * a0
+    acc[1] += w * a1
+    acc[2] += w * a2
+    acc[3] += w * a3
+    acc[4] += w * a4
+    acc[5] += w * a5

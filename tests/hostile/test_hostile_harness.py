@@ -1,0 +1,23 @@
+"""The corpus harness itself: the memory cap bites, the peak is measured, errors are judged."""
+
+from conftest import MEM_LIMIT_BYTES, assert_one_line_error, run_cli, run_python
+
+
+def test_the_memory_cap_stops_an_unbounded_allocation():
+    child = run_python(f"import numpy as np; np.ones({MEM_LIMIT_BYTES // 8 + 2**27}); print('allocated')")
+    assert child.rc != 0 and "allocated" not in child.stdout
+    assert "MemoryError" in child.stderr or "Unable to allocate" in child.stderr, child.stderr[-2000:]
+
+
+def test_peak_memory_is_measured():
+    small = run_python("print(1)")
+    big = run_python("import numpy as np; a = np.ones(2**27); a += 1; print(a[0])")  # 1 GiB touched
+    assert big.stdout.strip() == "2.0"
+    assert small.peak_mb < 200 and 1000 < big.peak_mb < 1400, (small.peak_mb, big.peak_mb)
+
+
+def test_a_named_one_line_error_is_recognised(tmp_path):
+    tmp = tmp_path
+    child = run_cli(["box", "--alpha-eps", "1", "--length-scale", "-20", "--gamma", "3",
+                     "--shape", "16", "4", "4", "--spacing", "1", "1", "1", "--seed", "1", "--out", "x.nc"], cwd=tmp)
+    assert_one_line_error(child, "length")

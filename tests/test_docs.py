@@ -1,7 +1,7 @@
 """The documentation site's sources and the release files: the API reference covers every public
 name, the pages' README sections exist, the version is set in one place, the package data ships.
 
-The site itself is built by ``python -m sphinx -W -b html docs docs/_build/html`` (CI does, and
+The site itself is built by ``python -m sphinx -n -W -b html docs docs/_build/html`` (CI does, and
 then opens it in a browser, .ci/check_site.py); these tests need no Sphinx and run in seconds.
 When a built site is present and newer than the package's sources, its object inventory is
 checked too.
@@ -15,6 +15,7 @@ import pathlib
 import re
 import sys
 import tomllib
+import subprocess
 import zlib
 
 import pytest
@@ -114,7 +115,7 @@ def _fresh_inventory():
 def test_built_site_documents_every_public_name():
     inv = _fresh_inventory()
     if inv is None:
-        pytest.skip("no built site newer than the package (python -m sphinx -W -b html docs docs/_build/html)")
+        pytest.skip("no built site newer than the package (python -m sphinx -n -W -b html docs docs/_build/html)")
     objects = _inventory(inv)
     for sub, public in apigen.public_names().items():
         assert objects.get(sub) == "py:module", sub
@@ -229,3 +230,42 @@ def test_no_examples_outside_the_package():
     examples/ folder would not be in the wheel."""
     stray = sorted(os.path.relpath(p, ROOT) for p in (ROOT / "examples").glob("*.toml")) if (ROOT / "examples").is_dir() else []
     assert not stray, f"{stray}: move them to cwlidar_sim/campaign/examples/ (package data)"
+
+
+def _mini_site(tmp_path, body: str):
+    """A one-page Sphinx project with the site's cross-reference rules (docs/_ext/xref.py, nitpicky)."""
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "conf.py").write_text(
+        "import sys\n"
+        f"sys.path.insert(0, {str(ROOT / 'docs' / '_ext')!r}); sys.path.insert(0, {str(ROOT)!r})\n"
+        "extensions = ['xref']\nnitpicky = True\n", encoding="utf-8")
+    (src / "index.rst").write_text(
+        "Mini\n====\n\n.. py:function:: cwlidar_sim.signal.run_chain\n\n" + body + "\n", encoding="utf-8")
+    return src
+
+
+@pytest.mark.parametrize("ref, dead", [
+    (":func:`cwlidar_sim.signal.chain.run_chain`", False),   # defined there, documented at the re-export
+    (":func:`cwlidar_sim.signal.run_chain`", False),
+    (":func:`cwlidar_sim.signal.chain.no_such_function`", True),
+    (":func:`cwlidar_sim.sensors.simulate_conical_period`", True),  # the dead link the guide had
+])
+def test_nitpicky_build_fails_on_a_dead_reference_only(tmp_path, ref, dead):
+    """The docs build is nitpicky (-n -W): a dead cross-reference fails it; a reference through the
+    defining module's path resolves to where the reference documents the object."""
+    pytest.importorskip("sphinx")
+    src = _mini_site(tmp_path, "See " + ref + ".")
+    proc = subprocess.run([sys.executable, "-m", "sphinx", "-n", "-W", "-q", "-b", "html", str(src),
+                           str(tmp_path / "out")], capture_output=True, text=True, timeout=300)
+    assert (proc.returncode != 0) == dead, proc.stderr[-3000:]
+    if dead:
+        assert "reference target not found" in proc.stderr, proc.stderr[-3000:]
+
+
+def test_the_site_is_built_nitpicky():
+    """conf.py sets nitpicky, and the README's and CI's docs commands pass -n -W."""
+    conf = (ROOT / "docs" / "conf.py").read_text(encoding="utf-8")
+    assert re.search(r"^nitpicky = True$", conf, re.M)
+    for f in ("README.md", ".ci/run"):
+        assert "sphinx -n -W -b html docs docs/_build/html" in (ROOT / f).read_text(encoding="utf-8"), f

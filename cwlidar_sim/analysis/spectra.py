@@ -230,7 +230,7 @@ def segment_spectra(x_t, y_t=None, *, fs, segment_duration=600.0, detrend="mean"
     The series is cut into consecutive, non-overlapping segments of
     ``n_per = round(segment_duration * fs)`` samples (a trailing partial
     segment is dropped); each segment is detrended, optionally windowed and
-    Fourier transformed (:func:`cwlidar_sim._fft.rfft_rows`), and the
+    Fourier transformed (``cwlidar_sim._fft.rfft_rows``), and the
     periodograms are averaged over the segments.
 
     Parameters

@@ -160,7 +160,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
     model : bool
         Also evaluate CS's filter model (Kaimal and Mann spectra).
     lidar_overrides : dict, optional
-        Further :class:`ConicalLidar` fields (e.g. ``{'cnr_db': -15}``, or a
+        Further :class:`~cwlidar_sim.sensors.ConicalLidar` fields (e.g. ``{'cnr_db': -15}``, or a
         cloud: ``{'cloud_base': 1000, 'cloud_strength': 1e4}``).
     excluded_flags : int, optional
         :class:`cwlidar_sim.signal.Flag` bits whose points the VAD fits leave

@@ -1,7 +1,7 @@
 """Figures of a campaign's results, after A2012 Figs. 3-8.
 
 Every function takes the results Dataset of :func:`cwlidar_sim.campaign.run_scene`
-(or :func:`cwlidar_sim.campaign.runner.read_results`) and returns a matplotlib
+(or :func:`cwlidar_sim.campaign.read_results`) and returns a matplotlib
 Figure; :func:`make_figures` writes them all as PNG.
 """
 

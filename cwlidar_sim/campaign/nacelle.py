@@ -32,7 +32,7 @@ Per period (:mod:`cwlidar_sim.campaign.nacelle_scene`):
    (:func:`cwlidar_sim.analysis.rews_theory.rews_spectra`, polar resolution
    30; with evolution the model's decorrelation over each beam's distance),
    paired like the simulation (the preview less the beams' mean delay), on
-   a log grid of wavenumbers (:func:`theory_wavenumbers`), then seen as the
+   a log grid of wavenumbers (``theory_wavenumbers``), then seen as the
    estimate sees them (:func:`cwlidar_sim.analysis.rews_theory.estimated_spectra`:
    each ordinate's Hann kernel with the segment mean removed, the same
    bins) and the coherence formed from those; aligned rotors with a

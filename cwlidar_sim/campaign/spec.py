@@ -4,7 +4,7 @@ Every table of a scene file maps onto a frozen dataclass deriving from
 :class:`Spec`: :meth:`Spec.as_dict` gives the TOML-shaped mapping (None
 values dropped, TOML has no null; nested specs as tables, tuples as lists)
 and :meth:`Spec.from_dict` rebuilds the spec from it, rejecting unknown keys
-by name (:func:`cwlidar_sim._validation.check_keys`).  The scene classes
+by name (``cwlidar_sim._validation.check_keys``).  The scene classes
 themselves (:class:`cwlidar_sim.campaign.scene.Scene`,
 :class:`cwlidar_sim.campaign.conical_scene.ConicalScene`) use the scene-level
 checks here (name, top-level keys, periods), so a staring and a conical
@@ -66,7 +66,7 @@ def spec_as_dict(obj) -> dict:
 
 
 class Spec:
-    """Base of the scene's frozen dataclasses: :meth:`as_dict` / :meth:`from_dict` round-trip.
+    """Base of the scene's frozen dataclasses: ``as_dict`` / ``from_dict`` round-trip.
 
     Subclasses are frozen dataclasses that validate in ``__post_init__``;
     ``_required`` names the keys :meth:`from_dict` needs.

@@ -325,8 +325,8 @@ def estimate_task(scene: Scene) -> dict:
     """Estimated wall time [s] on one core and peak memory [bytes] of one task.
 
     Time: :data:`COST_S_PER_SIM_HOUR` of the tier per simulated hour, plus
-    :data:`VARIANT_COST` per processing variant, plus field generation (about
-    30 ns per field point and component), plus :data:`TASK_OVERHEAD_S`.
+    ``VARIANT_COST`` per processing variant, plus field generation (about
+    30 ns per field point and component), plus ``TASK_OVERHEAD_S``.
     Memory: the largest period's field (3 float32 components, twice for a
     box's transform), its raw series in float64 (results and analysis
     copies) and 250 MB of interpreter and libraries.

@@ -52,7 +52,7 @@ _PRESET_ALIASES = {"prototype": "prototype", "prototype_2003": "prototype", "cs"
 
 
 def instrument_from_spec(spec) -> Instrument:
-    """An :class:`Instrument` from an instance or a dict.
+    """An :class:`~cwlidar_sim.signal.Instrument` from an instance or a dict.
 
     A dict with a ``'preset'`` key (``'prototype'`` / ``'prototype_2003'`` or
     ``'cs'`` / ``'cs_series'``) starts from that preset and overrides the
@@ -229,7 +229,7 @@ class LidarBase:
     def from_dict(cls, d: dict):
         """Build from a mapping; unknown keys are rejected by name.
 
-        ``instrument`` may be an :class:`Instrument`, a full field dict, or a
+        ``instrument`` may be an :class:`~cwlidar_sim.signal.Instrument`, a full field dict, or a
         dict of overrides on a preset, e.g. ``{'preset': 'cs', 'estimator': 'median'}``.
         """
         check_keys(cls, d)

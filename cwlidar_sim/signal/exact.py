@@ -17,7 +17,7 @@ of the folded sequence ``b_0 = a_0 C(0)``, ``b_d = a_d C(d) + a_{N-d} C(N-d)``.
 ``C(d)`` for ``d = 0..N-1`` comes from the Chebyshev recurrence
 ``cos((d+1) t) = 2 cos t cos(d t) - cos((d-1) t)`` (about 3 flops per cell
 and lag), then one length-N real FFT per estimate
-(:func:`cwlidar_sim._fft.rfft_rows`).  The result equals the defining sum to
+(``cwlidar_sim._fft.rfft_rows``).  The result equals the defining sum to
 rounding (~1e-13 relative), whereas
 :func:`cwlidar_sim.signal.expected_spectrum` interpolates a tabulated ``G``
 (error <= 1.3e-5 of the peak for the prototype).  Tiny negative rounding

@@ -6,7 +6,7 @@ speckle amplitude per range cell with ``E|a_s|^2 = 2 CNR w_s``, AR(1)
 decorrelation with time ``tau_c``, Doppler phase ``2 pi f_s' n / f_s`` from the
 cell's radial speed, the real part (homodyne), plus unit-variance white
 Gaussian shot noise.  Samples are cut into blocks of N, windowed, transformed
-by FFTW (:class:`cwlidar_sim._fft.RowsRFFT`) and ``|X_k|^2 / sum w_n^2`` is
+by FFTW (``cwlidar_sim._fft.RowsRFFT``) and ``|X_k|^2 / sum w_n^2`` is
 averaged over the M blocks of each estimate.  This tier is the reference for
 tier 2.
 
@@ -19,7 +19,7 @@ Implementation notes
   coefficient ``exp(-L / (f_s tau_c))``.  Tier 2's line shape assumes a
   per-sample AR(1); the two differ by O(L / (f_s tau_c)) in the broadening of
   the line, i.e. not at all in the frozen-speckle regime of real lidars.
-* Fused and cache-resident: a task is a run of :func:`_task_blocks` blocks of
+* Fused and cache-resident: a task is a run of ``_task_blocks`` blocks of
   one estimate (64 for N = 512).  A thread synthesises them straight into its
   own FFT input buffer, transforms them with a plan bound to that buffer and
   sums ``|X_k|^2`` in float64; an estimate's partial sums are added in task
@@ -28,13 +28,13 @@ Implementation notes
   run down to the cores left instead of stalling it.
 * Samples (``_kernels.synth_blocks_kernel``): per block, the shot noise from
   the block's counter-based stream (splitmix64 words, inverse-CDF table
-  normals, :func:`_kernels.block_normals_tab2`: tier 2's table in the centre,
+  normals, ``_kernels.block_normals_tab2``: tier 2's table in the centre,
   second-level tables in the tails beyond |z| = 2.66 instead of Acklam's
   formula); the tones as sums over cells of
   ``c_s cos(theta_s n) - d_s sin(theta_s n)``, ``c_s + i d_s = a_s exp(i
   phi_s)`` the cell's amplitude times its phasor at the block's start, from
   per-estimate tables of ``cos/sin(theta_s n)``, n < N, and of the blocks'
-  phasors (:func:`_tone_tables`, each entry a product of two or three factors
+  phasors (``_tone_tables``, each entry a product of two or three factors
   from cos/sin of their own angles,
   so no error grows along a block or an estimate).  The tones are summed in
   float32, four cells per pass over the block (a loop that vectorises eight
@@ -59,7 +59,7 @@ Implementation notes
   ``u_c[n] = rho_c u_c[n-1] + b_c z[n]``, driven by the shot-noise normals
   ``z`` themselves (:func:`noise_filter`: the innovations form of the
   process, from the steady-state Kalman filter).  The filter runs inside
-  the fused synthesis (:func:`_kernels.colour_noise_block`, a blocked scan),
+  the fused synthesis (``_kernels.colour_noise_block``, a blocked scan),
   its state carried from block to block through an estimate and drawn from
   its stationary law at the estimate's first block, so that each estimate
   is an exact stationary sample, as before.  The law of every sample is that
@@ -67,12 +67,12 @@ Implementation notes
   the separate AR(1) streams of earlier versions (same seed, other
   samples; tests/signal/test_noise_colour.py checks the spectrum and the
   estimates statistically).  Because the state runs through an estimate,
-  the tasks of one estimate synthesise in order (:class:`_InOrder`; their
+  the tasks of one estimate synthesise in order (``_InOrder``; their
   FFTs and sums still overlap), which does not change any bit.
 * Continuum cells (``speed_spread > 0``: the sub-cell spread of
   docs/signal_chain.md) and the noise above shot noise are one Gaussian
   process given the speeds; it is synthesised per estimate from its
-  spectrum (:class:`_Continuum`: the DFT of its correlation on a circular
+  spectrum (``_Continuum``: the DFT of its correlation on a circular
   length ``P >= M N + t_max``, random phases, one inverse FFT of length P)
   and its real part is added to the samples before the window.  Its cost
   does not grow with the number of cells; its randomness is a third stream
@@ -474,7 +474,7 @@ def synthesize_samples(instrument, vlos_es, weight_s, cnr_db: float, seed, *, co
     speed_spread : float
         Sub-cell speed spread sigma_v [m/s] (0: point-like cells, each a
         tone with AR(1) speckle); > 0 makes every cell a continuum of
-        scatterers (:class:`_Continuum`).
+        scatterers (``_Continuum``).
 
     Returns
     -------
@@ -528,7 +528,7 @@ def simulate_signal_spectra(instrument, vlos_es, weight_s, cnr_db: float, seed, 
 
     Notes
     -----
-    Each estimate's M blocks are cut into tasks of :func:`_task_blocks`
+    Each estimate's M blocks are cut into tasks of ``_task_blocks``
     blocks; a worker thread synthesises a task's blocks into its FFT
     buffer, transforms them (FFTW, one thread) and sums ``|X_k|^2`` over
     them in float64; the partial sums of an estimate are then added in task

@@ -59,7 +59,7 @@ def noise_correlation(instrument, n_lags: int) -> np.ndarray:
     (sampled exponential, i.e. a discrete AR(1)): its spectrum is
     ``P0 (1 - rho)^2 / (1 - 2 rho cos(2 pi f / f_s) + rho^2)``, exactly ``P0``
     at 0 Hz and ``P0 / (1 + (f / f_c)^2)`` for ``f << f_s`` (the Lorentzian
-    of :attr:`Instrument.rin_level`).  In units of the shot-noise variance.
+    of the ``rin_level`` of :class:`~cwlidar_sim.signal.Instrument`).  In units of the shot-noise variance.
     """
     t = np.arange(check_int("n_lags", n_lags, lo=1), dtype=np.float64)
     r = np.zeros(t.size)

@@ -31,7 +31,7 @@ Steps, for every estimate
 What availability counts
 ------------------------
 :attr:`DopplerEstimates.availability` is the fraction of *usable* estimates:
-finite and carrying none of :data:`SUSPECT_FLAGS` (NEAR_ZERO, NEAR_NYQUIST).
+finite and carrying none of ``SUSPECT_FLAGS`` (NEAR_ZERO, NEAR_NYQUIST).
 An estimate within the edge guard of the blind zone or of Nyquist is finite
 but biased by the instrument's limits (at 0.3 m/s the prototype's median
 reports about 0.56 m/s, every estimate flagged NEAR_ZERO): a user reading
@@ -157,7 +157,7 @@ class DopplerEstimates:
 
     @property
     def availability(self) -> float:
-        """Fraction of usable estimates [-]: finite and without a :data:`SUSPECT_FLAGS` flag (module notes)."""
+        """Fraction of usable estimates [-]: finite and without a ``SUSPECT_FLAGS`` flag (module notes)."""
         if not self.n:
             return float("nan")
         ok = np.isfinite(self.speed_e) & ((self.flags_e & np.uint8(SUSPECT_FLAGS)) == 0)

@@ -410,7 +410,7 @@ def continuum_lags(instrument, speed_spread: float, correlation_time: float = ma
 
     ``J = ceil(t_max / N)`` block lags (the instrument's noise processes,
     :func:`noise_correlation`, have their own).  Raises ValueError when ``J`` would
-    exceed :data:`CONTINUUM_MAX_LAG` (a spread too narrow: use the
+    exceed ``CONTINUUM_MAX_LAG`` (a spread too narrow: use the
     'coherent' or 'independent' model).
     """
     fs = instrument.sample_rate
@@ -530,7 +530,7 @@ def continuum_moments(instrument, vlos_es, weight_s, cnr_db: float, speed_spread
     method : {'gridded', 'exact'}
         How the cells' cosine sums ``C(tau)`` are computed: 'gridded' (the
         default), the cells spread on a grid of ``M >= 4 t_max`` angles by a
-        Gaussian of :data:`GRID_HALF_WIDTH` points, one real FFT of length M
+        Gaussian of ``GRID_HALF_WIDTH`` points, one real FFT of length M
         and the Gaussian divided out (type-1 non-uniform FFT, Greengard &
         Lee 2004), ``O(cells + M log M)``; 'exact', the Chebyshev recurrence
         per cell, ``O(cells x t_max)`` per estimate (the reference the tests
@@ -645,7 +645,7 @@ def sample_moments(mean_ef, var_ef, seed, *, e0: int = 0):
     mean_ef, var_ef : array_like, shape (n_estimates, N/2 + 1)
         From :func:`continuum_moments`; mean > 0, var >= 0.
     seed : int or numpy.random.Generator
-        Or a uint64 stream key (from :func:`_speckle_key`).
+        Or a uint64 stream key (from ``_speckle_key``).
     e0 : int
         Global index of the first row (rows use the counter-based streams
         ``e0 ..``, so a record may be drawn in chunks).

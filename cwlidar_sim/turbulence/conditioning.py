@@ -11,7 +11,7 @@ estimate ``C P^T (P C P^T + N)^-1 d``, its covariance ``C - C P^T (P C P^T +
 N)^-1 P C``.  The noise draw e~ is what keeps the record from being forced
 through its own noise: at the sensor the twin differs from the record as the
 truth does, by the noise.  C here is the covariance of the *discrete* field
-the generators make (:mod:`._discrete`: the tensor, the cell correction, the
+the generators make (``turbulence._discrete``: the tensor, the cell correction, the
 gains and Hermitian rules, mode by mode), so the conditioning is exact for
 the fields ``generate_line``, ``generate_plane`` and ``generate_box`` draw.
 

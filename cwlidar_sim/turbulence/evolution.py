@@ -61,7 +61,7 @@ mode's variance (the box's spectra, the tensor's one-point spectra); a
 sensor at rest at ``x_p`` samples box p under Taylor's hypothesis, frozen
 within the plane's neighbourhood, and decorrelated from the other planes
 by the model.  Cost per extra plane: one box, one forward and one inverse
-3-D FFT of u, v, w (:func:`cwlidar_sim._fft.rfftn3`) and one pass over the
+3-D FFT of u, v, w (``cwlidar_sim._fft.rfftn3``) and one pass over the
 modes; memory: the outputs plus at most two chain states (half spectra of
 u, v, w), the innovation box and one float32 per mode of the lifetime table.  This is the construction of
 Chen, Guo, Schlipf & Cheng (2022, Wind Energ. Sci. 7, evoTurb: independent

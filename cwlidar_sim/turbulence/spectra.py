@@ -223,7 +223,7 @@ def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k
         ``pi / dy`` and ``pi / dz`` for what a grid of spacing (dy, dz) can
         hold.  Default: the whole plane.
     rule : {'fine', 'coarse'}
-        Quadrature rule (:data:`ONEPOINT_RULES`): 'fine' (the default) is
+        Quadrature rule (``ONEPOINT_RULES``): 'fine' (the default) is
         within 3e-7 of each spectrum for Gamma in 0..8; 'coarse', with 0.3 of
         its nodes, within 2.5e-4, for a search that 'fine' then finishes
         (:func:`cwlidar_sim.analysis.fit_mann`).

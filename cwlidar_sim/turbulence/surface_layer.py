@@ -101,7 +101,7 @@ def surface_layer_parameters(height: float, speed: float, *, z0: float = 0.01, s
         'mann1994' (default): Mann's (1994) fit to Kaimal's spectra
         (``alpha eps^(2/3) = 3.2 u*^2 z^(-2/3)``, ``L = 0.59 z``, ``Gamma = 3.9``),
         extended by stability as in the module notes; 'iec': IEC 61400-1
-        Annex C (:meth:`MannParameters.iec`) for ``sigma_u =
+        Annex C (:meth:`cwlidar_sim.turbulence.MannParameters.iec`) for ``sigma_u =
         sigma_u_over_ustar u*`` (neutral only).
     sigma_u_over_ustar : float
         sigma_u / u* for 'iec' [-]; in (0, 10].  Default 2.4 (neutral surface

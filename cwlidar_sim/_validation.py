@@ -127,6 +127,26 @@ def _range_text(lo, hi, lo_open, hi_open) -> str:
     return f"{'(' if lo_open else '['}{lo}, {hi}{')' if hi_open else ']'}"
 
 
+def did_you_mean(unknown, allowed) -> str:
+    """`` (did you mean 'heights' for 'height'?)`` for the unknown keys that have a close allowed key
+    (difflib's ratio >= 0.6, a case-insensitive match, or an allowed key that extends it); else ``''``."""
+    import difflib
+
+    allowed = sorted(str(a) for a in allowed)
+    lowered = {a.lower(): a for a in allowed}
+    pairs = []
+    for key in unknown:
+        k = str(key)
+        near = difflib.get_close_matches(k, allowed, n=1, cutoff=0.6)
+        if not near and k.lower() in lowered:
+            near = [lowered[k.lower()]]
+        if not near:
+            near = [a for a in allowed if a.startswith(k) or k.startswith(a)][:1]
+        if near:
+            pairs.append(f"{near[0]!r} for {k!r}")
+    return f" (did you mean {', '.join(pairs)}?)" if pairs else ""
+
+
 def check_keys(cls, d, *, required=()) -> None:
     """Reject keys of ``d`` that are not fields of the dataclass ``cls``, by name.
 
@@ -145,7 +165,8 @@ def check_keys(cls, d, *, required=()) -> None:
     names = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(d) - names)
     if unknown:
-        raise ValueError(f"unknown key(s) for {cls.__name__}: {unknown}; allowed: {sorted(names)}")
+        raise ValueError(f"unknown key(s) for {cls.__name__}: {unknown}{did_you_mean(unknown, names)}; "
+                         f"allowed: {sorted(names)}")
     missing = sorted(set(required) - set(d))
     if missing:
         raise ValueError(f"missing key(s) for {cls.__name__}: {missing}")

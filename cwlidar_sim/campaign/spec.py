@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 import os
 
-from .._validation import check_keys, check_real, check_str
+from .._validation import check_keys, check_real, check_str, did_you_mean
 
 __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field", "check_scene_name",
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
@@ -119,7 +119,8 @@ def check_scene_keys(d, allowed, required, what: str) -> None:
         raise TypeError(f"a scene must be a table, got {type(d).__name__}")
     unknown = sorted(set(d) - set(allowed))
     if unknown:
-        raise ValueError(f"unknown key(s) in {what}: {unknown}; allowed: {sorted(allowed)}")
+        raise ValueError(f"unknown key(s) in {what}: {unknown}{did_you_mean(unknown, allowed)}; "
+                         f"allowed: {sorted(allowed)}")
     for key in required:
         if key not in d:
             raise ValueError(f"{what} is missing the required key {key!r}")

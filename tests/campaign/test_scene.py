@@ -5,6 +5,7 @@ import dataclasses
 import pytest
 
 from cwlidar_sim.campaign import bundled_scene, choose_field, load_scene, loads_scene
+from cwlidar_sim.campaign.reproduce import bundled_text
 from cwlidar_sim.campaign.scene import LidarSpec, PeriodSpec, Scene
 
 MINIMAL = """
@@ -144,3 +145,22 @@ def test_staring_and_conical_scenes_share_their_checks_and_messages(text, error,
     with pytest.raises(error) as e:
         loads_scene(text)
     assert message in str(e.value)
+
+
+@pytest.mark.parametrize("text_from, text_to, hint", [
+    ("name =", "nmae =", "(did you mean 'name' for 'nmae'?)"),          # a typo
+    ("[lidar]", "[lidar]\nTier = 'los'", "(did you mean 'tier' for 'Tier'?)"),  # the case
+    ("seed =", "see =", "(did you mean 'seed' for 'see'?)"),
+])
+def test_an_unknown_key_names_the_closest_allowed_key(text_from, text_to, hint):
+    text = bundled_text("a2012")
+    assert text_from in text
+    with pytest.raises(ValueError, match="unknown key") as err:
+        loads_scene(text.replace(text_from, text_to, 1))
+    assert hint in str(err.value)
+
+
+def test_an_unknown_key_far_from_every_allowed_key_gets_no_guess():
+    with pytest.raises(ValueError, match="unknown key") as err:
+        loads_scene("zzqx = 1\n" + MINIMAL)
+    assert "did you mean" not in str(err.value)

@@ -20,7 +20,7 @@ Rate
 ----
 The grid step is the median step; each sample's index on the grid is its
 time over that step, rounded.  The rate is the last index over the span,
-snapped to the coarsest decimal (1, 0.1, ... 1e-6 Hz) within the span's
+snapped to the coarsest decimal (1, 0.1, 0.01, 0.001 Hz) within the span's
 resolution (two quanta of the written times plus the largest departure of a
 sample from the grid), so a record written with finite digits has the rate
 it was logged at (20.0, 32.0, 12.5 Hz), not one that drifts with the digits.
@@ -168,7 +168,7 @@ def ns_text(ns: int) -> str:
 
 
 def _snap(fs_est: float, tol: float) -> float:
-    for places in range(7):
+    for places in range(4):  # down to 1 mHz: finer "round" rates are not a logger's settings
         c = round(fs_est, places)
         if c > 0 and abs(c - fs_est) <= tol:
             return float(c)
@@ -197,7 +197,8 @@ def check_rate(step_ns: float, where: str, *, rate_range=(0.0, np.inf), unit="s"
         return fs
     per = _NS.get(unit.strip().lower().split(" since ")[0].strip(), 10**9)
     alt = [(u, fs * per / _NS[u]) for u in ("ns", "us", "ms", "s", "min", "h") if _NS[u] != per]
-    alt = [(u, f) for u, f in alt if lo <= f <= hi]
+    # the likeliest first: nearest (in log) to 10 Hz, a usual logging rate of wind and motion records
+    alt = sorted([(u, f) for u, f in alt if lo <= f <= hi], key=lambda a: abs(np.log10(a[1] / 10.0)))
     hint = ("; read in " + ", in ".join(f"{u} it would be {f:.6g} Hz" for u, f in alt)
             + f": name the unit in the header (e.g. 'time_{alt[0][0]}' or 'time [{alt[0][0]}]')") if alt else ""
     raise ValueError(f"{where}: read in {unit}, the times step by {step_ns / 1e9:.6g} s ({fs:.6g} Hz); allowed: a "

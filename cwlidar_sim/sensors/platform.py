@@ -154,7 +154,7 @@ def read_platform_csv(path, *, max_gap: float = PLATFORM_MAX_GAP, where: str = "
             t = check_increasing(tc, w)
             d = np.diff(t)
             # the median step says the unit (a column in ms read as s steps by 100 s); single long steps are holes
-            check_rate(float(np.median(d)), w, rate_range=(1.0 / max_gap, 1e4), unit=tc.unit, what="platform series")
+            check_rate(float(np.median(d)), w, rate_range=(1.0 / max_gap, 1e3), unit=tc.unit, what="platform series")
             i = int(np.argmax(d))
             if d[i] > max_gap * 1e9:
                 raise ValueError(f"{w}: a hole of {d[i] / 1e9:.6g} s between samples {i} and {i + 1} (t = "

@@ -56,13 +56,15 @@ class TimeColumn:
     ``quantum_ns`` is the smallest step the file can express (1e-3 s for
     times written with three decimals); ``iso`` tells that the times were
     ISO 8601 (nanoseconds since 1970-01-01T00:00, naive times as UTC);
-    ``unit`` is the unit the numbers were read in.
+    ``unit`` is the unit the numbers were read in; ``where`` names the
+    column (file and column) for messages.
     """
 
     ns: np.ndarray
     quantum_ns: float
     iso: bool = False
     unit: str = "s"
+    where: str = ""
 
 
 def split_unit(header: str):
@@ -128,7 +130,7 @@ def parse_time_cells(cells, unit: str, where: str) -> TimeColumn:
             ns = [int((d * per).to_integral_value(rounding=decimal.ROUND_HALF_EVEN)) for d in dec]
         if max(abs(ns[0]), abs(ns[-1]), max(map(abs, ns))) >= 2**63:
             raise ValueError(f"{where}: times beyond +-292 years in ns; allowed: |t| < 9.2e18 ns")
-        return TimeColumn(np.array(ns, dtype=np.int64), max(1.0, per * 10.0 ** (-max(places, 0))), unit=unit)
+        return TimeColumn(np.array(ns, dtype=np.int64), max(1.0, per * 10.0 ** (-max(places, 0))), unit=unit, where=where)
     try:
         d = np.array(cells, dtype="datetime64[ns]")
     except ValueError:
@@ -138,7 +140,7 @@ def parse_time_cells(cells, unit: str, where: str) -> TimeColumn:
         raise ValueError(f"{where}: time is missing at sample {i}")
     frac = [c.split(".", 1)[1] if "." in c else "" for c in cells]
     places = max(len(re.match(r"\d*", f).group(0)) for f in frac)
-    return TimeColumn(d.astype(np.int64), max(1.0, 1e9 * 10.0 ** -places), iso=True)
+    return TimeColumn(d.astype(np.int64), max(1.0, 1e9 * 10.0 ** -places), iso=True, where=where)
 
 
 def float_times(values, unit: str, where: str) -> TimeColumn:
@@ -156,7 +158,7 @@ def float_times(values, unit: str, where: str) -> TimeColumn:
     whole = np.trunc(v)
     ns = whole.astype(np.int64) * np.int64(per) + np.rint((v - whole) * per).astype(np.int64)
     quantum = float(np.spacing(np.max(np.abs(v)))) * per if v.size else 1.0
-    return TimeColumn(ns, max(1.0, quantum), unit=unit)
+    return TimeColumn(ns, max(1.0, quantum), unit=unit, where=where)
 
 
 def ns_text(ns: int) -> str:
@@ -199,7 +201,7 @@ def check_rate(step_ns: float, where: str, *, rate_range=(0.0, np.inf), unit="s"
     alt = [(u, fs * per / _NS[u]) for u in ("ns", "us", "ms", "s", "min", "h") if _NS[u] != per]
     # the likeliest first: nearest (in log) to 10 Hz, a usual logging rate of wind and motion records
     alt = sorted([(u, f) for u, f in alt if lo <= f <= hi], key=lambda a: abs(np.log10(a[1] / 10.0)))
-    hint = ("; read in " + ", in ".join(f"{u} it would be {f:.6g} Hz" for u, f in alt)
+    hint = ("; read in " + ", in ".join(f"{u} it would be {f:.4g} Hz" for u, f in alt)
             + f": name the unit in the header (e.g. 'time_{alt[0][0]}' or 'time [{alt[0][0]}]')") if alt else ""
     raise ValueError(f"{where}: read in {unit}, the times step by {step_ns / 1e9:.6g} s ({fs:.6g} Hz); allowed: a "
                      f"{what} at {lo:g}-{hi:g} Hz{hint}")

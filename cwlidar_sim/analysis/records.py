@@ -407,7 +407,7 @@ def _regular_grid(t, vals, spec):
         return spec.sample_rate, 0.0, vals
     from .._times import infer_grid
 
-    where = f"{spec.name}: time of {spec.path!r}"
+    where = t.where or f"{spec.name}: time of {spec.path!r}"
     # a declared rate vouches for the times' unit through the 1 % check; else the rate must be a wind record's
     rates = (0.0, 1e4) if spec.sample_rate is not None else RECORD_RATES
     fs, idx = infer_grid(t, where, sample_rate=spec.sample_rate, rate_range=rates, unit=t.unit, what="wind record")

@@ -53,7 +53,7 @@ def test_a_hole_longer_than_max_gap_is_refused_with_its_place(tmp_path):
     (["0", "0.2", "0.1", "0.3"], "sample 2 .* goes back"),
     (["0", "nan", "0.2", "0.3"], "time is missing at sample 1"),
     (["0", "0.1", "", "0.3"], "time is missing at sample 2"),
-    ([f"{i / 36000:.8f}" for i in range(10)], r"read in h it would be 9.99\d* Hz"),
+    ([f"{i / 36000:.12f}" for i in range(10)], r"read in h it would be 10 Hz"),
 ])
 def test_bad_times_are_named(tmp_path, cells, match):
     p = _write(tmp_path / "m.csv", "time", cells, np.zeros(len(cells)))

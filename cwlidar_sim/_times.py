@@ -34,7 +34,8 @@ import re
 
 import numpy as np
 
-__all__ = ["TimeColumn", "split_unit", "find_time_column", "column_unit", "unit_ns", "parse_time_cells", "float_times", "infer_grid", "check_increasing", "check_rate", "ns_text"]
+__all__ = ["TimeColumn", "split_unit", "find_time_column", "column_unit", "unit_ns", "parse_time_cells",
+           "float_times", "infer_grid", "check_increasing", "check_rate", "ns_text"]
 
 _NS = {
     "ns": 1, "nsec": 1, "nanosecond": 1, "nanoseconds": 1,
@@ -45,7 +46,9 @@ _NS = {
     "h": 3600 * 10**9, "hr": 3600 * 10**9, "hrs": 3600 * 10**9, "hour": 3600 * 10**9, "hours": 3600 * 10**9,
     "d": 86400 * 10**9, "day": 86400 * 10**9, "days": 86400 * 10**9,
 }
-_HEADER = re.compile(r"^\s*(?P<base>.*?)\s*(?:\[\s*(?P<a>[^\]]+?)\s*\]|\(\s*(?P<b>[^)]+?)\s*\)|[_/ ](?P<c>[A-Za-zµ]+))\s*$")
+# 'time [ms]', 'time (ms)', or 'time_ms' / 'time/ms' / 'time ms'
+_HEADER = re.compile(r"^\s*(?P<base>.*?)\s*"
+                     r"(?:\[\s*(?P<a>[^\]]+?)\s*\]|\(\s*(?P<b>[^)]+?)\s*\)|[_/ ](?P<c>[A-Za-zµ]+))\s*$")
 _MISSING = ("", "nan", "na", "n/a", "null", "none")
 
 
@@ -82,7 +85,8 @@ def find_time_column(header, where: str):
     """The time column of a header: 'time', or the one 'time' with a unit ('time_ms', 'time [ms]'); None if none."""
     cands = [h for h in header if split_unit(h)[0].lower() == "time"]
     if len(cands) > 1:
-        raise ValueError(f"{where}: several time columns {cands}; allowed: one (or name it: columns = {{ time = ... }})")
+        raise ValueError(f"{where}: several time columns {cands}; allowed: one (or name it: "
+                         f"columns = {{ time = ... }})")
     return cands[0] if cands else None
 
 
@@ -130,7 +134,8 @@ def parse_time_cells(cells, unit: str, where: str) -> TimeColumn:
             ns = [int((d * per).to_integral_value(rounding=decimal.ROUND_HALF_EVEN)) for d in dec]
         if max(abs(ns[0]), abs(ns[-1]), max(map(abs, ns))) >= 2**63:
             raise ValueError(f"{where}: times beyond +-292 years in ns; allowed: |t| < 9.2e18 ns")
-        return TimeColumn(np.array(ns, dtype=np.int64), max(1.0, per * 10.0 ** (-max(places, 0))), unit=unit, where=where)
+        quantum = max(1.0, per * 10.0 ** (-max(places, 0)))
+        return TimeColumn(np.array(ns, dtype=np.int64), quantum, unit=unit, where=where)
     try:
         d = np.array(cells, dtype="datetime64[ns]")
     except ValueError:

@@ -1,4 +1,5 @@
-"""What the staring and the conical twins share: the files' layout version, the seed tag, the clock, the records' statistics."""
+"""What the staring and the conical twins share: the files' layout version, the seed tag, the clock, the records'
+statistics."""
 
 from __future__ import annotations
 

@@ -464,10 +464,11 @@ def twin_path(out_dir, scene: Scene, index: int) -> str:
 
 
 def _identity(scene, params, tp, n_twins):
-    """Digest of what a period's file depends on: the scene, the tensor, the records' bytes, the twin count."""
+    """Digest of what a period's file depends on: the scene, the tensor, the records' bytes and clock, the twins."""
     h = hashlib.sha256()
     h.update(json.dumps({"scene": scene.as_dict(), "params": params.as_dict() if params is not None else None,
-                         "n_twins": n_twins, "version": TWIN_VERSION, "period": tp.index, "delay": tp.delay},
+                         "n_twins": n_twins, "version": TWIN_VERSION, "period": tp.index, "delay": tp.delay,
+                         "origin_ns": tp.origin_ns},
                         sort_keys=True, default=str).encode())
     for r in tp.records:
         for c in sorted(r.values):

@@ -59,7 +59,8 @@ def test_time_units_from_the_header_or_the_spec(tmp_path, header, scale, declare
 
 def test_time_in_ms_without_its_unit_is_refused_naming_the_column(tmp_path):
     p = _csv(tmp_path / "m.csv", "time", [str(50 * i) for i in range(N)])
-    with pytest.raises(ValueError, match=r"m.csv: time column 'time' of .*m.csv': read in s, the times step by 50 s \(0.02 Hz\); "
+    with pytest.raises(ValueError, match=r"m.csv: time column 'time' of .*m.csv': read in s, the times step by 50 s "
+                                         r"\(0.02 Hz\); "
                                          r"allowed: a wind record at 0.1-1000 Hz; read in ms it would be 20 Hz: "
                                          r"name the unit in the header \(e.g. 'time_ms'") as e:
         read_record(RecordSpec(p, rotation="none"))

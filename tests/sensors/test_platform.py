@@ -1,4 +1,4 @@
-"""The platform-motion CSV (read_platform_csv): the time column's unit from its header, holes refused, bad times named."""
+"""The platform-motion CSV (read_platform_csv): the time unit from the header, holes refused, bad times named."""
 
 import numpy as np
 import pytest
@@ -79,3 +79,29 @@ def test_negative_times_are_kept(tmp_path):
     assert m.time[0] == -1.0 and m.heave[0] == pytest.approx(-0.1)
     m.check_covers(0.0, 60.0)
     np.testing.assert_allclose(m.at([0.0])[0][0, 2], 0.0, atol=1e-12)
+
+
+def test_the_scene_states_the_limit_and_keeps_its_identity_without_it(tmp_path):
+    """[platform] max_gap: the stated limit (default 1 s); a scene that does not set it keeps its as_dict."""
+    import importlib.util
+    import pathlib
+
+    from cwlidar_sim.campaign import loads_scene
+
+    spec = importlib.util.spec_from_file_location(
+        "nac_scene_tests", pathlib.Path(__file__).resolve().parents[1] / "campaign" / "test_nacelle_scene.py")
+    small = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(small)
+    t = np.concatenate([np.arange(0, 300) / 10.0, 130.0 + np.arange(0, 300) / 10.0])
+    _write(tmp_path / "m.csv", "time", [f"{x:.1f}" for x in t], np.zeros(t.size))
+    _write(tmp_path / "ok.csv", "time", [f"{x:.1f}" for x in np.arange(0, 650) / 10.0], np.zeros(650))
+    plain = loads_scene(small.SMALL + '[platform]\ncsv = "ok.csv"\n', base_dir=str(tmp_path))
+    assert "max_gap" not in plain.as_dict()["platform"]
+    with pytest.raises(ValueError, match=r"hole of 100.1 s .* max_gap = 1 s"):  # checked as the scene loads
+        loads_scene(small.SMALL + '[platform]\ncsv = "m.csv"\n', base_dir=str(tmp_path))
+    wide = loads_scene(small.SMALL + '[platform]\ncsv = "m.csv"\nmax_gap = 120.0\n', base_dir=str(tmp_path))
+    assert wide.sensor(wide.periods[0]).motion.time.size == 600
+    with pytest.raises(ValueError, match="platform.max_gap applies to a csv series"):
+        loads_scene(small.SMALL + "[platform]\nsurge = 1.0\nmax_gap = 2.0\n")
+    with pytest.raises(ValueError, match="platform.max_gap"):
+        loads_scene(small.SMALL + '[platform]\ncsv = "m.csv"\nmax_gap = 0.0\n')

@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from fractions import Fraction
 import os
 import re
 
@@ -283,8 +284,10 @@ def _read_csv(spec):
     header = [h.strip() for h in rows[0]]
     names = {r: spec.column(r) or r for r in roles}
     tcol = spec.column("time")
-    if tcol is None and "time" in header:
-        tcol = "time"
+    if tcol is None:
+        from .._times import find_time_column
+
+        tcol = find_time_column(header, f"{spec.name}: {spec.path!r}")
     missing = [n for n in list(names.values()) + ([tcol] if tcol else []) if n not in header]
     if missing:
         raise ValueError(f"{spec.name}: {spec.path!r} lacks column(s) {missing}; it has {header}")
@@ -301,22 +304,22 @@ def _read_csv(spec):
     if tcol:
         j = header.index(tcol)
         cells = [row[j].strip() if j < len(row) else "" for row in body]
-        t = _parse_times(cells, spec, f"column {tcol!r}")
+        t = _parse_times(cells, spec, tcol)
     return t, out
 
 
-def _parse_times(cells, spec, where):
-    try:
-        t = np.array([float(c) for c in cells])
-        return t * parse_time_units(spec.unit("time") or "s")
-    except ValueError:
-        pass
-    try:
-        d = np.array(cells, dtype="datetime64[ns]")
-    except ValueError:
-        raise ValueError(f"{spec.name}: {where} of {spec.path!r} holds neither seconds nor ISO 8601 times "
-                         f"(first value {cells[0]!r})") from None
-    return (d - d[0]).astype(np.int64) * 1e-9
+# --- times (exact, integer ns: see cwlidar_sim._times) -----------------------------------------------------
+#: Plausible rates of a wind record whose rate is not declared [Hz]: a time column in ms read as s
+#: (a 20 Hz sonic at 0.02 Hz) or in min/h read as s (a 20 Hz sonic at 1200 or 72 000 Hz) falls outside.
+RECORD_RATES = (0.1, 1000.0)
+
+
+def _parse_times(cells, spec, tcol):
+    """The time cells of column ``tcol`` -> :class:`cwlidar_sim._times.TimeColumn` (exact ns; unit: header or spec)."""
+    from .._times import column_unit, parse_time_cells
+
+    where = f"{spec.name}: time column {tcol!r} of {spec.path!r}"
+    return parse_time_cells(cells, column_unit(tcol, spec.unit("time"), where), where)
 
 
 def _find_variable(ds, role, spec):
@@ -371,10 +374,9 @@ def _read_netcdf(spec):
             if tname not in ds.variables:
                 raise ValueError(f"{spec.name}: {spec.path!r} has no time variable {tname!r}")
             tu = str(ds[tname].attrs.get("units", spec.unit("time") or "s"))
-            try:
-                t = np.asarray(ds[tname].values, dtype=np.float64) * parse_time_units(tu)
-            except ValueError as e:
-                raise ValueError(f"{spec.name}: time of {spec.path!r}: {e}") from None
+            from .._times import float_times
+
+            t = float_times(ds[tname].values, tu, f"{spec.name}: time variable {tname!r} of {spec.path!r}")
     return t, out
 
 
@@ -390,7 +392,7 @@ def _load(spec):
         raise ValueError(f"{spec.name}: {spec.path!r} has extension {ext!r}; allowed: .csv, .txt (CSV) or .nc, "
                          f".nc4, .cdf (NetCDF)")
     n = len(next(iter(vals.values())))
-    if any(len(v) != n for v in vals.values()) or (t is not None and len(t) != n):
+    if any(len(v) != n for v in vals.values()) or (t is not None and len(t.ns) != n):
         raise ValueError(f"{spec.name}: columns of {spec.path!r} differ in length")
     if n < 16:
         raise ValueError(f"{spec.name}: {spec.path!r} has {n} samples; allowed: >= 16")
@@ -403,37 +405,20 @@ def _regular_grid(t, vals, spec):
         if spec.sample_rate is None:
             raise ValueError(f"{spec.name}: {spec.path!r} has no time column; give sample_rate [Hz] in the spec")
         return spec.sample_rate, 0.0, vals
-    if not np.all(np.isfinite(t)):
-        i = int(np.nonzero(~np.isfinite(t))[0][0])
-        raise ValueError(f"{spec.name}: time of {spec.path!r} is missing at sample {i}")
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        i = int(np.nonzero(dt <= 0)[0][0])
-        raise ValueError(f"{spec.name}: time of {spec.path!r} is not strictly increasing: sample {i + 1} at "
-                         f"t = {t[i + 1]:.6g} s follows t = {t[i]:.6g} s")
-    step = float(np.median(dt))
-    fs = 1.0 / step
-    if spec.sample_rate is not None:
-        if abs(spec.sample_rate * step - 1.0) > 0.01:
-            raise ValueError(f"{spec.name}: sample_rate = {spec.sample_rate} Hz but the time column of "
-                             f"{spec.path!r} steps by {step:.6g} s ({fs:.6g} Hz)")
-        fs = spec.sample_rate
-    pos = (t - t[0]) * fs
-    idx = np.rint(pos).astype(np.int64)
-    off = np.abs(pos - idx)
-    if np.any(off > 0.25):
-        i = int(np.argmax(off))
-        raise ValueError(f"{spec.name}: sample {i} of {spec.path!r} at t = {t[i]:.6g} s lies {off[i]:.2f} steps off "
-                         f"the regular {fs:.6g} Hz grid; allowed: 0.25 (resample irregular records first)")
-    if np.any(np.diff(idx) == 0):
-        raise ValueError(f"{spec.name}: two samples of {spec.path!r} fall on one time step of the {fs:.6g} Hz grid")
+    from .._times import infer_grid
+
+    where = t.where or f"{spec.name}: time of {spec.path!r}"
+    # a declared rate vouches for the times' unit through the 1 % check; else the rate must be a wind record's
+    rates = (0.0, 1e4) if spec.sample_rate is not None else RECORD_RATES
+    fs, idx = infer_grid(t, where, sample_rate=spec.sample_rate, rate_range=rates, unit=t.unit, what="wind record")
     m = int(idx[-1]) + 1
     out = {}
     for r, v in vals.items():
         a = np.full(m, np.nan)
         a[idx] = v
         out[r] = a
-    return fs, float(t[0]), out
+    # the file's clock as written (ISO 8601 times from the file's first sample)
+    return fs, (0 if t.iso else int(t.ns[0])) / 10**9, out
 
 
 def _runs(mask):
@@ -563,6 +548,10 @@ class Record:
         Time of the period's first sample on the file's clock [s] (seconds
         as written; ISO 8601 times from the file's first; 0 without a time
         column).
+    time0_ns : int
+        The same, exact, in integer nanoseconds on the file's clock (numbers
+        as written, ISO 8601 times since 1970-01-01T00:00); the twin's clock
+        is built on it (float seconds near a Unix time of 1.7e9 s step in 2.4e-7 s).
     """
 
     spec: RecordSpec
@@ -574,6 +563,7 @@ class Record:
     mean_speed: float
     rotation: dict
     time0: float = 0.0
+    time0_ns: int = 0
 
     @property
     def n_samples(self) -> int:
@@ -629,6 +619,7 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
         raise TypeError(f"spec must be a RecordSpec, got {type(spec).__name__}")
     t, raw = _load(spec)
     fs, t0, grid = _regular_grid(t, raw, spec)
+    t0_ns = 0 if t is None else int(t.ns[0])
     n = len(next(iter(grid.values())))
     if period_duration is None:
         m = n
@@ -665,7 +656,8 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
         for a in vals.values():
             a.setflags(write=False)
         flags.setflags(write=False)
-        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start))
+        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start,
+                          t0_ns + round(Fraction(k * m * 10**9) / Fraction(fs))))
     return out
 
 

@@ -79,9 +79,7 @@ def check_file_names(scene) -> None:
     """
     _check_name("scene name", scene.name)
     _check_length("scene name", scene.name, f"{scene.name}.periods")
-    for p in scene.periods:
-        _check_name("period name", p.name)
-    for i, unit in enumerate(scene.unit_names()):
+    for i, unit in enumerate(scene.unit_names()):  # each holds its period's name
         _check_name("period name", unit)
         _check_length("period name", unit, f"{i:03d}_{unit}.nc")
 
@@ -243,19 +241,20 @@ def claim(folder, name: str, kind: str, *, overwrite: bool = False, log=None) ->
         results = None
     if not same and not overwrite:
         raise PreflightError(f"results folder {folder!r} holds the results of {theirs}, not of the {me}; "
-                             f"fix: choose another --out, or pass --overwrite to remove the old results")
+                             f"fix: choose another --out (e.g. {os.path.join(folder, name)}), or pass --overwrite "
+                             f"to remove the old results")
     new = {"name": name, "kind": kind, "digest": old.get("digest") if old and same else None,
            "figures": list(old.get("figures", [])) if old and same else [], "results": results if same else None}
     if overwrite:
-        for rel in files:
+        if old is not None and old.get("results") and old.get("kind") != "campaign":
+            files.append(old["results"])
+        if kind != "campaign":  # the same scene's periods too: overwrite computes afresh
+            files.append(f"{name}.periods")
+        for rel in dict.fromkeys(files):
             if rel.endswith(".nc") and rel != "campaign.nc":
                 remove_after.append(rel)  # the old results survive until the new ones are written
             else:
                 _remove(folder, rel, log)
-        if old is not None and old.get("results") and old.get("kind") != "campaign":
-            remove_after.append(old["results"])
-        if same and kind != "campaign":
-            _remove(folder, f"{name}.periods", log)
         new.update(digest=None, figures=[], results=None)
     new["remove_after"] = sorted({f for f in remove_after if f != (f"{name}.nc" if kind != "campaign" else None)})
     write_manifest(folder, new)

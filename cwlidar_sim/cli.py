@@ -196,7 +196,11 @@ def _add_campaign(sub):
     p = _command(sub, "run", "run a scene file (TOML) and write its results",
                  "Run every period of a scene file and write DIR/<name>.nc. SCENE is a file, or the name of a "
                  "bundled scene ('cwlidar-sim scenes' lists them). Re-running into the same folder computes only "
-                 "the periods that are missing.",
+                 "the periods that are missing or whose settings changed (and removes the files the changed "
+                 "scene no longer uses).\n\nA results folder belongs to one scene (DIR/cwlidar-run.json): "
+                 "another scene's (or a campaign's) results there are refused unless --overwrite, which removes "
+                 "every file of the old run (its results file only once the new one is written). One run at a "
+                 "time: a second run into a folder in use is refused, naming the first one's pid.",
                  ["cwlidar-sim scenes --write a2012 my_scene.toml     # a commented starting point",
                   "cwlidar-sim run my_scene.toml --out results/mine --figures",
                   "cwlidar-sim run my_scene.toml --out results/mine --dask tcp://scheduler:8786"])
@@ -207,6 +211,9 @@ def _add_campaign(sub):
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--figures", action="store_true", help="also write the figures (as 'report' does)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace another scene's results in DIR (removing every file of that run); for the "
+                        "same scene: compute every period again")
     p.set_defaults(func=_cmd_run)
 
     p = _command(sub, "report", "write the figures of a results folder",
@@ -233,6 +240,7 @@ def _add_campaign(sub):
     p.add_argument("--dask", default=None, metavar="ADDRESS")
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--overwrite", action="store_true", help="replace another scene's results in DIR (see 'run')")
     p.set_defaults(func=_cmd_reproduce)
 
 
@@ -257,6 +265,7 @@ def _run_and_report(scene, args, figures):
 
     from . import _config
     from .campaign import run_scene
+    from .campaign import folder
     from .campaign.figures import make_figures
     from .campaign.runner import _sensor
     from .campaign.store import preflight
@@ -267,19 +276,25 @@ def _run_and_report(scene, args, figures):
     def log(line):
         print(line, file=sys.stderr)
 
-    # every check before the first period: folder, engine, disk, scheduler
+    # every check before the first period: names, folder, engine, disk, scheduler
+    folder.check_file_names(scene)
     preflight(args.out, _sensor(scene)[1](scene), scheduler=args.dask)
-    client = _client(args.dask)
-    try:
-        ds = run_scene(scene, args.out, client=client, progress=not args.no_progress, log=log)
-    except KeyboardInterrupt:
-        print(f"cwlidar-sim {args.command}: interrupted; the finished periods are kept in "
-              f"{os.path.join(args.out, scene.name + '.periods')}; run the same command again to resume",
-              file=sys.stderr)
-        return 130
-    finally:
-        if client is not None:
-            client.close()
+    with folder.locked(args.out):  # held across the run and its figures
+        client = _client(args.dask)
+        try:
+            ds = run_scene(scene, args.out, client=client, progress=not args.no_progress, log=log,
+                           overwrite=args.overwrite)
+        except KeyboardInterrupt:
+            print(f"cwlidar-sim {args.command}: interrupted; the finished periods are kept in "
+                  f"{os.path.join(args.out, scene.name + '.periods')}; run the same command again to resume",
+                  file=sys.stderr)
+            return 130
+        finally:
+            if client is not None:
+                client.close()
+        figs = make_figures(ds, args.out) if figures else None
+        if figs:
+            folder.record_figures(args.out, figs)
     summary = {
         "results": os.path.join(args.out, f"{scene.name}.nc"),
         "wall_time_s": round(ds.attrs["wall_time"], 2),
@@ -297,7 +312,7 @@ def _run_and_report(scene, args, figures):
         summary["rayleigh_length_m"] = ds.attrs["rayleigh_length"]
         summary["availability"] = {str(p): round(float(a), 4) for p, a in zip(ds.period.values, ds.availability.values)}
     if figures:
-        summary["figures"] = make_figures(ds, args.out)
+        summary["figures"] = figs
     print(json.dumps(summary, indent=2))
     return 0
 
@@ -353,6 +368,9 @@ def _add_sweep(sub):
     p.add_argument("--memory-limit", type=float, default=None, metavar="GB", help="memory per worker [GB]")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--json", action="store_true", help="--dry-run: print the tasks as JSON")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a scene's or another campaign's results in DIR; for the same campaign: "
+                        "compute every task again")
     p.set_defaults(func=_cmd_campaign)
 
     p = _command(sub, "campaign-report", "merge a campaign's tasks, draw the sweep figures",
@@ -398,7 +416,7 @@ def _cmd_campaign(args) -> int:
     try:
         summary = run_campaign(spec, args.out, workers=args.workers, scheduler=args.scheduler, local=args.local,
                                memory_limit=None if args.memory_limit is None else args.memory_limit * 1e9,
-                               progress=not args.no_progress, log=log)
+                               progress=not args.no_progress, log=log, overwrite=args.overwrite)
     except KeyboardInterrupt:
         print(f"cwlidar-sim campaign: interrupted; finished tasks are kept in {os.path.join(args.out, 'tasks')}; "
               f"run the same command again to resume", file=sys.stderr)

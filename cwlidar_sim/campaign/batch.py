@@ -43,7 +43,7 @@ import time
 
 from .. import _config
 from .._preflight import preflight
-from . import runner
+from . import folder, runner
 from .store import read_results, write_results
 from .sweep import CampaignSpec, _expand_values, estimate_task, expand
 
@@ -147,7 +147,7 @@ def _run_unit(scene, index, params, threads):
 
 
 def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, client=None, local=False,
-                 memory_limit=None, progress=True, log=None, on_task=None, on_unit=None) -> dict:
+                 memory_limit=None, progress=True, log=None, on_task=None, on_unit=None, overwrite=False) -> dict:
     """Run (or resume) every task of a campaign.
 
     Parameters
@@ -176,6 +176,13 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     on_unit : callable, optional
         Called as ``on_unit(task, index)`` after each unit of a task is
         computed and stored (a hook, like ``on_task``; the stored units stay).
+    overwrite : bool
+        When ``out_dir`` holds a scene's or another campaign's results: remove
+        them and run (default: refuse before anything is computed); for the same
+        campaign: remove its tasks and compute them all again.  The folder is
+        locked for the whole run (a second run into it is refused, naming the
+        first one's pid) and temporaries a killed run left are removed at the
+        start (:mod:`cwlidar_sim.campaign.folder`).
 
     Returns
     -------
@@ -190,8 +197,23 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     t0 = time.perf_counter()
     tasks = expand(spec)
     out_dir = os.fspath(out_dir)
+    for t in tasks:  # every file name a task derives, before anything is computed or written
+        folder.check_file_names(t.scene)
     preflight(out_dir, sum(runner._sensor(t.scene)[1](t.scene) for t in tasks),
               scheduler=scheduler if client is None else None)
+    with folder.locked(out_dir):
+        folder.clean_temporaries(out_dir, say)
+        manifest = folder.claim(out_dir, spec.name, "campaign", overwrite=overwrite, log=say)
+        summary = _run_campaign(spec, out_dir, tasks, t0, say, workers=workers, scheduler=scheduler, client=client,
+                                local=local, memory_limit=memory_limit, progress=progress, on_task=on_task,
+                                on_unit=on_unit)
+        folder.finish(out_dir, manifest, "index.json", log=say)  # an overwritten scene's results file goes now
+        return summary
+
+
+def _run_campaign(spec, out_dir, tasks, t0, say, *, workers, scheduler, client, local, memory_limit, progress,
+                  on_task, on_unit) -> dict:
+    """:func:`run_campaign` once its folder is locked and claimed."""
     task_dir = os.path.join(out_dir, "tasks")
     os.makedirs(task_dir, exist_ok=True)
     _write_json(os.path.join(out_dir, "campaign.json"),

@@ -26,7 +26,7 @@ import json
 import os
 import time
 
-from . import conical, nacelle, staring, store
+from . import conical, folder, nacelle, staring, store
 from .auto import resolve
 from .conical_scene import ConicalScene
 from .nacelle_scene import NacelleScene
@@ -168,7 +168,8 @@ def prepare_scene(scene, out_dir=None, *, log=None, check: bool = True) -> Scene
                     done=done, reused=[names[i] for i in sorted(done)], task=task, finalise=finalise)
 
 
-def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True, log=None, on_period=None):
+def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True, log=None, on_period=None,
+              overwrite: bool = False):
     """Run every period of a scene, keep each as it finishes, and assemble the results.
 
     Parameters
@@ -192,6 +193,10 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         Called as ``on_period(index, dataset)`` after each period is computed
         and stored (a progress hook; an exception it raises stops the run, the
         stored periods stay).
+    overwrite : bool
+        When ``out_dir`` holds another scene's (or a campaign's) results: remove
+        them and run (default: refuse, :class:`PreflightError`); for the same
+        scene: compute every period afresh.  See :mod:`cwlidar_sim.campaign.folder`.
 
     Returns
     -------
@@ -202,13 +207,32 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
     Raises
     ------
     PreflightError
-        Before anything is computed, when the results could not be written.
+        Before anything is computed, when the results could not be written, when
+        another run holds ``out_dir`` (its lock), or when ``out_dir`` holds another
+        scene's results and not ``overwrite``.
+    ValueError
+        Before anything is computed, when a scene or period name cannot name a file.
     ResultsWriteError
         When writing a finished period fails (the periods written before stay).
     """
     say = log or (lambda s: None)
+    if out_dir is None:
+        return _run_scene(scene, None, client, progress, say, on_period, None)
+    folder.check_file_names(scene)
+    preflight(out_dir)  # writable, engine: before the folder is locked and claimed (the disk: once resolved)
+    with folder.locked(out_dir):
+        folder.clean_temporaries(out_dir, say)
+        manifest = folder.claim(out_dir, scene.name, scene.kind, overwrite=overwrite, log=say)
+        return _run_scene(scene, out_dir, client, progress, say, on_period, manifest)
+
+
+def _run_scene(scene, out_dir, client, progress, say, on_period, manifest):
+    """:func:`run_scene` once the folder is locked and claimed (``manifest``; None: nothing written)."""
     t0 = time.perf_counter()
     run = prepare_scene(scene, out_dir, log=say)
+    if run.store is not None:
+        folder.settle(out_dir, manifest, run.key(), run.store.folder,
+                      [os.path.basename(run.store.path(i)) for i in range(len(run.names))], log=say)
     scene, names, todo = run.scene, run.names, run.todo
 
     def finish(i, ds):
@@ -245,5 +269,6 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
     if run.store is not None:
         path = os.path.join(os.fspath(out_dir), f"{scene.name}.nc")
         write_results(ds, path)
+        folder.finish(out_dir, manifest, os.path.basename(path), log=say)
         say(f"results written to {path}")
     return ds

@@ -11,7 +11,18 @@ bits as an uninterrupted one.
 A stored period is reused only when its ``scene_key`` (a hash of the scene,
 the turbulence parameters, the period's index, the package version and the
 results version) matches; anything else about the scene changed, and the
-period is computed again.
+period is computed again.  A period file that cannot be read (truncated,
+bit-flipped) is computed again too, with a warning naming it.  Writing and
+reading back a period checks its key; :func:`combine_periods` refuses periods
+whose scene attributes differ (never a file mixed from two runs).
+
+The folder itself (:mod:`cwlidar_sim.campaign.folder`): one run at a time
+(a lock naming its holder's pid), one scene per folder (a manifest: another
+scene's results are refused unless ``overwrite``, which removes every file of
+the old run; the same scene with changed settings recomputes exactly the
+periods it affects and removes the files it no longer uses), orphaned
+temporary files removed at the next start, scene and period names checked
+before compute.
 
 Before the first period starts, :func:`preflight` checks what would make the
 end of a long run fail: the folder is writable, the NetCDF engine imports,
@@ -24,6 +35,7 @@ import hashlib
 import json
 import os
 import tempfile
+import warnings
 
 from .. import __version__
 from .._preflight import PreflightError, ResultsWriteError, check_scheduler, preflight
@@ -111,7 +123,7 @@ def read_results(path):
     try:
         with xr.open_dataset(path, engine=ENGINE) as ds:
             return ds.load()
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, KeyError, RuntimeError) as e:  # h5py's errors for a damaged file
         raise ValueError(f"cannot read results file {os.fspath(path)!r}: {e}") from None
 
 
@@ -139,26 +151,54 @@ class PeriodStore:
         return os.path.join(self.folder, f"{index:03d}_{self.names[index]}.nc")
 
     def load(self, index: int):
-        """The stored Dataset of period ``index`` if it is whole and of this scene, else None."""
+        """The stored Dataset of period ``index`` if it is whole and of this scene, else None.
+
+        A file that cannot be read (truncated, damaged) gives None and a
+        warning naming it: the period is computed again and the file replaced.
+        """
         p = self.path(index)
         if not os.path.isfile(p):
             return None
         try:
             ds = read_results(p)
-        except ValueError:
+        except ValueError as e:
+            warnings.warn(f"period file {p} is damaged and is computed again ({e})", RuntimeWarning, stacklevel=2)
             return None
         return ds if ds.attrs.get("scene_key") == self.keys[index] else None
 
     def save(self, index: int, ds):
-        """Write period ``index`` atomically and return it as read back (the bits the scene's file gets)."""
+        """Write period ``index`` atomically and return it as read back (the bits the scene's file gets).
+
+        Raises
+        ------
+        ResultsWriteError
+            When the file read back is not this period of this scene (another
+            process wrote it meanwhile): never combined into the results.
+        """
         os.makedirs(self.folder, exist_ok=True)
         ds = ds.assign_attrs(scene_key=self.keys[index])
-        write_results(ds, self.path(index))
-        return read_results(self.path(index))
+        p = self.path(index)
+        write_results(ds, p)
+        back = read_results(p)
+        if back.attrs.get("scene_key") != self.keys[index]:
+            raise ResultsWriteError(f"period file {p!r} was replaced by another run while this one wrote it "
+                                    f"(scene key {back.attrs.get('scene_key')!r}, expected {self.keys[index]!r})")
+        return back
 
 
 #: Attributes that belong to one period; :func:`combine_periods` gathers them into JSON maps.
 PERIOD_ATTRS = ("period_index", "scene_key", "field_reason", "timing", "unit_name")
+
+
+def _check_same_scene(datasets, attrs) -> None:
+    """Raise ValueError unless every period carries the first one's scene attributes."""
+    for d in datasets[1:]:
+        for k in sorted(set(attrs) | (set(d.attrs) - set(PERIOD_ATTRS))):
+            a, b = attrs.get(k), d.attrs.get(k)
+            if json.dumps(a, sort_keys=True, default=str) != json.dumps(b, sort_keys=True, default=str):
+                raise ValueError(f"periods {datasets[0].period.values[0]!r} and {d.period.values[0]!r} come from "
+                                 f"different runs: their attribute {k!r} differs ({str(a)[:60]!r} against "
+                                 f"{str(b)[:60]!r}); refusing to combine them")
 
 
 def combine_periods(datasets, *, fill=None):
@@ -168,7 +208,9 @@ def combine_periods(datasets, *, fill=None):
     the first; series of shorter periods are padded (floats with NaN,
     integers with 0, or ``fill[name]``).  Per-period attributes become JSON
     maps keyed by period name (``field_reasons``, ``timing``; a unit of
-    several rows, a cycling conical period, by its ``unit_name``).
+    several rows, a cycling conical period, by its ``unit_name``).  Every
+    other attribute must be the same in all periods (ValueError otherwise:
+    periods of two runs are never mixed).
     """
     import numpy as np
     import xarray as xr
@@ -190,6 +232,7 @@ def combine_periods(datasets, *, fill=None):
         if var.dtype.kind in "iub" and out[name].dtype != var.dtype:
             out[name] = out[name].astype(var.dtype, keep_attrs=True)
     attrs = {k: v for k, v in datasets[0].attrs.items() if k not in PERIOD_ATTRS}
+    _check_same_scene(datasets, attrs)
     names = [str(d.attrs.get("unit_name", d.period.values[0])) for d in datasets]
     attrs["field_reasons"] = json.dumps({n: d.attrs.get("field_reason", "") for n, d in zip(names, datasets)})
     attrs["timing"] = json.dumps({n: json.loads(d.attrs.get("timing", "{}")) for n, d in zip(names, datasets)})

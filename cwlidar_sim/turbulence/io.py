@@ -106,6 +106,7 @@ reading, so they round-trip.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import numbers
 import os
@@ -113,6 +114,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._atomic import atomic_open, check_output_file, write_netcdf_atomic
 from .._validation import check_bool, check_int, check_memory, check_real, check_tuple
 
 __all__ = ["hawc2_paths", "read_hawc2", "read_netcdf", "write_hawc2", "write_netcdf"]
@@ -220,13 +222,21 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
         ``box`` is not an xarray Dataset or a variable is not real.
     ValueError
         Missing component, wrong dims, empty box, or a non-finite value (no
-        file is left behind in that case).
+        file is left behind in that case); a target that is not a regular
+        file (a directory, ``/dev/null``, a FIFO) or whose folder is missing
+        (:class:`cwlidar_sim._preflight.PreflightError`, before anything is
+        written).
+    OSError
+        Writing failed (a full disk): the old files are unchanged
+        (:class:`cwlidar_sim._preflight.ResultsWriteError`).
 
     Notes
     -----
     No header is written: the reader needs the shape (Nx, Ny, Nz) and spacing
     (dx, dy, dz) [m] from elsewhere (e.g. ``box.attrs``).  Each file is first
-    written as ``NAME.part`` and renamed when complete.
+    written to a temporary file beside it (``.NAME.XXXXXXXX.tmp.bin``) and the
+    three are renamed over the targets only when all three are complete
+    (:func:`cwlidar_sim._atomic.atomic_path`): a failure leaves the old files.
     """
     reverse_x = check_bool("reverse_x", reverse_x)
     reverse_x, reverse_y = _convention_flips(convention, reverse_x)
@@ -236,40 +246,33 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
     nx = arrays[0].shape[0]
     plane_bytes = _HAWC2_DTYPE.itemsize * int(np.prod(arrays[0].shape[1:]))
     step = max(1, max_chunk_bytes // plane_bytes)
-    for p in paths:
-        if not p.parent.is_dir():
-            raise FileNotFoundError(f"directory {str(p.parent)!r} for HAWC2 file {str(p)!r} does not exist")
-    done = []
-    try:
+    for c, p in zip(_COMPONENTS, paths):
+        check_output_file(p, label=f"HAWC2 file of component {c}")
+    # All three components go to temporary files first and are renamed only when
+    # the three are whole, so a failure (a non-finite value, a full disk) leaves
+    # the old triplet as it was.
+    with contextlib.ExitStack() as stack:
         for c, vel_xyz, path in zip(_COMPONENTS, arrays, paths):
-            part = path.with_name(path.name + ".part")
-            with open(part, "wb") as fh:
-                for i0 in range(0, nx, step):
-                    i1 = min(nx, i0 + step)
-                    src = vel_xyz[nx - i1: nx - i0][::-1] if reverse_x else vel_xyz[i0:i1]
-                    if reverse_y:
-                        src = src[:, ::-1]
-                    # One slab at a time: a contiguous little-endian float32
-                    # copy of at most ``step`` planes, never of the component.
-                    with np.errstate(over="ignore", invalid="ignore"):  # caught just below
-                        slab_xyz = np.ascontiguousarray(np.asarray(src), dtype=_HAWC2_DTYPE)
-                    if not np.isfinite(slab_xyz).all():
-                        bad = np.argwhere(~np.isfinite(slab_xyz))[0]
-                        ix = nx - 1 - (i0 + bad[0]) if reverse_x else i0 + bad[0]
-                        iy = slab_xyz.shape[1] - 1 - bad[1] if reverse_y else bad[1]
-                        raise ValueError(
-                            f"box['{c}'] has a non-finite value (after the cast to float32) at "
-                            f"[x={ix}, y={iy}, z={bad[2]}]; allowed: finite values below 3.4e38 m/s"
-                        )
-                    fh.write(slab_xyz.data)
-                    del slab_xyz
-            done.append((part, path))
-    except BaseException:
-        for path in paths:
-            path.with_name(path.name + ".part").unlink(missing_ok=True)
-        raise
-    for part, path in done:
-        os.replace(part, path)
+            fh = stack.enter_context(atomic_open(path, "wb"))
+            for i0 in range(0, nx, step):
+                i1 = min(nx, i0 + step)
+                src = vel_xyz[nx - i1: nx - i0][::-1] if reverse_x else vel_xyz[i0:i1]
+                if reverse_y:
+                    src = src[:, ::-1]
+                # One slab at a time: a contiguous little-endian float32
+                # copy of at most ``step`` planes, never of the component.
+                with np.errstate(over="ignore", invalid="ignore"):  # caught just below
+                    slab_xyz = np.ascontiguousarray(np.asarray(src), dtype=_HAWC2_DTYPE)
+                if not np.isfinite(slab_xyz).all():
+                    bad = np.argwhere(~np.isfinite(slab_xyz))[0]
+                    ix = nx - 1 - (i0 + bad[0]) if reverse_x else i0 + bad[0]
+                    iy = slab_xyz.shape[1] - 1 - bad[1] if reverse_y else bad[1]
+                    raise ValueError(
+                        f"box['{c}'] has a non-finite value (after the cast to float32) at "
+                        f"[x={ix}, y={iy}, z={bad[2]}]; allowed: finite values below 3.4e38 m/s"
+                    )
+                fh.write(slab_xyz.data)
+                del slab_xyz
     return paths
 
 
@@ -390,12 +393,23 @@ def write_netcdf(field, path):
         Dataset attributes (Mann parameters, seed, spacing, settings) become
         global attributes.
     path : str or os.PathLike
-        Output file; overwritten if it exists.
+        Output file, in an existing folder; replaced if it exists, only once the
+        new file is complete (written beside it, then renamed).
 
     Returns
     -------
     pathlib.Path
         The file written.
+
+    Raises
+    ------
+    ValueError
+        ``path`` is not a regular file (a directory, ``/dev/null``, a FIFO) or
+        its folder is missing (:class:`cwlidar_sim._preflight.PreflightError`,
+        before anything is written); bad ``field``.
+    OSError
+        Writing failed (a full disk): the old file at ``path`` is unchanged
+        (:class:`cwlidar_sim._preflight.ResultsWriteError`).
 
     Notes
     -----
@@ -409,8 +423,7 @@ def write_netcdf(field, path):
     """
     path = _check_path("path", path)
     _field_dims(field, "field", allowed=_FIELD_DIMS)
-    if not path.parent.is_dir():
-        raise FileNotFoundError(f"directory {str(path.parent)!r} for NetCDF file {str(path)!r} does not exist")
+    check_output_file(path, label="NetCDF file")
     # A shallow copy: new Variable objects (own attrs and encoding) sharing
     # the data, so the caller's Dataset is left untouched.
     ds = field.copy(deep=False)
@@ -426,7 +439,9 @@ def write_netcdf(field, path):
             ds.variables[d].attrs.setdefault("units", "m")
             ds.variables[d].attrs.setdefault("long_name", _LONG_NAMES[d])
     encoding = {name: {"_FillValue": None} for name in ds.variables}
-    ds.to_netcdf(path, mode="w", engine="h5netcdf", format="NETCDF4", encoding=encoding)
+    # atomically, and closed explicitly on failure (a failed h5netcdf close left to
+    # __del__ segfaults at exit): the old file at ``path`` survives any failed write
+    write_netcdf_atomic(ds, path, encoding=encoding)
     return path
 
 

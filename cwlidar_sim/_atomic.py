@@ -1,0 +1,259 @@
+"""Atomic file writes: the file at a path is the old one or the whole new one, never a torn one.
+
+Every writer of the package (turbulence boxes, results, reports, JSON,
+figures, scene files) writes through :func:`atomic_path` (or
+:func:`atomic_open`, :func:`write_netcdf_atomic` built on it):
+
+1. a temporary file is created in the target's own folder with
+   :func:`tempfile.mkstemp` (an unpredictable name, created with ``O_EXCL``,
+   so a symlink planted at a guessable name is never followed);
+2. the caller writes it completely;
+3. it is flushed to disk (``fsync``), given the permissions a new file gets
+   under the process umask, and renamed over the target with
+   :func:`os.replace` (atomic on POSIX within one file system); the folder is
+   then synced so that the rename itself survives a crash;
+4. on any failure (an exception, a full disk, Ctrl-C, a SIGTERM turned into
+   an exception by the CLI) the temporary file is removed and the old file at
+   the target is left exactly as it was.
+
+A kill -9 between the steps leaves at most a stray ``.NAME.*.tmp`` file
+beside the target, never a partial file at the target itself.
+
+:func:`check_output_file` is the matching check made before a long
+computation: the target must be a regular file or not exist yet (not a
+directory, ``/dev/null``, a FIFO), in an existing folder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno as _errno
+import os
+import re
+import stat
+import tempfile
+
+from ._preflight import PreflightError, ResultsWriteError
+
+__all__ = ["atomic_path", "atomic_open", "write_netcdf_atomic", "check_output_file", "temp_name_pattern"]
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def temp_name_pattern(path) -> tuple[str, str]:
+    """``(prefix, suffix)`` of the temporary files :func:`atomic_path` makes for ``path``.
+
+    The suffix keeps the target's extension (``.tmp.png``), so a writer that
+    picks its format from the name (matplotlib's ``savefig``) picks the same.
+    """
+    name = os.path.basename(os.fspath(path))
+    return f".{name}.", f".tmp{os.path.splitext(name)[1]}"
+
+
+def check_output_file(path, *, label: str = "output file", create_folder: bool = False) -> str:
+    """Refuse an output path that cannot receive a file, before anything is computed.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to be written.
+    label : str
+        What the file is, for the message (e.g. ``"--out"``).
+    create_folder : bool
+        Create a missing parent folder (default False: a missing folder is an error naming it).
+
+    Returns
+    -------
+    str
+        ``path`` as a string.
+
+    Raises
+    ------
+    PreflightError
+        ``path`` exists and is not a regular file (a directory, a device such as
+        ``/dev/null``, a FIFO, a socket), or its folder is missing or not a folder.
+    """
+    path = os.fspath(path)
+    if not isinstance(path, str) or not path or os.path.basename(path) in ("", ".", ".."):
+        raise PreflightError(f"{label} {path!r} names no file; fix: give a file path such as out/box.nc")
+    try:
+        st = os.stat(path)  # follows a symlink: what matters is what the name would replace
+    except FileNotFoundError:
+        st = None
+    except OSError as e:
+        raise PreflightError(f"{label} {path!r} cannot be examined: {e.strerror or e}") from None
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        kind = ("a directory" if stat.S_ISDIR(st.st_mode) else "a FIFO" if stat.S_ISFIFO(st.st_mode)
+                else "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else "not a regular file")
+        raise PreflightError(f"{label} {path!r} is {kind}; allowed: a regular file or a new name in an "
+                             f"existing folder (the file is written beside it and renamed into place)")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        if create_folder and not os.path.exists(folder):
+            try:
+                os.makedirs(folder, exist_ok=True)
+            except OSError as e:
+                raise PreflightError(f"cannot create folder {folder!r} for {label} {path!r}: "
+                                     f"{e.strerror or e}") from None
+        else:
+            what = "does not exist" if not os.path.exists(folder) else "is not a folder"
+            raise PreflightError(f"folder {folder!r} of {label} {path!r} {what}; fix: create it first "
+                                 f"or choose another path")
+    return path
+
+
+def _fsync_path(path, *, directory: bool = False) -> None:
+    fd = os.open(path, os.O_RDONLY | (os.O_DIRECTORY if directory else 0))
+    try:
+        os.fsync(fd)
+    except OSError as e:
+        # some file systems cannot sync a folder (EINVAL); the rename is done all the same
+        if not directory or e.errno not in (_errno.EINVAL, _errno.ENOTSUP, _errno.EBADF):
+            raise
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def atomic_path(path, *, mode: int | None = None):
+    """Yield a temporary path beside ``path``; rename it over ``path`` when the block ends normally.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The target file.  Its folder must exist.  An existing regular file is
+        replaced only once the new one is complete; a symlink at ``path`` is
+        replaced by the file (its target is not written through).
+    mode : int, optional
+        Permission bits of the new file; default ``0o666`` less the umask,
+        what :func:`open` gives a new file.
+
+    Yields
+    ------
+    str
+        A new, empty temporary file's path in the same folder (name
+        ``.NAME.XXXXXXXX.tmp.EXT``); write it by name (``to_netcdf``,
+        ``savefig``...).
+
+    Raises
+    ------
+    ResultsWriteError
+        An OSError while writing, syncing or renaming (a full disk, a
+        quota): it names ``path`` and says the old file is unchanged.
+    """
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    prefix, suffix = temp_name_pattern(path)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=prefix, suffix=suffix)
+    except OSError as e:
+        raise ResultsWriteError(e.errno, f"cannot write {path!r}: {e.strerror or e}") from None
+    os.close(fd)
+    try:
+        yield tmp
+        _fsync_path(tmp)
+        os.chmod(tmp, (0o666 & ~_umask()) if mode is None else mode)  # mkstemp makes 0600
+        os.replace(tmp, path)
+    except BaseException as e:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if isinstance(e, OSError) and not isinstance(e, ResultsWriteError):
+            raise ResultsWriteError(e.errno, f"cannot write {path!r}: {e.strerror or e}; "
+                                             f"the previous file there (if any) is unchanged") from None
+        raise
+    _fsync_path(folder, directory=True)
+
+
+@contextlib.contextmanager
+def atomic_open(path, mode: str = "w", *, encoding: str | None = "utf-8"):
+    """Open a temporary file beside ``path`` for writing; it replaces ``path`` when the block ends normally.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The target file (see :func:`atomic_path`).
+    mode : {"w", "wb"}
+        Text or binary.
+    encoding : str, optional
+        Text encoding (text mode only; default UTF-8).
+
+    Yields
+    ------
+    file object
+    """
+    if mode not in ("w", "wb"):
+        raise ValueError(f"mode={mode!r} is not allowed; allowed: 'w', 'wb'")
+    with atomic_path(path) as tmp:
+        with open(tmp, mode, encoding=None if "b" in mode else encoding) as fh:
+            yield fh
+
+
+def _errno_of(exc) -> int:
+    """The errno an HDF5 error message carries (``errno = 28``), else EIO."""
+    found = re.search(r"errno = (\d+)", str(exc))
+    return int(found.group(1)) if found else _errno.EIO
+
+
+def write_netcdf_atomic(ds, path, *, encoding=None, format: str = "NETCDF4") -> None:
+    """Write an xarray Dataset to NetCDF-4 (h5netcdf) atomically, closing the file itself on failure.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+    path : str or os.PathLike
+        Target file (see :func:`atomic_path`).
+    encoding : dict, optional
+        Per-variable encoding, as for ``Dataset.to_netcdf``.
+    format : str
+        ``"NETCDF4"`` (default) or ``"NETCDF4_CLASSIC"``.
+
+    Raises
+    ------
+    ResultsWriteError
+        The write failed (full disk, quota, file size limit); the temporary
+        file is removed and the old file at ``path`` is unchanged.
+
+    Notes
+    -----
+    Why not ``ds.to_netcdf(path)``: when a write fails inside HDF5 (a full
+    disk), xarray's close raises half-way, the h5netcdf ``File`` stays marked
+    open, and its ``__del__`` closes it again later (at the latest at
+    interpreter exit) on an HDF5 file that is half gone: a segmentation fault
+    (exit 139) after the error message.  Here the file is an
+    :class:`_OwnedFile`, closed explicitly on every path and never from
+    ``__del__``; the bytes written are those of ``to_netcdf`` (same store,
+    same encoder).
+    """
+    import h5netcdf
+    from xarray.backends import H5NetCDFStore
+    from xarray.backends.common import ArrayWriter
+
+    class _OwnedFile(h5netcdf.File):
+        """An h5netcdf File closed only explicitly: ``__del__`` never touches HDF5."""
+
+        def __del__(self):
+            pass
+
+    path = os.fspath(path)
+    with atomic_path(path) as tmp:
+        f = _OwnedFile(tmp, "w", decode_vlen_strings=True, format=format)
+        try:
+            writer = ArrayWriter()
+            ds.dump_to_store(H5NetCDFStore(f, mode="w", format=format), writer=writer, encoding=encoding or {})
+            writer.sync()  # dask-backed variables are written here
+        except BaseException as e:
+            with contextlib.suppress(Exception):  # the first error is the one to report
+                f.close()
+            if isinstance(e, RuntimeError):  # HDF5's failed writes surface as RuntimeError too
+                raise OSError(_errno_of(e), f"{e}") from None
+            raise
+        try:
+            f.close()
+        except OSError:
+            raise
+        except Exception as e:  # HDF5 reports a failed final write as RuntimeError
+            raise OSError(_errno_of(e), f"{e}") from None

@@ -13,6 +13,8 @@ import os
 import sys
 import textwrap
 
+from ._interrupt import EXIT_SIGTERM, Terminated, sigterm_raises
+
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
     """Descriptions pre-wrapped by :func:`_command`, examples kept as written, one line per command."""
@@ -73,8 +75,9 @@ def _cmd_box(args) -> int:
     import os
 
     from . import _config
+    from ._atomic import check_output_file
     from ._preflight import preflight
-    from .turbulence import MannParameters, generate_box, write_hawc2, write_netcdf
+    from .turbulence import MannParameters, generate_box, hawc2_paths, write_hawc2, write_netcdf
     from .turbulence.stats import box_report, plot_box_spectra
 
     if args.threads is not None:
@@ -84,8 +87,14 @@ def _cmd_box(args) -> int:
     itemsize = 4 if args.dtype == "float32" else 8
     need = 3 * itemsize * args.shape[0] * args.shape[1] * args.shape[2]
     preflight(os.path.dirname(os.path.abspath(args.out)), need, engine=args.format == "netcdf")
+    # ... and every target can receive a file (not a directory, /dev/null, a FIFO)
+    targets = [("--out", args.out)] if args.format == "netcdf" else \
+        [(f"--out (component {c})", p) for c, p in zip("uvw", hawc2_paths(args.out))]
     if args.plot:
         preflight(os.path.dirname(os.path.abspath(args.plot)), 0.0, engine=False)
+        targets.append(("--plot", args.plot))
+    for label, target in targets:
+        check_output_file(target, label=label)
     box = generate_box(
         params, tuple(args.shape), tuple(args.spacing), args.seed,
         correction=args.correction, hf_compensation=args.hf_compensation,
@@ -495,6 +504,7 @@ def _add_twin(sub):
 
 
 def _cmd_twin(args) -> int:
+    from ._preflight import preflight
     from .campaign import load_scene
     from .campaign.twin import run_twin
 
@@ -503,6 +513,9 @@ def _cmd_twin(args) -> int:
             print(line, file=sys.stderr)
 
     scene = load_scene(args.scene)
+    # before any record is read or field computed: the folder can be made and written, the NetCDF
+    # engine imports (an --out that is a file, or unwritable, is one line now, not after the first period)
+    preflight(args.out, 0.0, engine=True)
     client = _client(args.dask)
     try:
         files = run_twin(scene, args.out, paths=args.records, n_twins=args.twins, progress=log, periods=args.periods,
@@ -573,6 +586,8 @@ def _add_scenes(sub):
 def _cmd_scenes(args) -> int:
     import tomllib
 
+    from ._atomic import atomic_open, check_output_file
+
     found = _bundled_files()
 
     def get(name):
@@ -588,12 +603,11 @@ def _cmd_scenes(args) -> int:
         kind, f = get(name)
         if os.path.exists(path) and not args.force:
             raise ValueError(f"{path} exists; pass --force to overwrite it")
-        folder = os.path.dirname(os.path.abspath(path))
-        os.makedirs(folder, exist_ok=True)
-        tmp = os.path.join(folder, f".{os.path.basename(path)}.{os.getpid()}.tmp")
-        with open(tmp, "w", encoding="utf-8") as fh:
+        # a missing folder is refused with its name (not created silently), a directory or
+        # /dev/null too; the file appears whole or not at all
+        check_output_file(path, label="--write FILE")
+        with atomic_open(path, "w") as fh:
             fh.write(f.read_text(encoding="utf-8"))
-        os.replace(tmp, path)
         then = (f"cwlidar-sim run {path} --out results/{name}" if kind == "scene"
                 else f"cwlidar-sim campaign {path} --dry-run")
         print(f"wrote {path} (bundled {kind} {name!r}); edit it, then: {then}")
@@ -635,6 +649,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Commands that keep what they finished and resume it when run again.
+_RESUMABLE = ("run", "reproduce", "campaign", "twin")
+
+
+def _terminated_message(args) -> str:
+    out = getattr(args, "out", None)
+    if args.command in _RESUMABLE and out:
+        what = "tasks" if args.command == "campaign" else "periods"
+        return (f"cwlidar-sim {args.command}: interrupted by SIGTERM; finished {what} are kept in {out}; "
+                f"run the same command again to resume")
+    return (f"cwlidar-sim {args.command}: interrupted by SIGTERM; nothing half-written was left "
+            f"(a file that was being replaced is unchanged)")
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -642,7 +670,11 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        with sigterm_raises():  # a SIGTERM unwinds like Ctrl-C: temporary files go, old files stay
+            return int(args.func(args) or 0)
+    except Terminated:
+        print(_terminated_message(args), file=sys.stderr)
+        return EXIT_SIGTERM
     except (ValueError, TypeError) as exc:
         # Bad input, or a run that cannot write its results: one clear line, not a traceback.
         print(f"cwlidar-sim {args.command}: error: {exc}", file=sys.stderr)

@@ -119,13 +119,18 @@ def test_sigterm_inside_a_write_removes_the_temporary_and_keeps_the_old_file(tmp
     assert _leftovers(tmp_path, target) == []
 
 
-def test_write_netcdf_atomic_equals_to_netcdf_bit_for_bit(tmp_path):
-    ds = xr.Dataset({"u": (("x", "y"), np.arange(12, dtype="f4").reshape(4, 3), {"units": "m s-1"})},
-                    coords={"x": np.arange(4.0)}, attrs={"seed": 3, "name": "t"})
+def test_write_netcdf_atomic_stores_what_to_netcdf_stores(tmp_path):
+    ds = xr.Dataset({"u": (("x", "y"), np.arange(12, dtype="f4").reshape(4, 3), {"units": "m s-1"}),
+                     "n": (("x",), np.array([1, 2, 3, 4], dtype="u1"))},
+                    coords={"x": np.arange(4.0)}, attrs={"seed": 3, "name": "t", "v": [1.0, 2.5]})
     enc = {n: {"_FillValue": None} for n in ds.variables}
     ds.to_netcdf(tmp_path / "a.nc", engine="h5netcdf", encoding=enc)
-    write_netcdf_atomic(ds, tmp_path / "b.nc", encoding=enc)
-    assert (tmp_path / "a.nc").read_bytes() == (tmp_path / "b.nc").read_bytes()
+    write_netcdf_atomic(ds.chunk({"x": 2}), tmp_path / "b.nc", encoding=enc)  # dask-backed: written at sync
+    with xr.open_dataset(tmp_path / "a.nc", engine="h5netcdf") as a, \
+            xr.open_dataset(tmp_path / "b.nc", engine="h5netcdf") as b:
+        assert a.load().identical(b.load())
+        assert a["u"].dtype == b["u"].dtype == np.float32 and "_FillValue" not in b["u"].encoding
+        np.testing.assert_array_equal(b["u"].values, ds["u"].values)
 
 
 _FULL_DISK = textwrap.dedent("""
@@ -133,24 +138,27 @@ _FULL_DISK = textwrap.dedent("""
     import numpy as np, xarray as xr
     from cwlidar_sim._atomic import write_netcdf_atomic
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)   # a write past the limit fails with EFBIG, no signal
-    resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, resource.RLIM_INFINITY))
-    ds = xr.Dataset({"u": (("x",), np.random.default_rng(0).random(100_000).astype("f4"))})
+    resource.setrlimit(resource.RLIMIT_FSIZE, (int(sys.argv[2]), resource.RLIM_INFINITY))
+    rng = np.random.default_rng(0)
+    ds = xr.Dataset({c: (("x", "y"), rng.random((512, 8)).astype("f4"), {"units": "m s-1"}) for c in "uvw"},
+                    coords={"x": np.arange(512.0)}, attrs={"seed": 1, "note": "a box"})
     try:
-        write_netcdf_atomic(ds, sys.argv[1])
+        write_netcdf_atomic(ds, sys.argv[1], encoding={n: {"_FillValue": None} for n in ds.variables})
     except OSError as e:
         print("OSError", e.errno, type(e).__name__, flush=True)
     print("exited cleanly", flush=True)
 """)
 
 
-def test_a_netcdf_write_that_fails_on_a_full_disk_does_not_segfault(tmp_path):
+@pytest.mark.parametrize("limit", [1_000, 20_000, 40_000])
+def test_a_netcdf_write_that_fails_on_a_full_disk_does_not_segfault(tmp_path, limit):
     """h5netcdf's File closed from __del__ after a failed write segfaulted at exit (status 139)."""
     target = tmp_path / "f.nc"
     target.write_bytes(b"the old file")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    out = subprocess.run([sys.executable, "-c", _FULL_DISK, str(target)], capture_output=True, text=True,
+    out = subprocess.run([sys.executable, "-c", _FULL_DISK, str(target), str(limit)], capture_output=True, text=True,
                          env=env, cwd=tmp_path, timeout=120)
-    assert out.returncode == 0, (out.returncode, out.stderr[-2000:])
+    assert out.returncode == 0 and out.stderr == "", (out.returncode, out.stderr[-2000:])
     assert out.stdout.split() == ["OSError", "27", "ResultsWriteError", "exited", "cleanly"]
     assert target.read_bytes() == b"the old file"
     assert _leftovers(tmp_path, target) == []

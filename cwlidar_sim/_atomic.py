@@ -228,7 +228,7 @@ class _SinkFile(io.FileIO):
 
 
 def write_netcdf_atomic(ds, path, *, encoding=None, format: str = "NETCDF4") -> None:
-    """Write an xarray Dataset to NetCDF-4 (h5netcdf) atomically, closing the file itself on failure.
+    """Write an xarray Dataset to NetCDF-4 (h5netcdf) atomically; a failed write never reaches HDF5.
 
     Parameters
     ----------
@@ -254,44 +254,24 @@ def write_netcdf_atomic(ds, path, *, encoding=None, format: str = "NETCDF4") -> 
     interpreter exit) on an HDF5 file that is half gone: a segmentation fault
     (exit 139) after the error message.  Here HDF5 writes through a
     :class:`_SinkFile` (h5py's file-object driver), so a failed write never
-    reaches HDF5: it closes cleanly and the kept error is raised after.  The
-    h5netcdf File is closed explicitly on every path, never from ``__del__``.
-    The Dataset stored is the one ``to_netcdf`` stores (same store, same
-    encoder; read back identical); the file's internal layout differs from a
-    ``to_netcdf(path)`` file (the file-object driver lays the blocks out
+    reaches HDF5: it closes cleanly and the kept error is raised after.
+    The Dataset stored is the one ``to_netcdf(path)`` stores (this is
+    ``to_netcdf`` on a file object; it reads back identical), but the file's
+    internal layout differs (the file-object driver lays the blocks out
     otherwise; a 64 x 8 x 8 box: 61594 bytes instead of 63030).
     """
-    import h5netcdf
-    from xarray.backends import H5NetCDFStore
-    from xarray.backends.common import ArrayWriter
-
-    class _OwnedFile(h5netcdf.File):
-        """An h5netcdf File closed only explicitly: ``__del__`` never touches HDF5."""
-
-        def __del__(self):
-            pass
-
     path = os.fspath(path)
     with atomic_path(path) as tmp:
         with _SinkFile(tmp, "w+b") as sink:
-            f = _OwnedFile(sink, "w", decode_vlen_strings=True, format=format)
             try:
-                writer = ArrayWriter()
-                ds.dump_to_store(H5NetCDFStore(f, mode="w", format=format), writer=writer,
-                                 encoding=encoding or {})
-                writer.sync()  # dask-backed variables are written here
+                # xarray validates names and attributes, encodes, writes (dask too) and closes its
+                # h5netcdf File; HDF5 never sees a failed write, so the close cannot fail half-way
+                ds.to_netcdf(sink, engine="h5netcdf", format=format, encoding=encoding or {})
             except BaseException as e:
-                with contextlib.suppress(Exception):  # the first error is the one to report
-                    f.close()
-                if sink.error is not None:
+                if sink.error is not None:  # the write failure (or signal) behind what HDF5 made of it
                     raise sink.error from None
-                if isinstance(e, RuntimeError):  # HDF5's failures surface as RuntimeError
+                if isinstance(e, RuntimeError):  # HDF5's own failures surface as RuntimeError
                     raise OSError(_errno.EIO, f"{e}") from None
                 raise
-            try:
-                f.close()
-            except Exception as e:
-                if sink.error is None:
-                    raise OSError(_errno.EIO, f"{e}") from None
             if sink.error is not None:
                 raise sink.error

@@ -439,8 +439,8 @@ def write_netcdf(field, path):
             ds.variables[d].attrs.setdefault("units", "m")
             ds.variables[d].attrs.setdefault("long_name", _LONG_NAMES[d])
     encoding = {name: {"_FillValue": None} for name in ds.variables}
-    # atomically, and closed explicitly on failure (a failed h5netcdf close left to
-    # __del__ segfaults at exit): the old file at ``path`` survives any failed write
+    # atomically, and a full disk never reaches HDF5 (whose failed close segfaulted at
+    # exit): the old file at ``path`` survives any failed write
     write_netcdf_atomic(ds, path, encoding=encoding)
     return path
 

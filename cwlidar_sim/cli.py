@@ -321,12 +321,14 @@ def _cmd_report(args) -> int:
     import glob
     import os
 
+    from ._preflight import check_writable
     from .campaign import read_results
     from .campaign.figures import make_figures
 
     files = sorted(glob.glob(os.path.join(args.dir, "*.nc")))
     if not files:
         raise ValueError(f"no results (*.nc) in {args.dir!r}; run 'cwlidar-sim run' or 'reproduce' first")
+    check_writable(args.out or args.dir)  # before any file is read: the figures' folder takes files
     out = []
     for f in files:
         ds = read_results(f)
@@ -680,9 +682,10 @@ def main(argv=None) -> int:
         print(f"cwlidar-sim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:
-        # Writing failed mid-run (e.g. a full disk): what was finished is on disk.
-        print(f"cwlidar-sim {args.command}: error: {exc}; finished results are kept, run again to resume",
-              file=sys.stderr)
+        # Writing failed mid-run (e.g. a full disk): what was finished is on disk, the file being
+        # replaced is unchanged (atomic writes); only some commands have anything to resume.
+        tail = "; finished results are kept, run again to resume" if args.command in _RESUMABLE else ""
+        print(f"cwlidar-sim {args.command}: error: {exc}{tail}", file=sys.stderr)
         return 1
 
 

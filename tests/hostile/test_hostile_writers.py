@@ -73,6 +73,15 @@ def test_twin_out_that_is_a_file_is_refused_before_the_records_are_read(tmp_path
     corpus.record("error", child)
 
 
+def test_report_into_a_figure_folder_that_is_a_file_is_refused_before_reading(tmp_path, corpus):
+    (tmp_path / "res").mkdir()
+    (tmp_path / "res" / "x.nc").write_bytes(b"not read: the folder check comes first")
+    (tmp_path / "figs").write_text("a file", encoding="utf-8")
+    child = run_cli(["report", "res", "--out", "figs"], cwd=tmp_path)
+    assert_one_line_error(child, "figs", "output folder")
+    corpus.record("error", child)
+
+
 _FULL_DISK = """
 import resource, signal, sys
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG instead of killing
@@ -91,6 +100,7 @@ def test_box_write_on_a_full_disk_keeps_the_old_file_and_resumes(tmp_path, corpu
     assert "Traceback" not in child.stderr, child.stderr[-3000:]
     assert child.rc == 1, (child.rc, child.stderr[-2000:])  # cli.main's documented status of a failed write
     assert "box.nc" in child.last_line and "File too large" in child.last_line, child.last_line
+    assert "unchanged" in child.last_line and "resume" not in child.last_line  # a box has nothing to resume
     assert target.read_bytes() == old
     assert _temps(tmp_path) == []
     # the same command without the limit writes the file a fresh run writes, bit for bit

@@ -516,8 +516,10 @@ def _cmd_twin(args) -> int:
 
     scene = load_scene(args.scene)
     # before any record is read or field computed: the folder can be made and written, the NetCDF
-    # engine imports (an --out that is a file, or unwritable, is one line now, not after the first period)
-    preflight(args.out, 0.0, engine=True)
+    # engine imports, the disk holds a period's file (each twin's two 10 Hz series dominate; periods
+    # are written one by one, so a disk that fills later keeps the finished ones)
+    longest = max(scene.period_duration(p) for p in scene.periods)
+    preflight(args.out, 1e6 + 2 * 8 * 10 * longest * max(1, args.twins), engine=True)
     client = _client(args.dask)
     try:
         files = run_twin(scene, args.out, paths=args.records, n_twins=args.twins, progress=log, periods=args.periods,

@@ -4,11 +4,8 @@ Kept thin on purpose: it parses arguments and calls the public API.  Heavy
 modules (numba kernels, pyfftw, xarray) are imported inside the subcommand
 handlers so that ``cwlidar-sim --help`` starts without compiling anything.
 
-Exit status: 0 done; 1 a write failed part-way (a full disk: the file being
-replaced is unchanged, finished periods or tasks are kept; a campaign with
-failed tasks); 2 bad input or a check made before compute (one line on
-stderr naming the cause); 130 Ctrl-C; 143 SIGTERM (one line; temporary files
-removed, finished periods kept).
+Exit status: 0 done; 1 a write failed part-way (the file being replaced is unchanged) or a campaign
+task failed; 2 bad input or a check before compute (one line); 130 Ctrl-C; 143 SIGTERM (one line).
 """
 
 from __future__ import annotations

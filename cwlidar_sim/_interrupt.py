@@ -16,10 +16,12 @@ import contextlib
 import signal
 import threading
 
-__all__ = ["Terminated", "EXIT_SIGTERM", "sigterm_raises"]
+__all__ = ["Terminated", "EXIT_SIGTERM", "RESUMABLE", "sigterm_raises", "terminated_message"]
 
 #: Exit status after SIGTERM, the one a shell reports for a process killed by it (128 + 15).
 EXIT_SIGTERM = 143
+#: CLI commands that keep what they finished and resume it when run again.
+RESUMABLE = ("run", "reproduce", "campaign", "twin")
 
 
 class Terminated(BaseException):
@@ -50,3 +52,13 @@ def sigterm_raises():
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def terminated_message(command: str, out=None) -> str:
+    """The CLI's one line after SIGTERM: what is kept and how to go on."""
+    if command in RESUMABLE and out:
+        what = "tasks" if command == "campaign" else "periods"
+        return (f"cwlidar-sim {command}: interrupted by SIGTERM; finished {what} are kept in {out}; "
+                f"run the same command again to resume")
+    return (f"cwlidar-sim {command}: interrupted by SIGTERM; nothing half-written was left "
+            f"(a file that was being replaced is unchanged)")

@@ -16,7 +16,7 @@ import os
 import sys
 import textwrap
 
-from ._interrupt import EXIT_SIGTERM, Terminated, sigterm_raises
+from ._interrupt import EXIT_SIGTERM, RESUMABLE, Terminated, sigterm_raises, terminated_message
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
@@ -656,20 +656,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: Commands that keep what they finished and resume it when run again.
-_RESUMABLE = ("run", "reproduce", "campaign", "twin")
-
-
-def _terminated_message(args) -> str:
-    out = getattr(args, "out", None)
-    if args.command in _RESUMABLE and out:
-        what = "tasks" if args.command == "campaign" else "periods"
-        return (f"cwlidar-sim {args.command}: interrupted by SIGTERM; finished {what} are kept in {out}; "
-                f"run the same command again to resume")
-    return (f"cwlidar-sim {args.command}: interrupted by SIGTERM; nothing half-written was left "
-            f"(a file that was being replaced is unchanged)")
-
-
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -680,7 +666,7 @@ def main(argv=None) -> int:
         with sigterm_raises():  # a SIGTERM unwinds like Ctrl-C: temporary files go, old files stay
             return int(args.func(args) or 0)
     except Terminated:
-        print(_terminated_message(args), file=sys.stderr)
+        print(terminated_message(args.command, getattr(args, "out", None)), file=sys.stderr)
         return EXIT_SIGTERM
     except (ValueError, TypeError) as exc:
         # Bad input, or a run that cannot write its results: one clear line, not a traceback.
@@ -689,7 +675,7 @@ def main(argv=None) -> int:
     except OSError as exc:
         # Writing failed mid-run (e.g. a full disk): what was finished is on disk, the file being
         # replaced is unchanged (atomic writes); only some commands have anything to resume.
-        tail = "; finished results are kept, run again to resume" if args.command in _RESUMABLE else ""
+        tail = "; finished results are kept, run again to resume" if args.command in RESUMABLE else ""
         print(f"cwlidar-sim {args.command}: error: {exc}{tail}", file=sys.stderr)
         return 1
 

@@ -35,7 +35,7 @@ import tempfile
 
 from ._preflight import PreflightError, ResultsWriteError
 
-__all__ = ["atomic_path", "atomic_open", "write_netcdf_atomic", "check_output_file", "temp_name_pattern"]
+__all__ = ["atomic_path", "atomic_paths", "atomic_open", "write_netcdf_atomic", "check_output_file", "temp_name_pattern"]
 
 
 def _umask() -> int:
@@ -145,27 +145,59 @@ def atomic_path(path, *, mode: int | None = None):
         An OSError while writing, syncing or renaming (a full disk, a
         quota): it names ``path`` and says the old file is unchanged.
     """
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    prefix, suffix = temp_name_pattern(path)
-    try:
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=prefix, suffix=suffix)
-    except OSError as e:
-        raise ResultsWriteError(e.errno, f"cannot write {path!r}: {e.strerror or e}") from None
-    os.close(fd)
-    try:
+    with atomic_paths([path], mode=mode) as (tmp,):
         yield tmp
-        _fsync_path(tmp)
-        os.chmod(tmp, (0o666 & ~_umask()) if mode is None else mode)  # mkstemp makes 0600
-        os.replace(tmp, path)
+
+
+@contextlib.contextmanager
+def atomic_paths(paths, *, mode: int | None = None):
+    """:func:`atomic_path` for files that belong together (a HAWC2 u, v, w triplet).
+
+    Every temporary file is written and synced before the first rename, so a
+    failure while writing or syncing any of them (a full disk may surface only
+    at ``fsync``) leaves every old file in place.  Only a failing rename
+    between the first and the last (same folder, already on disk: not seen in
+    practice) could mix old and new files.
+
+    Parameters
+    ----------
+    paths : sequence of str or os.PathLike
+        The target files, renamed in this order.
+    mode : int, optional
+        Permission bits (see :func:`atomic_path`).
+
+    Yields
+    ------
+    list of str
+        One temporary path per target, in order.
+    """
+    paths = [os.fspath(p) for p in paths]
+    tmps = []
+    try:
+        for path in paths:
+            prefix, suffix = temp_name_pattern(path)
+            fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), prefix=prefix, suffix=suffix)
+            os.close(fd)
+            tmps.append(tmp)
+        yield list(tmps)
+        perm = (0o666 & ~_umask()) if mode is None else mode  # mkstemp makes 0600
+        for tmp in tmps:  # every new file on disk before the first rename
+            _fsync_path(tmp)
+            os.chmod(tmp, perm)
+        for tmp, path in zip(tmps, paths):
+            os.replace(tmp, path)
     except BaseException as e:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        for tmp in tmps:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         if isinstance(e, OSError) and not isinstance(e, ResultsWriteError):
-            raise ResultsWriteError(e.errno, f"cannot write {path!r}: {e.strerror or e}; "
-                                             f"the previous file there (if any) is unchanged") from None
+            names = ", ".join(repr(p) for p in paths)
+            raise ResultsWriteError(e.errno, f"cannot write {names}: {e.strerror or e}; "
+                                             f"the previous file{'s' if len(paths) > 1 else ''} there "
+                                             f"(if any) {'are' if len(paths) > 1 else 'is'} unchanged") from None
         raise
-    _fsync_path(folder, directory=True)
+    for folder in dict.fromkeys(os.path.dirname(os.path.abspath(p)) for p in paths):
+        _fsync_path(folder, directory=True)  # the renames themselves survive a crash
 
 
 @contextlib.contextmanager

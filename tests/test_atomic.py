@@ -162,3 +162,28 @@ def test_a_netcdf_write_that_fails_on_a_full_disk_does_not_segfault(tmp_path, li
     assert out.stdout.split() == ["OSError", "27", "ResultsWriteError", "exited", "cleanly"]
     assert target.read_bytes() == b"the old file"
     assert _leftovers(tmp_path, target) == []
+
+
+def test_a_hawc2_triplet_is_replaced_whole_or_not_at_all(tmp_path, monkeypatch):
+    """A full disk that surfaces only at fsync of the v file leaves the old u, v and w (no mixed triplet)."""
+    import errno
+
+    import cwlidar_sim._atomic as atomic
+    from cwlidar_sim.turbulence import write_hawc2
+
+    rng = np.random.default_rng(1)
+    box = xr.Dataset({c: (("x", "y", "z"), rng.standard_normal((4, 3, 2)).astype("f4")) for c in "uvw"})
+    paths = write_hawc2(box, tmp_path / "t")
+    old = [p.read_bytes() for p in paths]
+    real = atomic._fsync_path
+
+    def failing(path, directory=False):
+        if os.path.basename(path).startswith(".t_v.bin."):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(path, directory=directory)
+
+    monkeypatch.setattr(atomic, "_fsync_path", failing)
+    with pytest.raises(OSError, match="No space left on device"):
+        write_hawc2(box * 2, tmp_path / "t")
+    assert [p.read_bytes() for p in paths] == old
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t_u.bin", "t_v.bin", "t_w.bin"]

@@ -106,7 +106,6 @@ reading, so they round-trip.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import numbers
 import os
@@ -114,7 +113,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import atomic_open, check_output_file, write_netcdf_atomic
+from .._atomic import atomic_paths, check_output_file, write_netcdf_atomic
 from .._validation import check_bool, check_int, check_memory, check_real, check_tuple
 
 __all__ = ["hawc2_paths", "read_hawc2", "read_netcdf", "write_hawc2", "write_netcdf"]
@@ -236,7 +235,7 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
     (dx, dy, dz) [m] from elsewhere (e.g. ``box.attrs``).  Each file is first
     written to a temporary file beside it (``.NAME.XXXXXXXX.tmp.bin``) and the
     three are renamed over the targets only when all three are complete
-    (:func:`cwlidar_sim._atomic.atomic_path`): a failure leaves the old files.
+    (:func:`cwlidar_sim._atomic.atomic_paths`): a failure leaves the old files.
     """
     reverse_x = check_bool("reverse_x", reverse_x)
     reverse_x, reverse_y = _convention_flips(convention, reverse_x)
@@ -248,31 +247,31 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
     step = max(1, max_chunk_bytes // plane_bytes)
     for c, p in zip(_COMPONENTS, paths):
         check_output_file(p, label=f"HAWC2 file of component {c}")
-    # All three components go to temporary files first and are renamed only when
-    # the three are whole, so a failure (a non-finite value, a full disk) leaves
-    # the old triplet as it was.
-    with contextlib.ExitStack() as stack:
-        for c, vel_xyz, path in zip(_COMPONENTS, arrays, paths):
-            fh = stack.enter_context(atomic_open(path, "wb"))
-            for i0 in range(0, nx, step):
-                i1 = min(nx, i0 + step)
-                src = vel_xyz[nx - i1: nx - i0][::-1] if reverse_x else vel_xyz[i0:i1]
-                if reverse_y:
-                    src = src[:, ::-1]
-                # One slab at a time: a contiguous little-endian float32
-                # copy of at most ``step`` planes, never of the component.
-                with np.errstate(over="ignore", invalid="ignore"):  # caught just below
-                    slab_xyz = np.ascontiguousarray(np.asarray(src), dtype=_HAWC2_DTYPE)
-                if not np.isfinite(slab_xyz).all():
-                    bad = np.argwhere(~np.isfinite(slab_xyz))[0]
-                    ix = nx - 1 - (i0 + bad[0]) if reverse_x else i0 + bad[0]
-                    iy = slab_xyz.shape[1] - 1 - bad[1] if reverse_y else bad[1]
-                    raise ValueError(
-                        f"box['{c}'] has a non-finite value (after the cast to float32) at "
-                        f"[x={ix}, y={iy}, z={bad[2]}]; allowed: finite values below 3.4e38 m/s"
-                    )
-                fh.write(slab_xyz.data)
-                del slab_xyz
+    # All three components go to temporary files first, and are synced and renamed
+    # only when the three are whole, so a failure (a non-finite value, a full disk)
+    # leaves the old triplet as it was.
+    with atomic_paths(paths) as tmps:
+        for c, vel_xyz, tmp in zip(_COMPONENTS, arrays, tmps):
+            with open(tmp, "wb") as fh:
+                for i0 in range(0, nx, step):
+                    i1 = min(nx, i0 + step)
+                    src = vel_xyz[nx - i1: nx - i0][::-1] if reverse_x else vel_xyz[i0:i1]
+                    if reverse_y:
+                        src = src[:, ::-1]
+                    # One slab at a time: a contiguous little-endian float32
+                    # copy of at most ``step`` planes, never of the component.
+                    with np.errstate(over="ignore", invalid="ignore"):  # caught just below
+                        slab_xyz = np.ascontiguousarray(np.asarray(src), dtype=_HAWC2_DTYPE)
+                    if not np.isfinite(slab_xyz).all():
+                        bad = np.argwhere(~np.isfinite(slab_xyz))[0]
+                        ix = nx - 1 - (i0 + bad[0]) if reverse_x else i0 + bad[0]
+                        iy = slab_xyz.shape[1] - 1 - bad[1] if reverse_y else bad[1]
+                        raise ValueError(
+                            f"box['{c}'] has a non-finite value (after the cast to float32) at "
+                            f"[x={ix}, y={iy}, z={bad[2]}]; allowed: finite values below 3.4e38 m/s"
+                        )
+                    fh.write(slab_xyz.data)
+                    del slab_xyz
     return paths
 
 

@@ -2,7 +2,8 @@
 
 Every writer of the package (turbulence boxes, results, reports, JSON,
 figures, scene files) writes through :func:`atomic_path` (or
-:func:`atomic_open`, :func:`write_netcdf_atomic` built on it):
+:func:`atomic_paths` for files that belong together, :func:`atomic_open`,
+:func:`write_netcdf_atomic` built on them):
 
 1. a temporary file is created in the target's own folder with
    :func:`tempfile.mkstemp` (an unpredictable name, created with ``O_EXCL``,
@@ -39,7 +40,19 @@ __all__ = ["atomic_path", "atomic_paths", "atomic_open", "write_netcdf_atomic", 
 
 
 def _umask() -> int:
-    mask = os.umask(0)
+    """The process umask, read without changing it where Linux allows.
+
+    ``os.umask`` can only be read by setting it: another thread creating a
+    file in between would get umask 0, so ``/proc/self/status`` is read first.
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
     os.umask(mask)
     return mask
 

@@ -3,6 +3,9 @@
 Kept thin on purpose: it parses arguments and calls the public API.  Heavy
 modules (numba kernels, pyfftw, xarray) are imported inside the subcommand
 handlers so that ``cwlidar-sim --help`` starts without compiling anything.
+
+Exit status: 0 done; 1 a write failed part-way (the file being replaced is unchanged) or a campaign
+task failed; 2 bad input or a check before compute (one line); 130 Ctrl-C; 143 SIGTERM (one line).
 """
 
 from __future__ import annotations
@@ -12,6 +15,8 @@ import json
 import os
 import sys
 import textwrap
+
+from ._interrupt import EXIT_SIGTERM, RESUMABLE, Terminated, sigterm_raises, terminated_message
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
@@ -73,8 +78,9 @@ def _cmd_box(args) -> int:
     import os
 
     from . import _config
+    from ._atomic import check_output_file
     from ._preflight import preflight
-    from .turbulence import MannParameters, generate_box, write_hawc2, write_netcdf
+    from .turbulence import MannParameters, generate_box, hawc2_paths, write_hawc2, write_netcdf
     from .turbulence.stats import box_report, plot_box_spectra
 
     if args.threads is not None:
@@ -84,8 +90,14 @@ def _cmd_box(args) -> int:
     itemsize = 4 if args.dtype == "float32" else 8
     need = 3 * itemsize * args.shape[0] * args.shape[1] * args.shape[2]
     preflight(os.path.dirname(os.path.abspath(args.out)), need, engine=args.format == "netcdf")
+    # ... and every target can receive a file (not a directory, /dev/null, a FIFO)
+    targets = [("--out", args.out)] if args.format == "netcdf" else \
+        [(f"--out (component {c})", p) for c, p in zip("uvw", hawc2_paths(args.out))]
     if args.plot:
         preflight(os.path.dirname(os.path.abspath(args.plot)), 0.0, engine=False)
+        targets.append(("--plot", args.plot))
+    for label, target in targets:
+        check_output_file(target, label=label)
     box = generate_box(
         params, tuple(args.shape), tuple(args.spacing), args.seed,
         correction=args.correction, hf_compensation=args.hf_compensation,
@@ -327,12 +339,14 @@ def _cmd_report(args) -> int:
     import glob
     import os
 
+    from ._preflight import check_writable
     from .campaign import read_results
     from .campaign.figures import make_figures
 
     files = sorted(glob.glob(os.path.join(args.dir, "*.nc")))
     if not files:
         raise ValueError(f"no results (*.nc) in {args.dir!r}; run 'cwlidar-sim run' or 'reproduce' first")
+    check_writable(args.out or args.dir)  # before any file is read: the figures' folder takes files
     out = []
     for f in files:
         ds = read_results(f)
@@ -513,6 +527,7 @@ def _add_twin(sub):
 
 
 def _cmd_twin(args) -> int:
+    from ._preflight import preflight
     from .campaign import load_scene
     from .campaign.twin import run_twin
 
@@ -521,6 +536,11 @@ def _cmd_twin(args) -> int:
             print(line, file=sys.stderr)
 
     scene = load_scene(args.scene)
+    # before any record is read or field computed: the folder can be made and written, the NetCDF
+    # engine imports, the disk holds a period's file (each twin's two 10 Hz series dominate; periods
+    # are written one by one, so a disk that fills later keeps the finished ones)
+    longest = max(scene.period_duration(p) for p in scene.periods)
+    preflight(args.out, 1e6 + 2 * 8 * 10 * longest * max(1, args.twins), engine=True)
     client = _client(args.dask)
     try:
         files = run_twin(scene, args.out, paths=args.records, n_twins=args.twins, progress=log, periods=args.periods,
@@ -591,6 +611,8 @@ def _add_scenes(sub):
 def _cmd_scenes(args) -> int:
     import tomllib
 
+    from ._atomic import atomic_open, check_output_file
+
     found = _bundled_files()
 
     def get(name):
@@ -606,12 +628,11 @@ def _cmd_scenes(args) -> int:
         kind, f = get(name)
         if os.path.exists(path) and not args.force:
             raise ValueError(f"{path} exists; pass --force to overwrite it")
-        folder = os.path.dirname(os.path.abspath(path))
-        os.makedirs(folder, exist_ok=True)
-        tmp = os.path.join(folder, f".{os.path.basename(path)}.{os.getpid()}.tmp")
-        with open(tmp, "w", encoding="utf-8") as fh:
+        # a missing folder is refused with its name (not created silently), a directory or
+        # /dev/null too; the file appears whole or not at all
+        check_output_file(path, label="--write FILE")
+        with atomic_open(path, "w") as fh:
             fh.write(f.read_text(encoding="utf-8"))
-        os.replace(tmp, path)
         then = (f"cwlidar-sim run {path} --out results/{name}" if kind == "scene"
                 else f"cwlidar-sim campaign {path} --dry-run")
         print(f"wrote {path} (bundled {kind} {name!r}); edit it, then: {then}")
@@ -660,15 +681,20 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        with sigterm_raises():  # a SIGTERM unwinds like Ctrl-C: temporary files go, old files stay
+            return int(args.func(args) or 0)
+    except Terminated:
+        print(terminated_message(args.command, getattr(args, "out", None)), file=sys.stderr)
+        return EXIT_SIGTERM
     except (ValueError, TypeError) as exc:
         # Bad input, or a run that cannot write its results: one clear line, not a traceback.
         print(f"cwlidar-sim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:
-        # Writing failed mid-run (e.g. a full disk): what was finished is on disk.
-        print(f"cwlidar-sim {args.command}: error: {exc}; finished results are kept, run again to resume",
-              file=sys.stderr)
+        # Writing failed mid-run (e.g. a full disk): what was finished is on disk, the file being
+        # replaced is unchanged (atomic writes); only some commands have anything to resume.
+        tail = "; finished results are kept, run again to resume" if args.command in RESUMABLE else ""
+        print(f"cwlidar-sim {args.command}: error: {exc}{tail}", file=sys.stderr)
         return 1
 
 

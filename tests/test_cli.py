@@ -56,3 +56,18 @@ def test_probe_length_command_names_a_missing_results_file(tmp_path, capsys):
     assert "no results file" in capsys.readouterr().err
     assert main(["probe-length", str(tmp_path)]) == 2
     assert "holds 0 results files" in capsys.readouterr().err
+
+
+def test_twin_checks_the_disk_before_reading_records(tmp_path, capsys, monkeypatch):
+    """A disk without room for a period's file is a one-line error before any record is read."""
+    import collections
+    import shutil
+    from pathlib import Path
+
+    scene = Path(cli.__file__).parent / "campaign" / "examples" / "twin" / "twin.toml"
+    usage = collections.namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10**9, 10**9 - 10**5, 10**5))
+    # the records (mast_sonic.csv) are missing too: the disk is named first, so it was checked first
+    assert cli.main(["twin", str(scene), "--out", str(tmp_path / "tw"), "--twins", "4"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not enough disk space" in err[0] and "tw" in err[0], err

@@ -87,6 +87,12 @@ def test_scenes_write_gives_a_runnable_starting_point_and_never_overwrites(tmp_p
     from cwlidar_sim.campaign.reproduce import bundled_text
 
     path = tmp_path / "sub" / "my_scene.toml"
+    # a missing folder is refused with its name, not created silently (it was, before issue 34)
+    assert cli.main(["scenes", "--write", "a2012", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "does not exist" in err and str(tmp_path / "sub") in err and "Traceback" not in err
+    assert not (tmp_path / "sub").exists()
+    (tmp_path / "sub").mkdir()
     assert cli.main(["scenes", "--write", "a2012", str(path)]) == 0
     assert "cwlidar-sim run" in capsys.readouterr().out
     assert path.read_text(encoding="utf-8") == bundled_text("a2012")

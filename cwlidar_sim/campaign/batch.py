@@ -42,6 +42,7 @@ import shutil
 import time
 
 from .. import _config
+from .._atomic import atomic_open, atomic_path
 from .._preflight import preflight
 from . import folder, runner
 from .store import read_results, write_results
@@ -108,10 +109,8 @@ def dry_run(spec: CampaignSpec) -> list[dict]:
 
 def _write_json(path, obj) -> None:
     """Write JSON atomically (key order kept: a sweep table's first key names its dimension)."""
-    tmp = f"{path}.tmp-{os.getpid()}"
-    with open(tmp, "w", encoding="utf-8") as fh:
+    with atomic_open(path, "w") as fh:  # an unpredictable temporary name, never followed through a symlink
         json.dump(obj, fh, indent=1, default=str)
-    os.replace(tmp, path)
 
 
 class CampaignIndex:
@@ -509,7 +508,8 @@ def sweep_figures(merged, out_dir) -> list[str]:
             ax.grid(alpha=0.3)
             p = os.path.join(out_dir, f"sweep_{m}_{dim}.png")
             fig.tight_layout()
-            fig.savefig(p, dpi=110)
+            with atomic_path(p) as tmp:  # a figure on disk is whole or absent
+                fig.savefig(tmp, dpi=110)
             plt.close(fig)
             paths.append(p)
     return paths

@@ -13,6 +13,8 @@ import os
 
 import numpy as np
 
+from .._atomic import atomic_path
+
 from .figures_cs import make_cs_figures
 
 __all__ = [
@@ -270,7 +272,8 @@ def make_figures(ds, out_dir) -> list:
     for name, make in figs.items():
         fig = make()
         path = os.path.join(os.fspath(out_dir), f"{name}.png")
-        fig.savefig(path, dpi=110)
+        with atomic_path(path) as tmp:  # a figure on disk is whole or absent
+            fig.savefig(tmp, dpi=110)
         plt.close(fig)
         paths.append(path)
     return paths

@@ -16,6 +16,8 @@ import os
 
 import numpy as np
 
+from .._atomic import atomic_path
+
 __all__ = ["plot_std_ratio", "plot_std_scatter", "plot_mean_speed", "plot_radial_variance", "make_cs_figures"]
 
 
@@ -129,7 +131,8 @@ def make_cs_figures(ds, out_dir) -> list:
     for name, make in figs.items():
         fig = make(ds)
         path = os.path.join(os.fspath(out_dir), f"{name}.png")
-        fig.savefig(path, dpi=110)
+        with atomic_path(path) as tmp:  # a figure on disk is whole or absent
+            fig.savefig(tmp, dpi=110)
         plt.close(fig)
         paths.append(path)
     return paths

@@ -10,6 +10,8 @@ import os
 
 import numpy as np
 
+from .._atomic import atomic_path
+
 __all__ = ["plot_coherence_focus", "plot_estimators", "plot_evolution", "plot_preview", "make_nacelle_figures"]
 
 
@@ -118,7 +120,8 @@ def make_nacelle_figures(ds, out_dir) -> list:
     for name, make in figs.items():
         fig = make()
         path = os.path.join(os.fspath(out_dir), f"nacelle_{name}.png")
-        fig.savefig(path, dpi=110)
+        with atomic_path(path) as tmp:  # a figure on disk is whole or absent
+            fig.savefig(tmp, dpi=110)
         plt.close(fig)
         paths.append(path)
     return paths

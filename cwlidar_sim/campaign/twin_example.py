@@ -21,6 +21,8 @@ import os
 
 import numpy as np
 
+from .._atomic import atomic_open
+
 __all__ = ["example_text", "write_twin_example", "closed_loop"]
 
 
@@ -85,12 +87,10 @@ def write_twin_example(out_dir, *, periods: int = 1, duration: float | None = No
         son.append(np.asarray(ds["sonic_10hz"].values[0], dtype=np.float64))
     t, vel = np.concatenate(t_all), np.concatenate(v_all)
     csv = os.path.join(out_dir, "mast_sonic.csv")
-    tmp = csv + f".{os.getpid()}.tmp"
-    with open(tmp, "w", encoding="utf-8") as fh:
+    with atomic_open(csv, "w") as fh:
         fh.write("time,u,v,w\n")
         for ti, (u, v, w) in zip(t, vel):
             fh.write(f"{ti:.6f},{u:.5f},{v:.5f},{w:.5f}\n")
-    os.replace(tmp, csv)
     n10 = lid[0].size
     tr = xr.Dataset({"lidar_10hz": (("period", "time_10hz"), np.stack(lid),
                                     {"units": "m s-1", "long_name": "the truth's lidar speed, 10 Hz"}),
@@ -103,9 +103,8 @@ def write_twin_example(out_dir, *, periods: int = 1, duration: float | None = No
     text = example_text("twin.toml").replace("duration = 600.0", f"duration = {T!r}")
     text = text.replace("segment_duration = 600.0", f"segment_duration = {an.segment_duration!r}")
     scene_path = os.path.join(out_dir, "twin.toml")
-    with open(scene_path + ".tmp", "w", encoding="utf-8") as fh:
+    with atomic_open(scene_path, "w") as fh:
         fh.write(text)
-    os.replace(scene_path + ".tmp", scene_path)
     return {"csv": csv, "truth": truth_path, "scene": scene_path}
 
 

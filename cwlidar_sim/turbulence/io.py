@@ -113,6 +113,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._atomic import atomic_paths, check_output_file, write_netcdf_atomic
 from .._validation import check_bool, check_int, check_memory, check_real, check_tuple
 
 __all__ = ["hawc2_paths", "read_hawc2", "read_netcdf", "write_hawc2", "write_netcdf"]
@@ -220,13 +221,21 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
         ``box`` is not an xarray Dataset or a variable is not real.
     ValueError
         Missing component, wrong dims, empty box, or a non-finite value (no
-        file is left behind in that case).
+        file is left behind in that case); a target that is not a regular
+        file (a directory, ``/dev/null``, a FIFO) or whose folder is missing
+        (:class:`cwlidar_sim._preflight.PreflightError`, before anything is
+        written).
+    OSError
+        Writing failed (a full disk): the old files are unchanged
+        (:class:`cwlidar_sim._preflight.ResultsWriteError`).
 
     Notes
     -----
     No header is written: the reader needs the shape (Nx, Ny, Nz) and spacing
     (dx, dy, dz) [m] from elsewhere (e.g. ``box.attrs``).  Each file is first
-    written as ``NAME.part`` and renamed when complete.
+    written to a temporary file beside it (``.NAME.XXXXXXXX.tmp.bin``) and the
+    three are renamed over the targets only when all three are complete
+    (:func:`cwlidar_sim._atomic.atomic_paths`): a failure leaves the old files.
     """
     reverse_x = check_bool("reverse_x", reverse_x)
     reverse_x, reverse_y = _convention_flips(convention, reverse_x)
@@ -236,14 +245,14 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
     nx = arrays[0].shape[0]
     plane_bytes = _HAWC2_DTYPE.itemsize * int(np.prod(arrays[0].shape[1:]))
     step = max(1, max_chunk_bytes // plane_bytes)
-    for p in paths:
-        if not p.parent.is_dir():
-            raise FileNotFoundError(f"directory {str(p.parent)!r} for HAWC2 file {str(p)!r} does not exist")
-    done = []
-    try:
-        for c, vel_xyz, path in zip(_COMPONENTS, arrays, paths):
-            part = path.with_name(path.name + ".part")
-            with open(part, "wb") as fh:
+    for c, p in zip(_COMPONENTS, paths):
+        check_output_file(p, label=f"HAWC2 file of component {c}")
+    # All three components go to temporary files first, and are synced and renamed
+    # only when the three are whole, so a failure (a non-finite value, a full disk)
+    # leaves the old triplet as it was.
+    with atomic_paths(paths) as tmps:
+        for c, vel_xyz, tmp in zip(_COMPONENTS, arrays, tmps):
+            with open(tmp, "wb") as fh:
                 for i0 in range(0, nx, step):
                     i1 = min(nx, i0 + step)
                     src = vel_xyz[nx - i1: nx - i0][::-1] if reverse_x else vel_xyz[i0:i1]
@@ -263,13 +272,6 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
                         )
                     fh.write(slab_xyz.data)
                     del slab_xyz
-            done.append((part, path))
-    except BaseException:
-        for path in paths:
-            path.with_name(path.name + ".part").unlink(missing_ok=True)
-        raise
-    for part, path in done:
-        os.replace(part, path)
     return paths
 
 
@@ -390,12 +392,23 @@ def write_netcdf(field, path):
         Dataset attributes (Mann parameters, seed, spacing, settings) become
         global attributes.
     path : str or os.PathLike
-        Output file; overwritten if it exists.
+        Output file, in an existing folder; replaced if it exists, only once the
+        new file is complete (written beside it, then renamed).
 
     Returns
     -------
     pathlib.Path
         The file written.
+
+    Raises
+    ------
+    ValueError
+        ``path`` is not a regular file (a directory, ``/dev/null``, a FIFO) or
+        its folder is missing (:class:`cwlidar_sim._preflight.PreflightError`,
+        before anything is written); bad ``field``.
+    OSError
+        Writing failed (a full disk): the old file at ``path`` is unchanged
+        (:class:`cwlidar_sim._preflight.ResultsWriteError`).
 
     Notes
     -----
@@ -409,8 +422,7 @@ def write_netcdf(field, path):
     """
     path = _check_path("path", path)
     _field_dims(field, "field", allowed=_FIELD_DIMS)
-    if not path.parent.is_dir():
-        raise FileNotFoundError(f"directory {str(path.parent)!r} for NetCDF file {str(path)!r} does not exist")
+    check_output_file(path, label="NetCDF file")
     # A shallow copy: new Variable objects (own attrs and encoding) sharing
     # the data, so the caller's Dataset is left untouched.
     ds = field.copy(deep=False)
@@ -426,7 +438,9 @@ def write_netcdf(field, path):
             ds.variables[d].attrs.setdefault("units", "m")
             ds.variables[d].attrs.setdefault("long_name", _LONG_NAMES[d])
     encoding = {name: {"_FillValue": None} for name in ds.variables}
-    ds.to_netcdf(path, mode="w", engine="h5netcdf", format="NETCDF4", encoding=encoding)
+    # atomically, and a full disk never reaches HDF5 (whose failed close segfaulted at
+    # exit): the old file at ``path`` survives any failed write
+    write_netcdf_atomic(ds, path, encoding=encoding)
     return path
 
 

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from .._atomic import atomic_path
 from .box import expected_box_covariance
 from .parameters import MannParameters
 from .spectra import covariances, one_point_spectra
@@ -118,5 +119,6 @@ def plot_box_spectra(box, path) -> None:
     ax.legend(fontsize=7, ncol=2)
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    with atomic_path(path) as tmp:  # a figure on disk is whole or absent
+        fig.savefig(tmp, dpi=120)
     plt.close(fig)

@@ -191,7 +191,8 @@ def test_hawc2_bad_paths(tmp_path):
         hawc2_paths(["a", "a", "b"])
     with pytest.raises(TypeError, match="base_or_paths"):
         hawc2_paths(3)
-    with pytest.raises(FileNotFoundError, match="directory"):
+    # a missing folder is refused before anything is written (a ValueError, as bad input; was FileNotFoundError)
+    with pytest.raises(ValueError, match=r"folder .*no_such_dir.* does not exist"):
         write_hawc2(synthetic_field((3, 2, 2)), tmp_path / "no_such_dir" / "box")
 
 

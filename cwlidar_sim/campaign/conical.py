@@ -116,7 +116,8 @@ def _box_points(scene: ConicalScene, index: int) -> tuple:
     phi = math.radians(scene.scan.half_angle_deg)
     tensor = scene.turbulence.params(_tensor_height(scene, index), p.mean_speed)[0]
 
-    zr_per_r2 = scene.lidar.build_instrument().replace(focus=1.0).rayleigh_length
+    inst = scene.lidar.build_instrument()
+    zr_per_r2 = inst.wavelength / (math.pi * inst.telescope_radius**2)  # z_R / r^2 (A2012 Eq. 1)
 
     def reach(h):  # the simulated span along the beam at height h [m]
         return scene.lidar.span * zr_per_r2 * (h / math.cos(phi)) ** 2

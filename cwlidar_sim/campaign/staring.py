@@ -28,6 +28,7 @@ import time
 
 import numpy as np
 
+from ..turbulence.limits import check_frozen_turbulence
 from .planning import generate_field, plan_field
 from .scene import Scene
 from .spec import RESULTS_VERSION
@@ -107,6 +108,8 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     period = scene.periods[index]
     U = period.mean_speed
     T = scene.period_duration(period)
+    # a fitted tensor (turbulence.fit_to) is known only now: the same check as the scene's, before any field
+    check_frozen_turbulence(params, U, f"period[{period.name}]")
     if scene.lidar.tier == "signal":
         from ..sensors import SIGNAL_MAX_ESTIMATES
 

@@ -86,7 +86,7 @@ def check_frozen_turbulence(params: MannParameters, mean_speed: float, what: str
     sigma_u = math.sqrt(scale * fu)
     amax = limit2 / (params.length_scale ** (2.0 / 3.0) * fu)
     raise ValueError(
-        f"{what}: turbulence alpha_eps={params.alpha_eps:g} (L={params.length_scale:g} m, gamma={params.gamma:g}) "
+        f"{what}: the tensor alpha_eps={params.alpha_eps:g} (L={params.length_scale:g} m, gamma={params.gamma:g}) "
         f"has sigma_u = {sigma_u:.3g} m/s, a turbulence intensity sigma_u/U = {sigma_u / U:.2f} at mean_speed = "
         f"{U:g} m/s, above the {MAX_TURBULENCE_INTENSITY:g} that Taylor's frozen-turbulence hypothesis carries "
         f"(the eddies would move as much by themselves as with the mean wind); allowed: alpha_eps <= {amax:.3g} "

@@ -62,7 +62,8 @@ UNIT_VARS = {
     "cup_std": ("m s-1", "cup 10-min standard deviation"),
     "sonic_std": ("m s-1", "sonic horizontal-speed standard deviation"),
     "sonic_radial_variance": ("m2 s-2", "sonic-equivalent radial variance (point sonic projected on the rotating beam)"),
-    "availability": ("1", "fraction of finite line-of-sight estimates"),
+    "availability": ("1", "fraction of usable line-of-sight estimates: finite, with no failure, NEAR_ZERO or "
+                          "NEAR_NYQUIST flag (signal.processing.usable_mask)"),
     "zero_crossing_loss": ("1", "fraction of estimates flagged NO_SIGNAL or NEAR_ZERO (cross-wind zero crossings)"),
     "second_peak_fraction": ("1", "fraction of estimates flagged SECOND_PEAK (e.g. a cloud return)"),
     "cloud_fraction": ("1", "the cloud's share of the received power (0: clear air)"),
@@ -116,7 +117,8 @@ def _box_points(scene: ConicalScene, index: int) -> tuple:
     phi = math.radians(scene.scan.half_angle_deg)
     tensor = scene.turbulence.params(_tensor_height(scene, index), p.mean_speed)[0]
 
-    zr_per_r2 = scene.lidar.build_instrument().replace(focus=1.0).rayleigh_length
+    inst = scene.lidar.build_instrument()
+    zr_per_r2 = inst.wavelength / (math.pi * inst.telescope_radius**2)  # z_R / r^2 (A2012 Eq. 1)
 
     def reach(h):  # the simulated span along the beam at height h [m]
         return scene.lidar.span * zr_per_r2 * (h / math.cos(phi)) ** 2

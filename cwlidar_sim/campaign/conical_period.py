@@ -92,6 +92,7 @@ import time
 import numpy as np
 
 from .._validation import check_choice, check_int, check_real, check_seed, check_tuple
+from ..signal.processing import usable_fraction
 
 __all__ = ["simulate_conical_period", "simulate_conical_cycle", "default_spacing", "cycle_reference_height"]
 
@@ -373,7 +374,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
             "cup_mean": float(cup_t.mean()), "cup_std": float(cup_t.std(ddof=1)),
             "sonic_std": float(sonic_h.std(ddof=1)),
             "sonic_radial_variance": sonic_radial_variance(vel_ec, sel["azimuth_e"], lidar.half_angle_deg),
-            "availability": float(np.mean(np.isfinite(sel["speed_e"]))),
+            "availability": usable_fraction(sel["speed_e"], flags_e),
             "zero_crossing_loss": float(np.mean((flags_e & (Flag.NO_SIGNAL | Flag.NEAR_ZERO)) != 0)),
             "second_peak_fraction": float(np.mean((flags_e & Flag.SECOND_PEAK) != 0)),
             "cloud_fraction": float(rec.info["heights"][z].get("cloud_fraction", 0.0)),

@@ -76,6 +76,7 @@ import dataclasses
 import numpy as np
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
+from ..turbulence.limits import check_frozen_turbulence
 from .conical_period import default_spacing
 from .lidar_spec import ConicalLidarSpec
 from .spec import Spec, check_condition_on, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
@@ -377,7 +378,10 @@ class ConicalScene(Spec):
             raise ValueError(f"units {dup[:5]} are named twice: scan.periods_per_height names a template's "
                              f"later passes <name>_<pass>; allowed: period names that are not another's "
                              f"<name>_<pass>")
+        fixed = self.turbulence.params()[0] if self.turbulence.source == "fixed" else None
         for p in periods:
+            if fixed is not None:  # the surface-layer sources set sigma_u from U: ~0.1-0.2 of it
+                check_frozen_turbulence(fixed, p.mean_speed, f"period[{p.name}]")
             dur = check_real(f"period {p.name!r} duration", self.period_duration(p), lo=10.0, hi=3600.0)
             if self.scan.cycle:
                 block = self.scan.block_time()

@@ -118,7 +118,10 @@ class LidarSpecBase(Spec):
         check_choice("lidar.preset", self.preset, tuple(PRESETS))
         if not isinstance(self.instrument, dict):
             raise TypeError(f"lidar.instrument must be a table of overrides, got {type(self.instrument).__name__}")
-        inst = self.build_instrument()
+        try:
+            inst = self.build_instrument()
+        except (ValueError, TypeError) as e:  # named as the scene file names it
+            raise type(e)(f"lidar.instrument.{e}") from None
         check_choice("lidar.tier", self.tier, self._tiers)
         kw = self.sensor_kwargs(0.5)
         try:

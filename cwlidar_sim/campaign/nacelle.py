@@ -57,6 +57,7 @@ import time
 
 import numpy as np
 
+from ..signal.processing import usable_mask
 from .nacelle_scene import NacelleScene
 from .spec import RESULTS_VERSION
 
@@ -156,14 +157,15 @@ def _estimate_kinds(scene):
 
 
 def _u_series(rec, kind):
+    """The estimate's u series [m/s]; NaN where the estimate is unusable (signal.processing.usable_mask)."""
     corr = 0.0 if rec.correction_e is None else rec.correction_e  # the platform's motion correction
     if kind == "tier1":
-        los = rec.vlos_e + corr
+        los = rec.vlos_e + corr  # noise-free: no flags
     elif kind == "main":
-        los = rec.los_e
+        los = np.where(usable_mask(rec.speed_e, rec.flags_e), rec.los_e, np.nan)
     else:
-        speed, _ = rec.variants[kind]
-        los = -speed + corr
+        speed, flags = rec.variants[kind]
+        los = np.where(usable_mask(speed, flags), -speed + corr, np.nan)
     return los / rec.direction_ec[:, 0]
 
 
@@ -294,8 +296,9 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
         "k_half_theory": (P + ("focus",), k50_th[None], {"units": "rad m-1",
                                                          "long_name": "analytic wavenumber at coherence 0.5"}),
         "preview_time": (P + ("focus",), preview[None], {"units": "s", "long_name": "preview time r cos(a) / U"}),
-        "availability": (P + ("focus", "estimate"), avail[None], {"units": "1",
-                                                                  "long_name": "fraction of estimates kept"}),
+        "availability": (P + ("focus", "estimate"), avail[None],
+                         {"units": "1", "long_name": "fraction of usable estimates: finite, with no failure, "
+                                                     "NEAR_ZERO or NEAR_NYQUIST flag (signal.processing.usable_mask)"}),
         "n_blocked": (P + ("focus",), n_blocked[None], {"units": "1", "long_name": "estimates lost to blade blockage"}),
         "mean_speed": (P, np.array([U]), {"units": "m s-1", "long_name": "mean wind at hub height"}),
         "yaw_misalignment": (P, np.array([p.yaw_misalignment_deg]), {"units": "degree"}),

@@ -54,6 +54,7 @@ import os
 import numpy as np
 
 from .._validation import check_bool, check_int, check_real, check_seed, check_str
+from ..turbulence.limits import check_frozen_turbulence
 from .lidar_spec import LidarSpecBase
 from .spec import Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
 
@@ -392,7 +393,9 @@ class NacelleScene(Spec):
         set_field(self, "duration", check_real("duration", self.duration, lo=30.0, hi=7200.0))
         set_field(self, "seed", check_seed("seed", self.seed))
         check_str("description", self.description, allow_empty=True)
+        params = self.turbulence.params()
         for p in periods:
+            check_frozen_turbulence(params, p.mean_speed, f"period[{p.name}]")
             dur = self.period_duration(p)
             if dur < 3.0 * self.scan.segment_duration:
                 raise ValueError(f"period {p.name!r} lasts {dur:g} s, shorter than 3 coherence segments of "

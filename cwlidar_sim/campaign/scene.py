@@ -50,6 +50,7 @@ from __future__ import annotations
 import dataclasses
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
+from ..turbulence.limits import check_frozen_turbulence
 from .conical_scene import ConicalScene
 from .lidar_spec import CHAIN_TIERS, LidarSpecBase
 from .spec import (SCENE_KINDS, Spec, check_condition_on, check_periods, check_scene_keys, check_scene_name,
@@ -72,6 +73,8 @@ __all__ = [
 ]
 
 FIELD_KINDS = ("auto", "line", "plane", "box")
+#: The staring lidar's output rate [Hz] (A2012's 50 Hz; :mod:`cwlidar_sim.campaign.staring` runs on it).
+STARING_RATE = 50.0
 TIERS = CHAIN_TIERS
 _set = set_field
 
@@ -160,6 +163,11 @@ class LidarSpec(LidarSpecBase):
     def __post_init__(self):
         super().__post_init__()
         _set(self, "elevation_deg", check_real("lidar.elevation_deg", self.elevation_deg, lo=-89.0, hi=89.0))
+        rate = self.build_instrument().estimate_rate
+        if rate != STARING_RATE:  # the runner's 50 Hz clock (staring.run_period): another rate would be mislabelled
+            raise ValueError(f"lidar.instrument.estimate_rate={rate:g} Hz: a staring scene samples the lidar at "
+                             f"A2012's {STARING_RATE:g} Hz, block-averaged by 5 to the sonic's 10 Hz; allowed: "
+                             f"{STARING_RATE:g}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -378,7 +386,10 @@ class Scene(Spec):
         _set(self, "duration", check_real("duration", self.duration, lo=10.0, hi=86400.0))
         _set(self, "seed", check_seed("seed", self.seed))
         check_str("description", self.description, allow_empty=True)
+        params = self.turbulence.params()  # None with fit_to: checked when the fit is known (staring.run_period)
         for p in periods:
+            if params is not None:
+                check_frozen_turbulence(params, p.mean_speed, f"period[{p.name}]")
             dur = self.period_duration(p)
             if dur < self.analysis.segment_duration:
                 raise ValueError(f"period {p.name!r} lasts {dur} s, shorter than analysis.segment_duration = "

@@ -31,8 +31,10 @@ __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field"
 #: tasks, 2048-point grids for A2012, whose tier-2 numbers differ at the rounding level, and the
 #: one-point quadrature with edges about the shear peak, whose fits move by ~1e-5; 5: tier 3's
 #: tones from per-estimate tables summed in float32, other bits of the same law; 6: the
-#: misaligned-beam theory on the one-point quadrature's k3 nodes, its spectra moved by <= 3e-5).
-RESULTS_VERSION = 6
+#: misaligned-beam theory on the one-point quadrature's k3 nodes, its spectra moved by <= 3e-5; 7: one
+#: availability, the usable fraction, NEAR_ZERO / NEAR_NYQUIST estimates left out of it and of the averaged
+#: series: a conical period's ``availability`` drops by its zero-crossing loss).
+RESULTS_VERSION = 7
 #: Scene kinds: ``kind`` in a scene file (default 'staring').
 SCENE_KINDS = ("staring", "conical", "nacelle")
 

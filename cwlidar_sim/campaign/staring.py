@@ -28,6 +28,8 @@ import time
 
 import numpy as np
 
+from ..signal.processing import usable_fraction, usable_speeds
+from ..turbulence.limits import check_frozen_turbulence
 from .planning import generate_field, plan_field
 from .scene import Scene
 from .spec import RESULTS_VERSION
@@ -107,6 +109,8 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     period = scene.periods[index]
     U = period.mean_speed
     T = scene.period_duration(period)
+    # a fitted tensor (turbulence.fit_to) is known only now: the same check as the scene's, before any field
+    check_frozen_turbulence(params, U, f"period[{period.name}]")
     if scene.lidar.tier == "signal":
         from ..sensors import SIGNAL_MAX_ESTIMATES
 
@@ -157,7 +161,8 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     def lidar_series(speed_e, flags_e):
         speed = np.array(speed_e, dtype=np.float64)
         flags = np.array(flags_e, dtype=np.uint8)
-        mean10, nvalid10, flags10 = block_average(speed, LIDAR_BLOCK, flags)
+        # an unusable estimate (NaN, or finite but NEAR_ZERO / NEAR_NYQUIST) never enters the 10 Hz mean
+        mean10, nvalid10, flags10 = block_average(usable_speeds(speed, flags), LIDAR_BLOCK, flags)
         return speed, flags, mean10, nvalid10, flags10
 
     speed50, flags50, vr10, nvalid10, flags10 = lidar_series(rec.speed_e, rec.flags_e)
@@ -183,9 +188,9 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     var_out = {}
     for v in variants:
         sp, fl = rec.variants[v["name"]]
-        _, fl50, v10, _, _ = lidar_series(sp, fl)
+        sp50, fl50, v10, _, _ = lidar_series(sp, fl)
         var_out[v["name"]] = {"tf": tf(v10), "lidar_10hz": v10, "flag_counts": _flag_counts(fl50),
-                              "availability": float(np.mean(np.isfinite(v10)))}
+                              "availability": usable_fraction(sp50, fl50)}
     fit = None
     if a.fit:
         from ..analysis import component_spectra, fit_mann
@@ -204,7 +209,7 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
         "lidar_speed": speed50.astype(np.float32), "lidar_flags": flags50, "lidar_ideal": ideal50.astype(np.float32),
         "lidar_10hz": vr10, "lidar_10hz_valid": nvalid10, "lidar_10hz_flags": flags10, "ideal_10hz": ideal10,
         "tf": main, "tf_ideal": ideal, "variants": var_out, "fit": fit,
-        "flag_counts": _flag_counts(flags50), "availability": float(np.mean(np.isfinite(speed50))),
+        "flag_counts": _flag_counts(flags50), "availability": usable_fraction(speed50, flags50),
         "availability_10hz": float(np.mean(np.isfinite(vr10))),
         "lidar_info": dict(rec.info), "timing": {"field": t_field, "lidar": t_lidar,
                                                   "total": time.perf_counter() - t0},
@@ -317,8 +322,11 @@ def period_dataset(scene: Scene, params, r: dict):
         "field_shape": (("period",), np.array(["x".join(map(str, r["plan"].shape))], dtype=object)),
         "field_seed": (("period",), pk(r["field_seed"], np.int64)),
         "availability": (("period",), pk(r["availability"]),
-                         {"units": "1", "long_name": "fraction of valid 50 Hz lidar estimates"}),
-        "availability_10hz": (("period",), pk(r["availability_10hz"]), {"units": "1"}),
+                         {"units": "1", "long_name": "fraction of usable 50 Hz lidar estimates: finite, with no failure, "
+                                       "NEAR_ZERO or NEAR_NYQUIST flag (signal.processing.usable_mask)"}),
+        "availability_10hz": (("period",), pk(r["availability_10hz"]),
+                              {"units": "1", "long_name": "fraction of 10 Hz samples with at least one usable "
+                                                          "50 Hz estimate"}),
         "flag_count": (("period", "flag"), pk([r["flag_counts"][f] for f in flags], np.int64),
                        {"units": "1", "long_name": "50 Hz estimates carrying each quality flag"}),
         "correlation_time": (("period",), pk(r["lidar_info"].get("correlation_time", np.nan)),
@@ -371,7 +379,8 @@ def period_dataset(scene: Scene, params, r: dict):
         dv["transfer_cross_variant"] = (VPK, np.stack([pk(v["tf"].T2_k) for v in var]),
                                         {"units": "1", "long_name": "method 2 for each processing variant"})
         dv["availability_variant"] = (("variant", "period"), np.array([[v["availability"]] for v in var]),
-                                      {"units": "1", "long_name": "fraction of valid 10 Hz lidar samples"})
+                                      {"units": "1", "long_name": "availability of each processing variant (as "
+                                                                "availability)"})
         dv["lidar_10hz_variant"] = (("variant", "period", "time_10hz"), np.stack([pk(v["lidar_10hz"]) for v in var]),
                                     {"units": "m s-1"})
     if scene.analysis.fit:

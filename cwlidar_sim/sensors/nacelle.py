@@ -89,7 +89,7 @@ import numpy as np
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
-from ..signal.processing import Flag
+from ..signal.processing import Flag, usable_fraction
 from .base import BeamSampler, LidarBase, field_subcell_spread, seed_sequence
 from .platform import PlatformMotion, rotation_matrices
 
@@ -350,7 +350,7 @@ class NacelleRecord:
     blocked_e : ndarray, shape (n_e,)
         Fraction of the dwell's looks blocked by a blade [-].
     availability : float
-        Fraction of finite ``speed_e``.
+        Fraction of usable estimates (:func:`cwlidar_sim.signal.processing.usable_fraction`).
     info : dict
         Per focus: preview distance, Rayleigh length, cells, speckle; tier,
         flag counts.
@@ -516,7 +516,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
                          focus_e=np.asarray(lidar.focus_distances)[fidx_e], vlos_e=rec.vlos_e, speed_e=speed_e,
                          flags_e=flags_e, los_e=los_e, direction_ec=known_elc.mean(axis=1),
                          field_direction_ec=n_elc.mean(axis=1), blocked_e=blocked_e,
-                         availability=float(np.isfinite(speed_e).mean()) if ne else 0.0, info=info,
+                         availability=usable_fraction(speed_e, flags_e) if ne else 0.0, info=info,
                          variants=variants_out, correction_e=corr_e)
 
 

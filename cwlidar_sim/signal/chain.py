@@ -101,7 +101,7 @@ import numpy as np
 
 from .._validation import check_bool, check_choice, check_int, check_memory, check_real
 from .instrument import Instrument
-from .processing import FAIL_FLAGS, Flag, background_gain, background_spectrum, estimate_variants
+from .processing import FAIL_FLAGS, Flag, background_gain, background_spectrum, estimate_variants, usable_fraction
 from .spectral import _draw_rows, _speckle_draws, continuum_moments, line_shape_table, sample_moments, speckle_looks
 from .exact import ar1_rho, signal_rows
 from .noise import lag_coefficients, noise_floor
@@ -608,8 +608,7 @@ def run_chain(settings: ChainSettings, groups, n_estimates: int, *, variants=Non
     info = {"tier": tier, "estimator": est,
             "flag_counts": {f.name: int(np.count_nonzero(flags & f.value)) for f in Flag},
             "n_failed": int(np.count_nonzero(flags & int(FAIL_FLAGS))),
-            "variant_availability": {n: float(np.mean(np.isfinite(s))) if ne else float("nan")
-                                     for n, (s, _) in out.items()}}
-    avail = float(np.mean(np.isfinite(speed))) if ne else float("nan")
+            "variant_availability": {n: usable_fraction(s, f) for n, (s, f) in out.items()}}
+    avail = usable_fraction(speed, flags)  # one definition (processing module notes)
     return ChainRecord(vlos_e=vlos_e, speed_e=speed, flags_e=flags, variants=out, availability=avail,
                        groups=ginfo, info=info)

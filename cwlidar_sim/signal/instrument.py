@@ -42,6 +42,21 @@ flag).
 
 Doppler conversion: ``f = 2 v / lambda`` [Hz], so 1 m/s <-> 1.2923 MHz at
 1547.615 nm.
+
+Physical ranges
+---------------
+Every field is checked against what a cw coherent Doppler lidar can be, and
+the message says why, so a value in the wrong unit is refused before any
+computation instead of running (``focus = 0.1``, a focus typed in km, used to
+give z_R = 1.2e-5 m and a transfer function of 1.000).  The optical ones:
+wavelength 0.25-11 um (UV to CO2), telescope radius 1 mm-0.3 m, focus from
+:data:`FOCUS_MIN` = 10 m (the near end of a cw lidar's focusing range) to the
+collimation distance ``pi a0^2 / lambda`` (812 m for the prototype, 769 m for
+CS's series), where ``z_R = lambda r^2 / (pi a0^2)`` reaches r itself: the
+focused-beam weighting (A2012 Eq. 1) needs ``z_R << r``.  The sampling rate
+is 1 MHz-10 GHz; the block, averaging and output fields must also fit
+together (``blocks_per_estimate`` within one output period, the blind zone
+below Nyquist).
 """
 
 from __future__ import annotations
@@ -55,6 +70,15 @@ from .._validation import check_choice, check_int, check_keys, check_real
 
 #: Laser wavelength of the ZephIR prototype [m] (A2012).
 WAVELENGTH = 1547.615e-9
+
+#: Wavelengths of coherent Doppler lidars [m]: 0.3 um (UV) to 10.6 um (CO2), with margins.
+WAVELENGTH_RANGE = (0.25e-6, 11e-6)
+#: Telescope (e^-2) radii [m]: 1 mm (pi a0^2 / lambda = 2 m at 1.55 um: nothing farther can be focused) to 0.3 m.
+TELESCOPE_RADIUS_RANGE = (1e-3, 0.3)
+#: Nearest focus [m]: the near end of a cw lidar's focusing range (ZephIR: 10 m).
+FOCUS_MIN = 10.0
+#: Detector sampling rates [Hz]: 1 MHz (Nyquist speed 0.39 m/s at 1.55 um) to 10 GHz.
+SAMPLE_RATE_RANGE = (1e6, 1e10)
 
 WINDOWS = ("rect", "hann")
 THRESHOLD_KINDS = ("sigma", "snr", "peak_fraction")
@@ -72,13 +96,17 @@ class Instrument:
     name : str
         Free label.
     wavelength : float
-        Laser wavelength lambda [m]; in (0, 1e-4].
+        Laser wavelength lambda [m]; in [2.5e-7, 1.1e-5] (coherent Doppler
+        lidars: 0.3 um UV to the 10.6 um CO2 laser).
     telescope_radius : float
-        Effective telescope radius a0 at e^-2 intensity [m]; in (0, 1].
+        Effective telescope radius a0 at e^-2 intensity [m]; in [1e-3, 0.3].
     focus : float
-        Focus distance r [m]; > 0.
+        Focus distance r [m]; in [10, pi a0^2 / lambda): the near end of a cw
+        lidar's focusing range, and the telescope's collimation distance
+        (812 m for the prototype), where z_R would reach r and the beam is no
+        longer focused (module notes).
     sample_rate : float
-        Sampling rate of the real detector signal f_s [Hz]; > 0.
+        Sampling rate of the real detector signal f_s [Hz]; in [1e6, 1e10].
     n_fft : int
         Samples per block (one DFT) N; even, in [16, 65536].
     blocks_per_estimate : int
@@ -194,10 +222,17 @@ class Instrument:
 
         if not isinstance(self.name, str):
             raise TypeError(f"name must be a str, got {type(self.name).__name__}")
-        put("wavelength", check_real("wavelength", self.wavelength, lo=0.0, hi=1e-4, lo_open=True))
-        put("telescope_radius", check_real("telescope_radius", self.telescope_radius, lo=0.0, hi=1.0, lo_open=True))
-        put("focus", check_real("focus", self.focus, lo=0.0, hi=1e5, lo_open=True))
-        put("sample_rate", check_real("sample_rate", self.sample_rate, lo=0.0, hi=1e12, lo_open=True))
+        put("wavelength", _check_physical("wavelength", self.wavelength, WAVELENGTH_RANGE, "m",
+                                          "the band of coherent Doppler lidars, 0.3 um (UV) to 10.6 um (CO2 laser); "
+                                          "the prototype's is 1.55e-06 m", "nm or um"))
+        put("telescope_radius", _check_physical("telescope_radius", self.telescope_radius, TELESCOPE_RADIUS_RANGE,
+                                                "m", "the e^-2 radius of a cw lidar's telescope (the prototype's: "
+                                                "0.020 m); a smaller one focuses nothing past a few metres",
+                                                "mm or cm"))
+        put("focus", self._checked_focus())
+        put("sample_rate", _check_physical("sample_rate", self.sample_rate, SAMPLE_RATE_RANGE, "Hz",
+                                           "a detector digitiser's rate (the prototype's: 5e+07 Hz); below 1 MHz "
+                                           "the Nyquist speed lambda f_s / 4 is under 0.4 m/s", "MHz or GHz"))
         n = check_int("n_fft", self.n_fft, lo=16, hi=65536)
         if n % 2:
             raise ValueError(f"n_fft={n} must be even; allowed: even integers in [16, 65536]")
@@ -244,6 +279,22 @@ class Instrument:
                 f"blind_zone_speed={self.blind_zone_speed} leaves no usable bin below Nyquist; "
                 f"allowed: < {(self.n_fft // 2 - 2) * self.bin_speed:g} m/s"
             )
+
+    def _checked_focus(self) -> float:
+        """The focus distance [m], within a cw lidar's focusing range (module notes); wavelength and a0 checked."""
+        r = check_real("focus", self.focus, lo=0.0, lo_open=True)
+        zr = self.wavelength * r**2 / (math.pi * self.telescope_radius**2)
+        far = math.pi * self.telescope_radius**2 / self.wavelength
+        allowed = f"allowed: [{FOCUS_MIN:g}, {far:.4g}) m"
+        if r < FOCUS_MIN:
+            raise ValueError(f"focus={self.focus!r} m is below the {FOCUS_MIN:g} m minimum of a cw lidar's "
+                             f"focusing range (zR would be {zr:.2g} m); did you give km? {allowed}")
+        if r >= far:
+            raise ValueError(f"focus={self.focus!r} m is at or beyond the telescope's collimation distance "
+                             f"pi a0^2 / lambda = {far:.4g} m (a0 = {self.telescope_radius:g} m): the beam cannot "
+                             f"be focused there, zR would be {zr:.3g} m, not shorter than the focus distance; "
+                             f"did you give mm or cm? {allowed}")
+        return r
 
     # -- interchange -----------------------------------------------------
     def as_dict(self) -> dict:
@@ -364,6 +415,16 @@ class Instrument:
 
 def _check_keys(d):
     check_keys(Instrument, d)
+
+
+def _check_physical(name, value, rng, unit, reason, unit_hint):
+    """``value`` as a float in the physical range ``rng`` = (lo, hi), else a ValueError with the reason."""
+    v = check_real(name, value, lo=0.0, lo_open=True)
+    lo, hi = rng
+    if not lo <= v <= hi:
+        raise ValueError(f"{name}={value!r} {unit} is outside {reason}: a value in {unit_hint}? "
+                         f"allowed: [{lo:g}, {hi:g}] {unit}")
+    return v
 
 
 #: Noise near 0 Hz of both presets (module notes).

@@ -30,16 +30,29 @@ Steps, for every estimate
 
 What availability counts
 ------------------------
-:attr:`DopplerEstimates.availability` is the fraction of *usable* estimates:
-finite and carrying none of ``SUSPECT_FLAGS`` (NEAR_ZERO, NEAR_NYQUIST).
-An estimate within the edge guard of the blind zone or of Nyquist is finite
-but biased by the instrument's limits (at 0.3 m/s the prototype's median
-reports about 0.56 m/s, every estimate flagged NEAR_ZERO): a user reading
-"availability" as "usable" must not count it.  The fraction of finite
-estimates, flagged or not, is :attr:`DopplerEstimates.valid_fraction`.
-SECOND_PEAK estimates stay counted (the main peak's estimate is kept; the
-flag warns of a cloud).  A campaign's ``availability`` (finite 50 Hz
-estimates) is unchanged: its speeds are far from both edges.
+One definition everywhere (:func:`usable_mask`, :func:`usable_fraction`): the
+``availability`` of :class:`DopplerEstimates`, of the signal chain's records
+and of every campaign's results is the fraction of *usable* estimates, finite
+and carrying none of :data:`UNUSABLE_FLAGS`:
+
+* :data:`FAIL_FLAGS` (NO_SIGNAL, FIT_FAILED, PAUSED, BLOCKED): no estimate,
+  the value is NaN;
+* :data:`SUSPECT_FLAGS` (NEAR_ZERO, NEAR_NYQUIST): the value is finite but
+  made by the instrument's limits, not by the wind: within the edge guard of
+  the blind zone the line is cut by it and mixed with the relative-intensity
+  noise and the homodyne mirror (at 0.3 m/s the prototype's median reports
+  about 0.56 m/s, every estimate flagged NEAR_ZERO), within the guard of
+  Nyquist it may be aliased.  A user reading "availability" as "usable" must
+  not count it, and a campaign's averaged series (the staring 10 Hz blocks, a
+  nacelle lidar's revolution means) leave it out as they leave out a NaN;
+  the 50 Hz record keeps the value with its flag.
+
+SECOND_PEAK is informational and counted: the estimate is that of the
+thresholded spectrum as the instrument forms it (with a cloud, its centroid
+or median *is* what the instrument reports, bias included: that bias is what
+a cloud study measures), and turbulence alone splits a broad line into two
+groups at times; the flag tells, ``flag_count`` counts it.  The fraction of
+finite estimates, flagged or not, is :attr:`DopplerEstimates.valid_fraction`.
 """
 
 from __future__ import annotations
@@ -60,6 +73,10 @@ __all__ = [
     "ESTIMATORS",
     "FAIL_FLAGS",
     "SUSPECT_FLAGS",
+    "UNUSABLE_FLAGS",
+    "usable_mask",
+    "usable_fraction",
+    "usable_speeds",
     "DopplerEstimates",
     "threshold_levels",
     "raised_level",
@@ -102,6 +119,43 @@ FAIL_FLAGS = Flag.NO_SIGNAL | Flag.FIT_FAILED | Flag.PAUSED | Flag.BLOCKED
 
 #: Flags of finite estimates biased by the instrument's limits: not counted as available.
 SUSPECT_FLAGS = Flag.NEAR_ZERO | Flag.NEAR_NYQUIST
+
+#: Flags that make an estimate unusable (module notes): not available, never averaged.
+UNUSABLE_FLAGS = FAIL_FLAGS | SUSPECT_FLAGS
+
+
+def usable_mask(speed_e, flags_e) -> np.ndarray:
+    """Which estimates are usable: finite and carrying none of :data:`UNUSABLE_FLAGS` (module notes).
+
+    Parameters
+    ----------
+    speed_e : array_like of float
+        Estimates [m/s] (any speed or velocity; NaN where failed).
+    flags_e : array_like of int, same shape
+        Their :class:`Flag` bit fields.
+
+    Returns
+    -------
+    ndarray of bool, same shape
+    """
+    speed = np.asarray(speed_e, dtype=np.float64)
+    flags = np.asarray(flags_e)
+    if speed.shape != flags.shape:
+        raise ValueError(f"speed_e and flags_e must have one shape, got {speed.shape} and {flags.shape}")
+    return np.isfinite(speed) & ((flags.astype(np.int64) & int(UNUSABLE_FLAGS)) == 0)
+
+
+def usable_fraction(speed_e, flags_e) -> float:
+    """The availability [-]: fraction of usable estimates (:func:`usable_mask`); NaN when there are none."""
+    ok = usable_mask(speed_e, flags_e)
+    return float(np.mean(ok)) if ok.size else float("nan")
+
+
+def usable_speeds(speed_e, flags_e) -> np.ndarray:
+    """A float64 copy of ``speed_e`` with every unusable estimate NaN (what an averaged series may use)."""
+    out = np.array(speed_e, dtype=np.float64)
+    out[~usable_mask(out, flags_e)] = np.nan
+    return out
 
 #: Registry of Doppler estimators: name -> (kernel id, description).  All act
 #: on the thresholded, noise-normalised spectrum (see the module notes).
@@ -157,11 +211,8 @@ class DopplerEstimates:
 
     @property
     def availability(self) -> float:
-        """Fraction of usable estimates [-]: finite and without a ``SUSPECT_FLAGS`` flag (module notes)."""
-        if not self.n:
-            return float("nan")
-        ok = np.isfinite(self.speed_e) & ((self.flags_e & np.uint8(SUSPECT_FLAGS)) == 0)
-        return float(np.mean(ok))
+        """Fraction of usable estimates [-]: :func:`usable_fraction` (module notes)."""
+        return usable_fraction(self.speed_e, self.flags_e)
 
     @property
     def valid_fraction(self) -> float:

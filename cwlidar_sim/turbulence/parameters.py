@@ -1,4 +1,20 @@
-"""Parameters of the Mann (1994) uniform-shear spectral tensor."""
+"""Parameters of the Mann (1994) uniform-shear spectral tensor, and the ranges the model was fitted for.
+
+Physical ranges
+---------------
+``gamma`` is refused above :data:`GAMMA_MAX` = 8: Mann's (1994) fits to
+Kaimal's neutral spectra gave Gamma = 3.9, fits to measured spectra give 0 to
+about 5-6 (the highest in stable stratification), and the package's own fits (:func:`cwlidar_sim.analysis.fit_mann`)
+are bounded to 0..8.  Above that the rapid-distortion tensor has never been
+compared with the atmosphere, and its sheared eddies (stretched by Gamma
+times their lifetime) need boxes no scene plans for.  ``length_scale`` is
+refused above :data:`LENGTH_SCALE_MAX` = 5000 m (the fits' bound): the
+energy-containing eddies of the atmospheric boundary layer are a fraction of
+its depth (1-2 km); a larger L is a typing slip (m for km).
+``alpha_eps`` has no bound of its own: whether a level is physical depends on
+the mean wind that advects it, which a scene checks
+(:func:`cwlidar_sim.turbulence.limits.check_frozen_turbulence`).
+"""
 
 from __future__ import annotations
 
@@ -11,6 +27,11 @@ from .._validation import check_keys, check_real
 # von Karman energy spectrum integrates to alpha_eps * L**(2/3) times this.
 _VK_INTEGRAL = 0.5 * math.gamma(2.5) * math.gamma(1.0 / 3.0) / math.gamma(17.0 / 6.0)
 
+#: Largest anisotropy Gamma accepted [-] (module notes: the range the Mann model was fitted for).
+GAMMA_MAX = 8.0
+#: Largest length scale L accepted [m] (module notes).
+LENGTH_SCALE_MAX = 5000.0
+
 
 @dataclasses.dataclass(frozen=True)
 class MannParameters:
@@ -22,10 +43,12 @@ class MannParameters:
         alpha * epsilon**(2/3), the level of the inertial range [m^(4/3) s^-2];
         > 0.
     length_scale : float
-        Length scale L of the energy-containing eddies [m]; > 0.
+        Length scale L of the energy-containing eddies [m]; in (0, 5000]
+        (module notes).
     gamma : float
-        Anisotropy (eddy-lifetime) parameter Gamma [-]; >= 0.  Gamma = 0 is
-        isotropic turbulence.
+        Anisotropy (eddy-lifetime) parameter Gamma [-]; in [0, 8] (module
+        notes: the range the model was fitted for).  Gamma = 0 is isotropic
+        turbulence.
 
     Notes
     -----
@@ -40,10 +63,18 @@ class MannParameters:
 
     def __post_init__(self):
         object.__setattr__(self, "alpha_eps", check_real("alpha_eps", self.alpha_eps, lo=0.0, lo_open=True))
-        object.__setattr__(
-            self, "length_scale", check_real("length_scale", self.length_scale, lo=0.0, lo_open=True)
-        )
-        object.__setattr__(self, "gamma", check_real("gamma", self.gamma, lo=0.0, hi=1e3))
+        L = check_real("length_scale", self.length_scale, lo=0.0, lo_open=True)
+        if L > LENGTH_SCALE_MAX:
+            raise ValueError(f"length_scale={self.length_scale!r} m is above the {LENGTH_SCALE_MAX:g} m of the "
+                             f"largest eddies of an atmospheric boundary layer (1-2 km deep): a length in the wrong "
+                             f"unit? allowed: (0, {LENGTH_SCALE_MAX:g}] m")
+        object.__setattr__(self, "length_scale", L)
+        g = check_real("gamma", self.gamma, lo=0.0)
+        if g > GAMMA_MAX:
+            raise ValueError(f"gamma={self.gamma!r} is above {GAMMA_MAX:g}, outside the range the Mann model was "
+                             f"fitted for (0 to about 5-6 in the atmosphere, 3.9 for Kaimal's neutral spectra); "
+                             f"allowed: [0, {GAMMA_MAX:g}]")
+        object.__setattr__(self, "gamma", g)
 
     # -- interchange ---------------------------------------------------
     def as_dict(self) -> dict:

@@ -164,3 +164,16 @@ def test_an_unknown_key_far_from_every_allowed_key_gets_no_guess():
     with pytest.raises(ValueError, match="unknown key") as err:
         loads_scene("zzqx = 1\n" + MINIMAL)
     assert "did you mean" not in str(err.value)
+
+
+def test_turbulence_the_periods_wind_cannot_carry_is_refused_at_the_scene():
+    """sigma_u / U <= 0.5 per period (turbulence.limits), checked when the scene is built, before any run."""
+    strong = MINIMAL.replace("alpha_eps = 0.05", "alpha_eps = 0.5")  # sigma_u = 2.86 m/s (0.05: 0.91 m/s)
+    assert loads_scene(strong).periods[0].mean_speed == 8.0  # intensity 0.36 at 8 m/s: accepted
+    slow = strong + '[[period]]\nname = "calm"\nmean_speed = 5.0\n'  # 0.57 at 5 m/s
+    with pytest.raises(ValueError, match=r"period\[calm\]: the tensor alpha_eps=0.5 .* sigma_u = 2.86 m/s, a turbulence intensity sigma_u/U = 0.57"):
+        loads_scene(slow)
+    with pytest.raises(ValueError, match=r"gamma=9.0 is above 8"):
+        loads_scene(MINIMAL.replace("gamma = 3.9", "gamma = 9.0"))
+    with pytest.raises(ValueError, match=r"lidar.instrument.estimate_rate=10 Hz: a staring scene samples .* 50 Hz"):
+        loads_scene(MINIMAL + "[lidar]\ninstrument = { estimate_rate = 10.0, blocks_per_estimate = 1000 }\n")

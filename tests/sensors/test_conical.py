@@ -199,8 +199,8 @@ def test_conical_field_lateral_doubling_and_extent():
     assert f1.sizes == f0.sizes
     assert f1.attrs["generated_shape"][1] == 2 * f1.sizes["y"]
     assert f1.attrs["period_x"] >= 5.0 * 30.0 + lid.circle_diameter(40.0)
-    rec = measure_conical(f1, lid, 30.0, 5.0)  # holds the whole cone
-    assert rec.availability > 0.8
+    rec = measure_conical(f1, lid, 30.0, 5.0)  # holds the whole cone: no estimate lost outside the box
+    assert np.isfinite(rec.speed_e).mean() > 0.8
     params, su, us = surface_layer_parameters(40.0, 10.0)
     assert us == pytest.approx(0.4 * 10.0 / math.log(40.0 / 0.01))
     assert params.length_scale == pytest.approx(0.59 * 40.0)

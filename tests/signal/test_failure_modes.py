@@ -139,3 +139,23 @@ def test_peak_fraction_threshold_without_signal_fails_and_flags():
     # a line well above the detection level is measured as before
     sig, _ = simulate_uniform(8.0, -20.0, instrument=inst, n=500, seed=7)
     assert sig.valid_fraction > 0.99 and abs(np.nanmean(sig.speed_e) - 8.0) < 2 * INST.bin_speed
+
+
+def test_one_availability_definition_per_flag():
+    """usable_mask: finite and no failure or NEAR_ZERO / NEAR_NYQUIST flag; SECOND_PEAK is informational."""
+    from cwlidar_sim.signal.processing import usable_fraction, usable_mask, usable_speeds
+
+    speed = np.array([3.0, 0.8, 19.0, 5.0, np.nan, np.nan, 4.0, 2.0])
+    flags = np.array([0, Flag.NEAR_ZERO, Flag.NEAR_NYQUIST, Flag.SECOND_PEAK, Flag.NO_SIGNAL, Flag.PAUSED,
+                      Flag.SECOND_PEAK | Flag.NEAR_ZERO, 0], dtype=np.uint8)
+    want = np.array([True, False, False, True, False, False, False, True])
+    np.testing.assert_array_equal(usable_mask(speed, flags), want)
+    assert usable_fraction(speed, flags) == 3 / 8
+    np.testing.assert_array_equal(usable_speeds(speed, flags), np.where(want, speed, np.nan))
+    assert math.isnan(usable_fraction(np.array([]), np.array([], dtype=np.uint8)))
+    with pytest.raises(ValueError, match="one shape"):
+        usable_mask(speed, flags[:3])
+    # DopplerEstimates.availability is the same function
+    est, _ = simulate_uniform(0.8, 0.0, n=40, seed=2)  # inside the edge guard: finite, flagged NEAR_ZERO
+    assert np.isfinite(est.speed_e).mean() > 0.5 and (est.flags_e & Flag.NEAR_ZERO).any()
+    assert est.availability == usable_fraction(est.speed_e, est.flags_e) < est.valid_fraction

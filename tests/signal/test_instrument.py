@@ -71,3 +71,40 @@ def test_speckle_time():
     assert math.isinf(p.speckle_time(0.0))
     with pytest.raises(ValueError, match="transverse_speed"):
         p.speckle_time(-1.0)
+
+
+@pytest.mark.parametrize(
+    "kw, words",
+    [
+        # a focus typed in km: refused with its z_R (1.2e-5 m), not run with a transfer function of 1.000
+        ({"focus": 0.1}, ["focus=0.1", "10 m minimum", "zR would be 1.2e-05 m", "km"]),
+        ({"focus": 9.99}, ["focus=9.99", "10 m minimum"]),
+        # at pi a0^2 / lambda = 812 m the prototype's z_R reaches the focus distance itself
+        ({"focus": 812.0}, ["focus=812.0", "collimation distance", "812"]),
+        ({"focus": 67500.0}, ["focus=67500.0", "collimation distance"]),
+        ({"wavelength": 1547.615}, ["wavelength=1547.615", "coherent Doppler lidars", "nm or um"]),
+        ({"wavelength": 1.547615e-3}, ["wavelength=0.001547615", "[2.5e-07, 1.1e-05]"]),
+        ({"telescope_radius": 20.0}, ["telescope_radius=20.0", "mm or cm", "[0.001, 0.3]"]),
+        ({"telescope_radius": 5e-4}, ["telescope_radius=0.0005"]),
+        ({"sample_rate": 50.0, "blocks_per_estimate": 1}, ["sample_rate=50.0", "MHz", "[1e+06, 1e+10]"]),
+    ],
+)
+def test_physical_ranges_say_why(kw, words):
+    with pytest.raises(ValueError) as e:
+        PROTOTYPE_2003.replace(**kw)
+    for w in words:
+        assert w in str(e.value), (w, str(e.value))
+
+
+def test_physical_range_edges_are_accepted():
+    p = PROTOTYPE_2003
+    far = math.pi * p.telescope_radius**2 / p.wavelength  # 812.0 m
+    assert 811.9 < far < 812.0
+    assert p.replace(focus=10.0).rayleigh_length == pytest.approx(0.1232, abs=1e-4)
+    assert p.replace(focus=811.9).rayleigh_length < 811.9
+    for kw in ({"wavelength": 0.25e-6}, {"wavelength": 11e-6}, {"telescope_radius": 0.3}, {"sample_rate": 1e10}):
+        assert p.replace(**kw) is not None
+    # CS's series: z_R = 0.0013 r^2, collimation at 1 / 0.0013 = 769 m
+    assert CS_SERIES.replace(focus=769.0).focus == 769.0
+    with pytest.raises(ValueError, match="collimation distance"):
+        CS_SERIES.replace(focus=770.0)

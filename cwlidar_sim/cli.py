@@ -312,15 +312,18 @@ def _cmd_report(args) -> int:
     import glob
     import os
 
-    from .campaign import read_results
     from .campaign.figures import make_figures
+    from .campaign.results_file import open_results
 
+    if not os.path.isdir(args.dir):
+        raise ValueError(f"{args.dir!r} is not a folder; 'report' reads the results (*.nc) of a folder")
     files = sorted(glob.glob(os.path.join(args.dir, "*.nc")))
     if not files:
         raise ValueError(f"no results (*.nc) in {args.dir!r}; run 'cwlidar-sim run' or 'reproduce' first")
+    # every file checked (type, signature, attributes) before the first figure is drawn
+    datasets = [open_results(f) for f in files]
     out = []
-    for f in files:
-        ds = read_results(f)
+    for f, ds in zip(files, datasets):
         sub = args.out or args.dir
         if len(files) > 1:
             sub = os.path.join(sub, os.path.splitext(os.path.basename(f))[0])
@@ -445,7 +448,8 @@ def _cmd_probe_length(args) -> int:
     import os
 
     from .analysis.estimator_theory import DEFAULT_BAND
-    from .campaign import fit_probe_length_results, read_results
+    from .campaign import fit_probe_length_results
+    from .campaign.results_file import open_results
 
     path = args.results
     if os.path.isdir(path):
@@ -453,9 +457,9 @@ def _cmd_probe_length(args) -> int:
         if len(files) != 1:
             raise ValueError(f"{path!r} holds {len(files)} results files (*.nc); name one")
         path = files[0]
-    if not os.path.isfile(path):
+    if not os.path.lexists(path):
         raise ValueError(f"no results file {path!r}")
-    ds = read_results(path)
+    ds = open_results(path, sensor="staring")
     fit = fit_probe_length_results(ds, estimator=args.estimator, band=tuple(args.band or DEFAULT_BAND),
                                    n_lines=args.lines)
     out = fit.summary()

@@ -43,6 +43,7 @@ import shutil
 import time
 
 from .. import _config
+from .._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed, connect_scheduler
 from .._preflight import preflight
 from . import runner
 from .results_file import open_results
@@ -129,7 +130,8 @@ class CampaignIndex:
             except (OSError, ValueError, AttributeError):  # unreadable or not an index: every task is redone
                 entries = {}
             # an entry that is not a table (a foreign or damaged index) counts as not done
-            self.entries = {k: v for k, v in entries.items() if isinstance(v, dict)} if isinstance(entries, dict) else {}
+            if isinstance(entries, dict):
+                self.entries = {k: v for k, v in entries.items() if isinstance(v, dict)}
 
     def record(self, task, status, key=None, **info) -> None:
         """Record ``task`` as ``status`` ('done' or 'failed'); ``key``: the identity of its results."""
@@ -151,7 +153,8 @@ def _run_unit(scene, index, params, threads):
 
 
 def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, client=None, local=False,
-                 memory_limit=None, progress=True, log=None, on_task=None, on_unit=None) -> dict:
+                 memory_limit=None, progress=True, log=None, on_task=None, on_unit=None,
+                 worker_timeout: float = DEFAULT_WORKER_TIMEOUT) -> dict:
     """Run (or resume) every task of a campaign.
 
     Parameters
@@ -162,7 +165,9 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     workers : int, optional
         Workers of the local Dask cluster (default: :func:`plan_cluster`).
     scheduler : str, optional
-        Address of an existing Dask scheduler to send the tasks to instead.
+        Address of an existing Dask scheduler to send the tasks to instead;
+        only one you trust (its workers run what they are sent, results come
+        back by pickle: see the README's Dask section).
     client : dask.distributed.Client, optional
         An existing client (takes precedence over ``scheduler``).
     local : bool
@@ -180,6 +185,11 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     on_unit : callable, optional
         Called as ``on_unit(task, index)`` after each unit of a task is
         computed and stored (a hook, like ``on_task``; the stored units stay).
+    worker_timeout : float
+        With a scheduler: the longest wait for its first worker before
+        anything is computed (then a PreflightError), and the longest the
+        cluster may have no worker while units are pending (then
+        :class:`~cwlidar_sim._dask.WorkersLostError`; what finished is kept) [s].
 
     Returns
     -------
@@ -191,6 +201,7 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     if not isinstance(spec, CampaignSpec):
         raise TypeError(f"spec must be a CampaignSpec, got {type(spec).__name__}")
     say = log or (lambda s: None)
+    worker_timeout = check_worker_timeout(worker_timeout)
     t0 = time.perf_counter()
     tasks = expand(spec)
     out_dir = os.fspath(out_dir)
@@ -240,7 +251,7 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
         from dask.distributed import Client, LocalCluster
 
         if scheduler is not None:
-            client = Client(scheduler, timeout=10)
+            client = connect_scheduler(scheduler, worker_timeout=worker_timeout)  # waits for a worker
         else:
             plan = plan_cluster(n_units, max(e["memory_bytes"] for e in est.values()), workers)
             say(f"local Dask cluster: {plan['workers']} workers x {plan['threads']} threads ({plan['why']})")
@@ -325,8 +336,6 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
             if not pending[t.task_id]:
                 task_done(t, time.perf_counter())
         if client is not None and n_units:
-            from dask.distributed import as_completed
-
             futures = {}
             for t in runnable:
                 run = runs[t.task_id]
@@ -335,7 +344,8 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
                                           key=f"unit-{t.task_id}-{i}")] = (t, i)
             started = time.perf_counter()
             try:
-                for fut in as_completed(futures):
+                # as dask's as_completed, but stops when the cluster has had no worker for worker_timeout s
+                for fut in completed(client, futures, worker_timeout=worker_timeout, address=scheduler):
                     t, i = futures[fut]
                     try:
                         ds = fut.result()

@@ -26,6 +26,7 @@ import json
 import os
 import time
 
+from .._dask import DEFAULT_WORKER_TIMEOUT, completed
 from . import conical, nacelle, staring, store
 from .auto import resolve
 from .conical_scene import ConicalScene
@@ -168,7 +169,8 @@ def prepare_scene(scene, out_dir=None, *, log=None, check: bool = True) -> Scene
                     done=done, reused=[names[i] for i in sorted(done)], task=task, finalise=finalise)
 
 
-def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True, log=None, on_period=None):
+def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True, log=None, on_period=None,
+              worker_timeout: float = DEFAULT_WORKER_TIMEOUT):
     """Run every period of a scene, keep each as it finishes, and assemble the results.
 
     Parameters
@@ -182,7 +184,9 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         already stored there for the same scene are reused, not computed.
     client : dask.distributed.Client, optional
         Run the periods on this cluster (one task per period); default: here,
-        one after the other.  The results are identical bit for bit.
+        one after the other.  The results are identical bit for bit.  Use
+        only a cluster you trust: its workers run what they are sent, and
+        results come back by pickle (see the README's Dask section).
     progress : bool
         Show a progress bar (tqdm) over the periods.
     log : callable, optional
@@ -192,6 +196,10 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         Called as ``on_period(index, dataset)`` after each period is computed
         and stored (a progress hook; an exception it raises stops the run, the
         stored periods stay).
+    worker_timeout : float
+        With ``client``: the longest the cluster may have no worker while
+        periods are pending [s]; then :class:`~cwlidar_sim._dask.WorkersLostError`
+        (the finished periods stay, a rerun resumes).
 
     Returns
     -------
@@ -205,6 +213,8 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         Before anything is computed, when the results could not be written.
     ResultsWriteError
         When writing a finished period fails (the periods written before stay).
+    WorkersLostError
+        When the cluster has had no worker for ``worker_timeout`` seconds.
     """
     say = log or (lambda s: None)
     t0 = time.perf_counter()
@@ -217,11 +227,10 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
             on_period(i, ds)
 
     if client is not None and todo:
-        from dask.distributed import as_completed
-
         futures = {client.submit(run.task, scene, i, run.params, pure=False): i for i in todo}
         try:
-            for fut in as_completed(futures):
+            # as dask's as_completed, but stops when the cluster has had no worker for worker_timeout s
+            for fut in completed(client, futures, worker_timeout=worker_timeout):
                 finish(futures[fut], fut.result())
         finally:
             for fut in futures:

@@ -113,7 +113,8 @@ def open_results(path, *, sensor=None, what: str = "results file"):
     path = os.fspath(path)
     check_results_file(path, what)
     try:
-        ds = xr.open_dataset(path, engine=ENGINE)
+        # phony_dims: what h5netcdf does anyway for a foreign file's unnamed dimensions, said so (no warning)
+        ds = xr.open_dataset(path, engine=ENGINE, phony_dims="access")
     except _DECODE_ERRORS as e:
         raise ValueError(f"cannot read {what} {path!r} (damaged or truncated?): "
                          f"{' '.join(str(e).split())[:300]}") from None

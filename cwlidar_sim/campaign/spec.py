@@ -224,7 +224,7 @@ def open_regular_file(path, what: str):
 
 
 def read_text_file(path, what: str) -> tuple[str, str]:
-    """(text, folder) of a TOML file; an unreadable, oversized or non-UTF-8 file is a ValueError naming ``what`` and the path.
+    """(text, folder) of a TOML file; an unreadable, oversized or non-UTF-8 one: a ValueError naming ``what`` and it.
 
     The file must be a regular file (:func:`open_regular_file`) of at most
     :data:`MAX_TOML_BYTES`, checked before it is read.

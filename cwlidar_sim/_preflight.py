@@ -60,8 +60,12 @@ def check_disk(folder, need_bytes: float) -> None:
 def check_scheduler(address: str, timeout: float = 3.0) -> None:
     """Raise :class:`PreflightError` unless a TCP connection to a Dask scheduler ``address`` opens.
 
-    Only ``tcp://`` (and bare ``host:port``) addresses are probed; other
-    protocols are left to Dask.  The probe takes at most ``timeout`` seconds.
+    ``tcp://``, ``tls://``, ``ws://``, ``wss://`` (and bare ``host:port``)
+    addresses are probed, for at most ``timeout`` seconds; ``ucx://`` is left
+    to Dask; an ``inproc://`` address must be one of this very process (an
+    in-process cluster; from the command line there is none); any other
+    protocol is refused by name.  Whether the scheduler has workers is
+    :func:`cwlidar_sim._dask.connect_scheduler`'s question.
     """
     import socket
     from urllib.parse import urlsplit
@@ -71,8 +75,23 @@ def check_scheduler(address: str, timeout: float = 3.0) -> None:
                              f"got {address!r}")
     text = address if "://" in address else f"tcp://{address}"
     parts = urlsplit(text)
-    if parts.scheme not in ("tcp", "tls"):
+    if parts.scheme == "inproc":
+        # inproc://HOST/PID/N exists only inside process PID (a LocalCluster(processes=False) of this process)
+        fields = parts.path.strip("/").split("/")
+        pid = fields[0] if len(fields) == 2 and fields[1].isdigit() else None
+        if pid is None or not pid.isdigit():
+            raise PreflightError(f"dask scheduler address {address!r} is not an in-process address of this process "
+                                 f"(inproc://host/pid/n); an inproc:// scheduler exists only inside the Python "
+                                 f"process that created it; fix: use its tcp://host:port address")
+        if int(pid) != os.getpid():
+            raise PreflightError(f"dask scheduler address {address!r} is an in-process scheduler of another process "
+                                 f"(pid {pid}); fix: use its tcp://host:port address")
         return
+    if parts.scheme == "ucx":
+        return
+    if parts.scheme not in ("tcp", "tls", "ws", "wss"):
+        raise PreflightError(f"dask scheduler address {address!r} has the protocol {parts.scheme!r}; allowed: "
+                             f"tcp, tls, ws, wss, ucx, inproc (e.g. tcp://host:8786)")
     try:
         host, port = parts.hostname, parts.port
     except ValueError:
@@ -85,7 +104,7 @@ def check_scheduler(address: str, timeout: float = 3.0) -> None:
     except OSError as e:
         reason = "timed out" if isinstance(e, TimeoutError) else (e.strerror or str(e))
         raise PreflightError(f"dask scheduler {address} is unreachable ({reason}); "
-                             f"fix: start it (dask scheduler) or run without --dask") from None
+                             f"fix: start it (dask scheduler) or run without Dask") from None
 
 
 def preflight(out_dir, need_bytes: float = 0.0, *, scheduler=None, engine: bool = True) -> None:

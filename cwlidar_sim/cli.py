@@ -204,6 +204,24 @@ def _cmd_doppler(args) -> int:
     return 0
 
 
+#: Said wherever a command takes a Dask scheduler: what a scheduler can do to the machine that uses it.
+_DASK_TRUST = ("Only use a Dask scheduler you trust, on a network you trust: it has no authentication by "
+               "default, its workers run whatever they are sent, and results come back by pickle, which can run "
+               "code when read.")
+
+
+def _add_dask_options(p, dest, what):
+    """``--dask`` and ``--scheduler`` (the same option, both spellings on every command) and ``--worker-timeout``."""
+    names = ("--dask", "--scheduler") if dest == "dask" else ("--scheduler", "--dask")
+    p.add_argument(*names, dest=dest, default=None, metavar="ADDRESS",
+                   help=f"run {what} on this Dask scheduler (e.g. tcp://host:8786; a trusted one only, see "
+                        f"above); default: locally")
+    p.add_argument("--worker-timeout", type=float, default=None, metavar="SECONDS",
+                   help="with a scheduler: longest wait for its first worker before the run, and longest time "
+                        "without any worker during it (default 60); then a one-line error, the finished work "
+                        "kept")
+
+
 def _add_campaign(sub):
     p = _command(sub, "run", "run a scene file (TOML) and write its results",
                  "Run every period of a scene file and write DIR/<name>.nc. SCENE is a file, or the name of a "
@@ -212,14 +230,13 @@ def _add_campaign(sub):
                  "scene no longer uses).\n\nA results folder belongs to one scene (DIR/cwlidar-run.json): "
                  "another scene's (or a campaign's) results there are refused unless --overwrite, which removes "
                  "every file of the old run (its results file only once the new one is written). One run at a "
-                 "time: a second run into a folder in use is refused, naming the first one's pid.",
+                 "time: a second run into a folder in use is refused, naming the first one's pid." + "\n\n" + _DASK_TRUST,
                  ["cwlidar-sim scenes --write a2012 my_scene.toml     # a commented starting point",
                   "cwlidar-sim run my_scene.toml --out results/mine --figures",
                   "cwlidar-sim run my_scene.toml --out results/mine --dask tcp://scheduler:8786"])
     p.add_argument("scene", help="scene file (TOML), or a bundled scene's name")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    p.add_argument("--dask", default=None, metavar="ADDRESS",
-                   help="run the periods on this Dask scheduler (e.g. tcp://host:8786); default: locally")
+    _add_dask_options(p, "dask", "the periods")
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--figures", action="store_true", help="also write the figures (as 'report' does)")
@@ -240,7 +257,8 @@ def _add_campaign(sub):
                  "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods. "
                  "cs: a conically scanning ZephIR against a cup, 40-100 m, 1 s and 3 s scans, "
                  "18-42 10-min periods per height (each std ratio to a standard error of 0.01). nacelle: a nacelle lidar's REWS preview coherence at "
-                 "three focus distances, frozen and evolving turbulence, against the analytic coherence.",
+                 "three focus distances, frozen and evolving turbulence, against the analytic coherence."
+                 "\n\n" + _DASK_TRUST,
                  ["cwlidar-sim reproduce a2012 --out results            # about a minute on 2 cores",
                   "cwlidar-sim reproduce cs --quick --out results       # two periods per height",
                   "cwlidar-sim reproduce nacelle --quick --out results  # 5-min periods, under 3 min"])
@@ -249,27 +267,28 @@ def _add_campaign(sub):
                    help="a2012: shortened periods; cs: two periods per height (about a minute each); "
                         "nacelle: 5-min periods")
     p.add_argument("--out", default="results", metavar="DIR", help="output folder (default: results)")
-    p.add_argument("--dask", default=None, metavar="ADDRESS")
+    _add_dask_options(p, "dask", "the periods")
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--overwrite", action="store_true", help="replace another scene's results in DIR (see 'run')")
     p.set_defaults(func=_cmd_reproduce)
 
 
-def _client(address):
-    """A Dask client for ``address`` (checked first: an unreachable scheduler is a one-line error in seconds)."""
+def _worker_timeout(args) -> float:
+    """``--worker-timeout`` checked (a one-line error out of range), or the default."""
+    from ._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout
+
+    value = getattr(args, "worker_timeout", None)
+    return DEFAULT_WORKER_TIMEOUT if value is None else check_worker_timeout(value)
+
+
+def _client(address, worker_timeout=None):
+    """A Dask client for ``address`` with a worker (an unreachable or empty scheduler: a one-line error)."""
     if address is None:
         return None
-    from dask.distributed import Client
+    from ._dask import DEFAULT_WORKER_TIMEOUT, connect_scheduler
 
-    from ._preflight import PreflightError, check_scheduler
-
-    check_scheduler(address)
-    try:
-        return Client(address, timeout=10)
-    except (OSError, TimeoutError) as e:
-        raise PreflightError(f"dask scheduler {address} did not answer as a scheduler ({e}); "
-                             f"fix: check the address or run without --dask") from None
+    return connect_scheduler(address, worker_timeout=worker_timeout or DEFAULT_WORKER_TIMEOUT)
 
 
 def _run_and_report(scene, args, figures):
@@ -288,14 +307,15 @@ def _run_and_report(scene, args, figures):
     def log(line):
         print(line, file=sys.stderr)
 
-    # every check before the first period: names, folder, engine, disk, scheduler
+    # every check before the first period: names, folder, engine, disk, scheduler (reachable, with a worker)
+    timeout = _worker_timeout(args)
     folder.check_file_names(scene)
     preflight(args.out, _sensor(scene)[1](scene), scheduler=args.dask)
     with folder.locked(args.out):  # held across the run and its figures
-        client = _client(args.dask)
+        client = _client(args.dask, timeout)
         try:
             ds = run_scene(scene, args.out, client=client, progress=not args.no_progress, log=log,
-                           overwrite=args.overwrite)
+                           overwrite=args.overwrite, worker_timeout=timeout)
         except KeyboardInterrupt:
             print(f"cwlidar-sim {args.command}: interrupted; the finished periods are kept in "
                   f"{os.path.join(args.out, scene.name + '.periods')}; run the same command again to resume",
@@ -340,16 +360,19 @@ def _cmd_report(args) -> int:
     import os
 
     from ._preflight import check_writable
-    from .campaign import read_results
     from .campaign.figures import make_figures
+    from .campaign.results_file import open_results
 
+    if not os.path.isdir(args.dir):
+        raise ValueError(f"{args.dir!r} is not a folder; 'report' reads the results (*.nc) of a folder")
     files = sorted(glob.glob(os.path.join(args.dir, "*.nc")))
     if not files:
         raise ValueError(f"no results (*.nc) in {args.dir!r}; run 'cwlidar-sim run' or 'reproduce' first")
     check_writable(args.out or args.dir)  # before any file is read: the figures' folder takes files
+    # every file checked (type, signature, attributes) before the first figure is drawn
+    datasets = [open_results(f) for f in files]
     out = []
-    for f in files:
-        ds = read_results(f)
+    for f, ds in zip(files, datasets):
         sub = args.out or args.dir
         if len(files) > 1:
             sub = os.path.join(sub, os.path.splitext(os.path.basename(f))[0])
@@ -369,7 +392,7 @@ def _add_sweep(sub):
                  "Expand a campaign file into tasks (sweep points x replicas) and run them on a "
                  "local Dask cluster sized to the machine, or on --scheduler. Each finished task is "
                  "written at once; re-running resumes (done tasks skipped, failed ones retried). CAMPAIGN is a "
-                 "file, or the name of a bundled example ('cwlidar-sim scenes' lists them).",
+                 "file, or the name of a bundled example ('cwlidar-sim scenes' lists them).\n\n" + _DASK_TRUST,
                  ["cwlidar-sim campaign campaign_quick --dry-run          # tasks, estimated time and memory",
                   "cwlidar-sim campaign campaign_quick --out results/cq",
                   "cwlidar-sim campaign my_sweep.toml --out DIR --scheduler tcp://host:8786"])
@@ -377,7 +400,7 @@ def _add_sweep(sub):
     p.add_argument("--out", default=None, metavar="DIR", help="campaign folder (required unless --dry-run)")
     p.add_argument("--dry-run", action="store_true", help="list the tasks with estimated time and memory; run nothing")
     p.add_argument("--workers", type=int, default=None, help="local cluster workers (default: sized to the machine)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:8786)")
+    _add_dask_options(p, "scheduler", "the tasks")
     p.add_argument("--local", action="store_true", help="run the tasks in this process, one after the other")
     p.add_argument("--memory-limit", type=float, default=None, metavar="GB", help="memory per worker [GB]")
     p.add_argument("--no-progress", action="store_true")
@@ -399,6 +422,7 @@ def _add_sweep(sub):
 def _cmd_campaign(args) -> int:
     import os
 
+    from ._dask import WorkersLostError
     from ._preflight import PreflightError, check_scheduler
     from .campaign.batch import dry_run, plan_cluster, run_campaign
     from .campaign.sweep import load_campaign
@@ -421,6 +445,7 @@ def _cmd_campaign(args) -> int:
         return 0
     if args.out is None:
         raise ValueError("--out DIR is required (or --dry-run)")
+    timeout = _worker_timeout(args)
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
 
@@ -430,11 +455,14 @@ def _cmd_campaign(args) -> int:
     try:
         summary = run_campaign(spec, args.out, workers=args.workers, scheduler=args.scheduler, local=args.local,
                                memory_limit=None if args.memory_limit is None else args.memory_limit * 1e9,
-                               progress=not args.no_progress, log=log, overwrite=args.overwrite)
+                               progress=not args.no_progress, log=log, overwrite=args.overwrite,
+                               worker_timeout=timeout)
     except KeyboardInterrupt:
         print(f"cwlidar-sim campaign: interrupted; finished tasks are kept in {os.path.join(args.out, 'tasks')}; "
               f"run the same command again to resume", file=sys.stderr)
         return 130
+    except WorkersLostError:
+        raise  # main: one line, finished tasks kept, exit status 1
     except OSError as e:
         if "connect" in str(e).lower() or isinstance(e, TimeoutError):
             raise PreflightError(f"dask scheduler {args.scheduler} did not answer ({e}); fix: check the address") from None
@@ -477,7 +505,8 @@ def _cmd_probe_length(args) -> int:
     import os
 
     from .analysis.estimator_theory import DEFAULT_BAND
-    from .campaign import fit_probe_length_results, read_results
+    from .campaign import fit_probe_length_results
+    from .campaign.results_file import open_results
 
     path = args.results
     if os.path.isdir(path):
@@ -485,9 +514,9 @@ def _cmd_probe_length(args) -> int:
         if len(files) != 1:
             raise ValueError(f"{path!r} holds {len(files)} results files (*.nc); name one")
         path = files[0]
-    if not os.path.isfile(path):
+    if not os.path.lexists(path):
         raise ValueError(f"no results file {path!r}")
-    ds = read_results(path)
+    ds = open_results(path, sensor="staring")
     fit = fit_probe_length_results(ds, estimator=args.estimator, band=tuple(args.band or DEFAULT_BAND),
                                    n_lines=args.lines)
     out = fit.summary()
@@ -508,7 +537,7 @@ def _add_twin(sub):
                  "scenes: the scanning lidar, cup and sonic in N conditioned boxes; per period every twin's 10-min "
                  "lidar mean and std, std ratio, TP, ... with their spread). Bad records are refused before "
                  "anything is computed; a rerun skips the finished periods whose inputs are unchanged; --dask runs "
-                 "every (period, twin) on a cluster with the same result.",
+                 "every (period, twin) on a cluster with the same result.\n\n" + _DASK_TRUST,
                  ["python -c 'from cwlidar_sim.campaign.twin_example import write_twin_example as w; "
                   "w(\"ex\")'   # the bundled example's truth and CSV",
                   "cwlidar-sim twin ex/twin.toml --twins 8 --out results/twin",
@@ -520,9 +549,7 @@ def _add_twin(sub):
     p.add_argument("--out", required=True, help="output folder (created; resumed if it holds finished periods)")
     p.add_argument("--periods", type=int, nargs="+", default=None, metavar="K", help="only these period indices")
     p.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
-    p.add_argument("--dask", default=None, metavar="ADDRESS",
-                   help="run every (period, twin) as a task on this Dask scheduler (e.g. tcp://host:8786); "
-                        "default: locally; the files are the same bit for bit")
+    _add_dask_options(p, "dask", "every (period, twin) as a task (the files are the same bit for bit)")
     p.set_defaults(func=_cmd_twin)
 
 
@@ -541,7 +568,7 @@ def _cmd_twin(args) -> int:
     # are written one by one, so a disk that fills later keeps the finished ones)
     longest = max(scene.period_duration(p) for p in scene.periods)
     preflight(args.out, 1e6 + 2 * 8 * 10 * longest * max(1, args.twins), engine=True)
-    client = _client(args.dask)
+    client = _client(args.dask, _worker_timeout(args))
     try:
         files = run_twin(scene, args.out, paths=args.records, n_twins=args.twins, progress=log, periods=args.periods,
                          client=client)

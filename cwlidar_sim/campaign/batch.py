@@ -38,14 +38,17 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import shutil
 import time
 
 from .. import _config
 from .._atomic import atomic_open, atomic_path
+from .._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed, connect_scheduler
 from .._preflight import preflight
 from . import folder, runner
-from .store import read_results, write_results
+from .results_file import open_results
+from .store import write_results
 from .sweep import CampaignSpec, _expand_values, estimate_task, expand
 
 __all__ = ["run_campaign", "merge_campaign", "plan_cluster", "dry_run", "CampaignIndex"]
@@ -122,9 +125,12 @@ class CampaignIndex:
         if os.path.isfile(self.path):
             try:
                 with open(self.path, encoding="utf-8") as fh:
-                    self.entries = json.load(fh).get("tasks", {})
-            except (OSError, ValueError):
-                self.entries = {}
+                    entries = json.load(fh).get("tasks", {})
+            except (OSError, ValueError, AttributeError):  # unreadable or not an index: every task is redone
+                entries = {}
+            # an entry that is not a table (a foreign or damaged index) counts as not done
+            if isinstance(entries, dict):
+                self.entries = {k: v for k, v in entries.items() if isinstance(v, dict)}
 
     def record(self, task, status, key=None, **info) -> None:
         """Record ``task`` as ``status`` ('done' or 'failed'); ``key``: the identity of its results."""
@@ -146,7 +152,8 @@ def _run_unit(scene, index, params, threads):
 
 
 def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, client=None, local=False,
-                 memory_limit=None, progress=True, log=None, on_task=None, on_unit=None, overwrite=False) -> dict:
+                 memory_limit=None, progress=True, log=None, on_task=None, on_unit=None, overwrite=False,
+                 worker_timeout: float = DEFAULT_WORKER_TIMEOUT) -> dict:
     """Run (or resume) every task of a campaign.
 
     Parameters
@@ -157,7 +164,9 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     workers : int, optional
         Workers of the local Dask cluster (default: :func:`plan_cluster`).
     scheduler : str, optional
-        Address of an existing Dask scheduler to send the tasks to instead.
+        Address of an existing Dask scheduler to send the tasks to instead;
+        only one you trust (its workers run what they are sent, results come
+        back by pickle: see the README's Dask section).
     client : dask.distributed.Client, optional
         An existing client (takes precedence over ``scheduler``).
     local : bool
@@ -182,6 +191,11 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
         locked for the whole run (a second run into it is refused, naming the
         first one's pid) and temporaries a killed run left are removed at the
         start (:mod:`cwlidar_sim.campaign.folder`).
+    worker_timeout : float
+        With a scheduler: the longest wait for its first worker before
+        anything is computed (then a PreflightError), and the longest the
+        cluster may have no worker while units are pending (then
+        :class:`~cwlidar_sim._dask.WorkersLostError`; what finished is kept) [s].
 
     Returns
     -------
@@ -193,6 +207,7 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     if not isinstance(spec, CampaignSpec):
         raise TypeError(f"spec must be a CampaignSpec, got {type(spec).__name__}")
     say = log or (lambda s: None)
+    worker_timeout = check_worker_timeout(worker_timeout)
     t0 = time.perf_counter()
     tasks = expand(spec)
     out_dir = os.fspath(out_dir)
@@ -205,13 +220,13 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
         manifest = folder.claim(out_dir, spec.name, "campaign", overwrite=overwrite, log=say)
         summary = _run_campaign(spec, out_dir, tasks, t0, say, workers=workers, scheduler=scheduler, client=client,
                                 local=local, memory_limit=memory_limit, progress=progress, on_task=on_task,
-                                on_unit=on_unit)
+                                on_unit=on_unit, worker_timeout=worker_timeout)
         folder.finish(out_dir, manifest, "index.json", log=say)  # an overwritten scene's results file goes now
         return summary
 
 
 def _run_campaign(spec, out_dir, tasks, t0, say, *, workers, scheduler, client, local, memory_limit, progress,
-                  on_task, on_unit) -> dict:
+                  on_task, on_unit, worker_timeout) -> dict:
     """:func:`run_campaign` once its folder is locked and claimed."""
     task_dir = os.path.join(out_dir, "tasks")
     os.makedirs(task_dir, exist_ok=True)
@@ -257,7 +272,7 @@ def _run_campaign(spec, out_dir, tasks, t0, say, *, workers, scheduler, client, 
         from dask.distributed import Client, LocalCluster
 
         if scheduler is not None:
-            client = Client(scheduler, timeout=10)
+            client = connect_scheduler(scheduler, worker_timeout=worker_timeout)  # waits for a worker
         else:
             plan = plan_cluster(n_units, max(e["memory_bytes"] for e in est.values()), workers)
             say(f"local Dask cluster: {plan['workers']} workers x {plan['threads']} threads ({plan['why']})")
@@ -342,8 +357,6 @@ def _run_campaign(spec, out_dir, tasks, t0, say, *, workers, scheduler, client, 
             if not pending[t.task_id]:
                 task_done(t, time.perf_counter())
         if client is not None and n_units:
-            from dask.distributed import as_completed
-
             futures = {}
             for t in runnable:
                 run = runs[t.task_id]
@@ -352,7 +365,8 @@ def _run_campaign(spec, out_dir, tasks, t0, say, *, workers, scheduler, client, 
                                           key=f"unit-{t.task_id}-{i}")] = (t, i)
             started = time.perf_counter()
             try:
-                for fut in as_completed(futures):
+                # as dask's as_completed, but stops when the cluster has had no worker for worker_timeout s
+                for fut in completed(client, futures, worker_timeout=worker_timeout, address=scheduler):
                     t, i = futures[fut]
                     try:
                         ds = fut.result()
@@ -390,19 +404,66 @@ def _run_campaign(spec, out_dir, tasks, t0, say, *, workers, scheduler, client, 
     return summary
 
 
-def _dim_names(sweep):
-    """Dimension name of each sweep group (its first key's last part, or the whole key if that collides)."""
+#: Names merge_campaign gives coordinates of its own along ``task``; a sweep dimension may not take them.
+_MERGE_NAMES = ("task", "replica", "task_seed")
+
+
+def _dim_names(sweep, taken=()):
+    """Dimension name of each sweep group: its first key's last part; ``sweep_<part>`` if a results file uses that.
+
+    The whole key (dots as underscores) when two groups' last parts are the
+    same; ``sweep_<part>`` when the last part names a dimension of the task
+    files or a coordinate of the merge itself (``taken``): a sweep over
+    ``lidar.instrument.estimator`` is ``sweep_estimator`` beside the
+    per-estimator theory's own ``estimator`` dimension.  A data variable of
+    that name (``mean_speed``, the period's nominal speed) becomes the sweep
+    coordinate, as it always did.
+    """
+    taken = set(taken) | set(_MERGE_NAMES)
     firsts = [next(iter(g)) for g in sweep]
     short = [k.rsplit(".", 1)[-1] for k in firsts]
-    return [s if short.count(s) == 1 else k.replace(".", "_") for s, k in zip(short, firsts)]
+    names = [s if short.count(s) == 1 else k.replace(".", "_") for s, k in zip(short, firsts)]
+    return [f"sweep_{n}" if n in taken else n for n in names]
+
+
+def _read_campaign_meta(out_dir) -> dict:
+    """``campaign.json`` of a campaign folder, its shape checked: a ValueError names the file and the fault."""
+    path = os.path.join(out_dir, "campaign.json")
+    try:
+        with open(path, encoding="utf-8") as fh:
+            meta = json.load(fh)
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{out_dir!r} is not a campaign folder (campaign.json: {e}); "
+                         f"run 'cwlidar-sim campaign' first") from None
+    tasks = meta.get("tasks") if isinstance(meta, dict) else None
+    if not isinstance(meta, dict) or not isinstance(meta.get("campaign"), dict) or not isinstance(tasks, list):
+        raise ValueError(f"{path!r} is not a cwlidar_sim campaign file: it needs a 'campaign' table and a "
+                         f"'tasks' list")
+    sweep = meta["campaign"].get("sweep", [])
+    if not isinstance(sweep, list) or not all(isinstance(g, dict) and g for g in sweep):
+        raise ValueError(f"{path!r}: 'campaign.sweep' must be a list of non-empty tables")
+    for i, t in enumerate(tasks):
+        ok = (isinstance(t, dict) and isinstance(t.get("task_id"), str)
+              and re.fullmatch(r"[A-Za-z0-9_-]{1,64}", t["task_id"]) is not None
+              and isinstance(t.get("values"), dict) and all(k in t["values"] for g in sweep for k in g)
+              and "replica" in t and "seed" in t)
+        if not ok:
+            raise ValueError(f"{path!r}: tasks[{i}] is not a task of this campaign (it needs a task_id of "
+                             f"letters and digits, the values of every sweep key, replica and seed)")
+    return meta
 
 
 def merge_campaign(out_dir, *, keep_series=False, band=(0.02, 0.6)):
     """All finished tasks of a campaign folder as one Dataset with the sweep dimensions as coordinates.
 
-    Dimensions: one per sweep group (named after its first key; the group's
-    other keys are coordinates along it), ``replica``, and the scene's own
-    (``period``, ``k``, ...).  Missing (failed) combinations are NaN.  The
+    Dimensions: one per sweep group (named after its first key's last part,
+    ``sweep_<part>`` when the task files have a dimension of that name, e.g.
+    ``sweep_estimator`` beside the per-estimator theory's ``estimator``; the
+    group's other keys are coordinates along it; the names are in
+    ``attrs["sweep_dims"]``), ``replica``, and the scene's own
+    (``period``, ``k``, ...).  Every task file is checked before it is read
+    (:func:`cwlidar_sim.campaign.results_file.open_results`): a damaged or
+    foreign one is a ValueError naming it.  Missing (failed) combinations are NaN.  The
     raw time series stay in the task files unless ``keep_series``.
 
     Added per task and period, for staring scenes: ``t2_log_error`` and
@@ -414,23 +475,29 @@ def merge_campaign(out_dir, *, keep_series=False, band=(0.02, 0.6)):
     import xarray as xr
 
     out_dir = os.fspath(out_dir)
-    try:
-        with open(os.path.join(out_dir, "campaign.json"), encoding="utf-8") as fh:
-            meta = json.load(fh)
-    except (OSError, ValueError) as e:
-        raise ValueError(f"{out_dir!r} is not a campaign folder (campaign.json: {e}); run 'cwlidar-sim campaign' first")
+    meta = _read_campaign_meta(out_dir)
     index = CampaignIndex(out_dir).entries
     sweep = meta["campaign"].get("sweep", [])
-    dims = _dim_names(sweep)
-    parts = []
+    done = []
     for t in meta["tasks"]:
         e = index.get(t["task_id"])
-        if not e or e.get("status") != "done":
+        if not isinstance(e, dict) or e.get("status") != "done":
             continue
-        ds = read_results(os.path.join(out_dir, e["result"]))
-        if not keep_series:
+        # the task's own file, whatever index.json says: a path there could point outside the folder
+        path = os.path.join(out_dir, "tasks", f"{t['task_id']}.nc")
+        try:
+            ds = open_results(path, what="task file")
+        except ValueError as err:
+            raise ValueError(f"{err}; fix: delete it and run 'cwlidar-sim campaign' again to recompute that "
+                             f"task") from None
+        if not keep_series:  # dropped at once: only one task's series is in memory at a time
             ds = ds.drop_vars([n for n, v in ds.data_vars.items() if any(d.startswith("time_") for d in v.dims)])
             ds = ds.drop_dims([d for d in ds.dims if d.startswith("time_")])
+        done.append((t, ds))
+    # a sweep dimension named like one of the task files' own (e.g. 'estimator') is renamed 'sweep_<name>'
+    dims = _dim_names(sweep, {d for _, ds in done for d in ds.dims})
+    parts = []
+    for t, ds in done:
         if "transfer_cross" in ds:
             k = ds.k
             inband = (k >= band[0]) & (k <= band[1])

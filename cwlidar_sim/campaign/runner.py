@@ -26,6 +26,7 @@ import json
 import os
 import time
 
+from .._dask import DEFAULT_WORKER_TIMEOUT, completed
 from . import conical, folder, nacelle, staring, store
 from .auto import resolve
 from .conical_scene import ConicalScene
@@ -169,7 +170,7 @@ def prepare_scene(scene, out_dir=None, *, log=None, check: bool = True) -> Scene
 
 
 def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True, log=None, on_period=None,
-              overwrite: bool = False):
+              overwrite: bool = False, worker_timeout: float = DEFAULT_WORKER_TIMEOUT):
     """Run every period of a scene, keep each as it finishes, and assemble the results.
 
     Parameters
@@ -183,7 +184,9 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         already stored there for the same scene are reused, not computed.
     client : dask.distributed.Client, optional
         Run the periods on this cluster (one task per period); default: here,
-        one after the other.  The results are identical bit for bit.
+        one after the other.  The results are identical bit for bit.  Use
+        only a cluster you trust: its workers run what they are sent, and
+        results come back by pickle (see the README's Dask section).
     progress : bool
         Show a progress bar (tqdm) over the periods.
     log : callable, optional
@@ -197,6 +200,10 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         When ``out_dir`` holds another scene's (or a campaign's) results: remove
         them and run (default: refuse, :class:`PreflightError`); for the same
         scene: compute every period afresh.  See :mod:`cwlidar_sim.campaign.folder`.
+    worker_timeout : float
+        With ``client``: the longest the cluster may have no worker while
+        periods are pending [s]; then :class:`~cwlidar_sim._dask.WorkersLostError`
+        (the finished periods stay, a rerun resumes).
 
     Returns
     -------
@@ -214,19 +221,21 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         Before anything is computed, when a scene or period name cannot name a file.
     ResultsWriteError
         When writing a finished period fails (the periods written before stay).
+    WorkersLostError
+        When the cluster has had no worker for ``worker_timeout`` seconds.
     """
     say = log or (lambda s: None)
     if out_dir is None:
-        return _run_scene(scene, None, client, progress, say, on_period, None)
+        return _run_scene(scene, None, client, progress, say, on_period, None, worker_timeout)
     folder.check_file_names(scene)
     preflight(out_dir)  # writable, engine: before the folder is locked and claimed (the disk: once resolved)
     with folder.locked(out_dir):
         folder.clean_temporaries(out_dir, say)
         manifest = folder.claim(out_dir, scene.name, scene.kind, overwrite=overwrite, log=say)
-        return _run_scene(scene, out_dir, client, progress, say, on_period, manifest)
+        return _run_scene(scene, out_dir, client, progress, say, on_period, manifest, worker_timeout)
 
 
-def _run_scene(scene, out_dir, client, progress, say, on_period, manifest):
+def _run_scene(scene, out_dir, client, progress, say, on_period, manifest, worker_timeout):
     """:func:`run_scene` once the folder is locked and claimed (``manifest``; None: nothing written)."""
     t0 = time.perf_counter()
     run = prepare_scene(scene, out_dir, log=say)
@@ -241,11 +250,10 @@ def _run_scene(scene, out_dir, client, progress, say, on_period, manifest):
             on_period(i, ds)
 
     if client is not None and todo:
-        from dask.distributed import as_completed
-
         futures = {client.submit(run.task, scene, i, run.params, pure=False): i for i in todo}
         try:
-            for fut in as_completed(futures):
+            # as dask's as_completed, but stops when the cluster has had no worker for worker_timeout s
+            for fut in completed(client, futures, worker_timeout=worker_timeout):
                 finish(futures[fut], fut.result())
         finally:
             for fut in futures:

@@ -23,7 +23,8 @@ from .._validation import check_keys, check_real, check_str, did_you_mean
 
 __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field", "check_scene_name",
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
-           "parse_toml", "check_distinct_reals", "resolve_path"]
+           "parse_toml", "open_regular_file", "toml_depth", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "check_distinct_reals",
+           "resolve_path"]
 
 #: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`);
 #: raised whenever stored periods would differ from what the code now computes (3: the gridded
@@ -182,22 +183,113 @@ def condition_on_as_dicts(entries) -> list:
     return [{k: v for k, v in r.as_dict().items() if v is not None and v != {}} for r in entries]
 
 
-def read_text_file(path, what: str) -> tuple[str, str]:
-    """(text, folder) of a TOML file; an unreadable file is a ValueError naming ``what`` and the path."""
+#: Largest TOML file read [bytes]: the biggest scene or campaign file is a few kB; a file far
+#: larger is not one (a log, a data file named by mistake) and is refused before it is read.
+MAX_TOML_BYTES = 1 << 20
+#: Deepest nesting of tables and arrays accepted in a TOML file: a scene goes 4 levels deep
+#: ([[turbulence.condition_on]] with its inline tables); Python's parser recurses once per level
+#: and fails with a RecursionError near a thousand.
+MAX_TOML_DEPTH = 32
+
+
+def open_regular_file(path, what: str):
+    """A binary file object for ``path`` after checking it is a regular file (never blocks).
+
+    The file is opened non-blocking and checked with ``fstat`` on the open
+    descriptor, so a FIFO, a socket, a device or a directory named like a
+    data file is refused at once instead of blocking the reader forever.
+
+    Raises
+    ------
+    ValueError
+        Naming ``what``, the path and what it is instead.
+    """
+    import stat
+
     path = os.fspath(path)
     try:
-        with open(path, encoding="utf-8") as fh:
-            text = fh.read()
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except IsADirectoryError:
+        raise ValueError(f"{what} {path!r} is a directory, not a file") from None
     except OSError as e:
-        raise ValueError(f"cannot read {what} file {path!r}: {e.strerror}") from None
+        raise ValueError(f"cannot read {what} {path!r}: {e.strerror or e}") from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        kind = ("a directory" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode)
+                else "a socket" if stat.S_ISSOCK(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                else "not a regular file")
+        why = "" if stat.S_ISDIR(mode) else " (reading it could block forever)"
+        raise ValueError(f"{what} {path!r} is {kind}, not a regular file; refused{why}")
+    if hasattr(os, "set_blocking"):
+        os.set_blocking(fd, True)
+    return os.fdopen(fd, "rb")
+
+
+def read_text_file(path, what: str) -> tuple[str, str]:
+    """(text, folder) of a TOML file; an unreadable, oversized or non-UTF-8 one: a ValueError naming ``what`` and it.
+
+    The file must be a regular file (:func:`open_regular_file`) of at most
+    :data:`MAX_TOML_BYTES`, checked before it is read.
+    """
+    path = os.fspath(path)
+    with open_regular_file(path, f"{what} file") as fh:
+        size = os.fstat(fh.fileno()).st_size
+        if size > MAX_TOML_BYTES:
+            raise ValueError(f"{what} file {path!r} is {size} bytes, more than the {MAX_TOML_BYTES} bytes a "
+                             f"{what} file may have (a scene or campaign file is a few kB); refused before reading")
+        try:
+            data = fh.read(MAX_TOML_BYTES + 1)
+        except OSError as e:
+            raise ValueError(f"cannot read {what} file {path!r}: {e.strerror or e}") from None
+    if len(data) > MAX_TOML_BYTES:  # grew while read
+        raise ValueError(f"{what} file {path!r} is more than {MAX_TOML_BYTES} bytes; refused")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{what} file {path!r} is not UTF-8 text (byte {e.start}: {e.reason}); "
+                         f"a TOML file must be UTF-8") from None
     return text, os.path.dirname(os.path.abspath(path))
 
 
+def toml_depth(obj) -> int:
+    """Nesting depth of parsed TOML (tables and arrays; a scalar is 0), walked without recursion."""
+    deepest, stack = 0, [(obj, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if isinstance(node, dict):
+            children = node.values()
+        elif isinstance(node, list):
+            children = node
+        else:
+            continue
+        deepest = max(deepest, depth + 1)
+        stack.extend((c, depth + 1) for c in children)
+    return deepest
+
+
 def parse_toml(text: str, what: str) -> dict:
-    """TOML text as a dict; invalid TOML is a ValueError naming ``what``."""
+    """TOML text as a dict; invalid or too deeply nested TOML is a ValueError naming ``what``.
+
+    Nesting deeper than :data:`MAX_TOML_DEPTH` levels is refused: no scene
+    needs it, and the parser (recursive) or the code reading the tables
+    would otherwise end in a RecursionError traceback.
+    """
     import tomllib
 
+    if not isinstance(text, str):
+        raise TypeError(f"{what} text must be a str, got {type(text).__name__}")
+    if len(text) > MAX_TOML_BYTES:
+        raise ValueError(f"{what} is {len(text)} characters, more than the {MAX_TOML_BYTES} a {what} file may have")
     try:
-        return tomllib.loads(text)
+        d = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"{what} is not valid TOML: {e}") from None
+    except RecursionError:
+        raise ValueError(f"{what}: TOML nested deeper than {MAX_TOML_DEPTH} levels (tables or arrays); "
+                         f"refused") from None
+    depth = toml_depth(d)
+    if depth > MAX_TOML_DEPTH:
+        raise ValueError(f"{what}: TOML nested deeper than {MAX_TOML_DEPTH} levels ({depth} levels of tables or "
+                         f"arrays); refused")
+    return d

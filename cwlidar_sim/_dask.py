@@ -1,0 +1,133 @@
+"""A Dask scheduler that is there and has workers: connected with bounded waits, watched while it computes.
+
+Dask itself waits forever: a client of a scheduler without workers, or whose
+last worker died, keeps its tasks pending with no error.  Here
+:func:`connect_scheduler` (before anything is computed) waits at most
+``worker_timeout`` seconds for a first worker, and :func:`completed` (during
+the run) stops with :class:`WorkersLostError` once the scheduler has had no
+worker, or has not answered, for ``worker_timeout`` seconds.  What finished
+before is kept by the callers, so the same command resumes.
+
+Security: a Dask scheduler runs whatever its clients send, and results come
+back by pickle, which runs code when read.  Connect only to schedulers (and
+their workers) that you and only you control; see the README's Dask section.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from ._preflight import PreflightError, check_scheduler
+
+__all__ = ["DEFAULT_WORKER_TIMEOUT", "WorkersLostError", "check_worker_timeout", "connect_scheduler", "completed"]
+
+#: Seconds to wait for a first worker before a run, and the longest a run waits without any worker [s].
+DEFAULT_WORKER_TIMEOUT = 60.0
+#: How often a waiting run asks the scheduler for its workers [s].
+POLL_S = 1.0
+
+
+class WorkersLostError(TimeoutError):
+    """The scheduler has had no worker (or has not answered) for longer than the timeout; finished units are kept."""
+
+
+def check_worker_timeout(value) -> float:
+    """``worker_timeout`` [s] as a float in (0, 86400]; else a ValueError naming it."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or not 0 < value <= 86400:
+        raise ValueError(f"worker_timeout (--worker-timeout) {value!r} s is out of range; allowed: "
+                         f"0 < seconds <= 86400 (how long to wait for a Dask worker)")
+    return float(value)
+
+
+def connect_scheduler(address: str, *, worker_timeout: float = DEFAULT_WORKER_TIMEOUT, connect_timeout: float = 10.0):
+    """A ``dask.distributed.Client`` of ``address`` with at least one worker, or a one-line PreflightError.
+
+    Parameters
+    ----------
+    address : str
+        Scheduler address (``tcp://host:8786``; see :func:`~cwlidar_sim._preflight.check_scheduler`).
+    worker_timeout : float
+        Longest wait for a first worker [s].
+    connect_timeout : float
+        Longest wait for the scheduler to answer [s].
+
+    Raises
+    ------
+    PreflightError
+        The address is malformed, the scheduler is unreachable or does not
+        answer as one, or no worker arrived in ``worker_timeout`` seconds;
+        the message names the address.
+    """
+    from dask.distributed import Client
+
+    worker_timeout = check_worker_timeout(worker_timeout)
+    check_scheduler(address)
+    try:
+        client = Client(address, timeout=connect_timeout)
+    except (OSError, ValueError) as e:  # TimeoutError is an OSError; a malformed address is a ValueError
+        raise PreflightError(f"dask scheduler {address} did not answer as a scheduler ({e}); "
+                             f"fix: check the address or run without Dask") from None
+    try:
+        client.wait_for_workers(1, timeout=worker_timeout)
+    except (OSError, ValueError) as e:  # distributed's WorkerStartTimeoutError is a TimeoutError
+        client.close()
+        raise PreflightError(f"dask scheduler {address} has no worker: none arrived in {worker_timeout:g} s "
+                             f"({e}); fix: start one (dask worker {address}), wait longer (--worker-timeout) "
+                             f"or run without Dask") from None
+    return client
+
+
+def _n_workers(client) -> int:
+    """Workers the scheduler has now (asked, not cached); 0 when it does not answer."""
+    try:
+        return len(client.nthreads())
+    except (OSError, ValueError, RuntimeError):  # scheduler gone: CommClosedError is an OSError
+        return 0
+
+
+def completed(client, futures, *, worker_timeout: float = DEFAULT_WORKER_TIMEOUT, address=None, poll: float = POLL_S):
+    """Yield ``futures`` as they finish (with a result or an error), like ``dask.distributed.as_completed``.
+
+    Unlike it, raise :class:`WorkersLostError` once the scheduler has had no
+    worker, or has not answered, for ``worker_timeout`` seconds while
+    futures are pending: Dask would wait forever.
+
+    Parameters
+    ----------
+    client : dask.distributed.Client
+    futures : iterable of Future
+    worker_timeout : float
+        Longest time without any worker [s].
+    address : str, optional
+        The scheduler's address, for the message (default: the client's).
+    poll : float
+        Seconds between two questions to the scheduler while nothing finishes.
+    """
+    from dask.distributed import wait
+
+    worker_timeout = check_worker_timeout(worker_timeout)
+    pending = set(futures)
+    alone_since = None
+    while pending:
+        try:
+            done, _ = wait(list(pending), timeout=poll, return_when="FIRST_COMPLETED")
+        except TimeoutError:
+            done = set()
+        # a future that lost its scheduler is 'cancelled' or 'lost'; still reported, result() raises
+        done = {f for f in pending if f in done or f.status in ("finished", "error", "cancelled", "lost")}
+        for f in done:
+            pending.discard(f)
+            yield f
+        if done or not pending:
+            alone_since = None
+            continue
+        if _n_workers(client):
+            alone_since = None
+        elif alone_since is None:
+            alone_since = time.monotonic()
+        elif time.monotonic() - alone_since > worker_timeout:
+            where = address or getattr(client.scheduler, "address", None) or "the scheduler"
+            raise WorkersLostError(f"dask scheduler {where} has had no worker for {worker_timeout:g} s "
+                                   f"with {len(pending)} task(s) pending; stopped (--worker-timeout)")

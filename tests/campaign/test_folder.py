@@ -321,3 +321,12 @@ def test_the_old_results_survive_a_failed_final_write(tmp_path, monkeypatch):
             run_scene(sc, tmp_path, progress=False, **kw)
         assert (tmp_path / "one.nc").read_bytes() == before
     assert not [p for p in tmp_path.rglob(".tmp-*")]
+
+
+def test_a_look_alike_of_a_separator_stays_inside_the_folder(tmp_path):
+    """U+2215 (division slash) and U+FF0E (fullwidth full stop) look like '/' and '.' but are plain characters."""
+    out = tmp_path / "out"
+    ds = run_scene(scene(q="\uff0e\uff0e\u2215x"), out, progress=False)
+    assert list(ds.period.values) == ["P", "\uff0e\uff0e\u2215x"]
+    assert sorted(os.listdir(out / "one.periods")) == ["000_P.nc", "001_\uff0e\uff0e\u2215x.nc"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

@@ -330,3 +330,19 @@ def test_a_look_alike_of_a_separator_stays_inside_the_folder(tmp_path):
     assert list(ds.period.values) == ["P", "\uff0e\uff0e\u2215x"]
     assert sorted(os.listdir(out / "one.periods")) == ["000_P.nc", "001_\uff0e\uff0e\u2215x.nc"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_crafted_manifest_never_removes_a_file_outside_the_folder(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    victims = [tmp_path / "victim.png", tmp_path / "victim.nc", tmp_path / "x.periods"]
+    for v in victims:
+        v.write_text("keep me")
+    folder.write_manifest(out, {"name": "../x", "kind": "staring", "digest": "0", "results": "../victim.nc",
+                                "figures": ["../victim.png", str(tmp_path / "victim.png")],
+                                "remove_after": ["../victim.nc"]})
+    run_scene(scene("one"), out, progress=False, overwrite=True)
+    folder.write_manifest(out, {"name": "one", "kind": "staring", "digest": "changed", "results": "one.nc",
+                                "figures": ["../victim.png"], "remove_after": ["../victim.nc"]})
+    run_scene(scene("one"), out, progress=False)
+    assert all(v.read_text() == "keep me" for v in victims)

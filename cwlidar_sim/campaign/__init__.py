@@ -10,9 +10,10 @@ the stages below the campaign layer):
     The scene files: conical (:class:`ConicalScene`), nacelle
     (:class:`NacelleScene`) and staring (:class:`Scene`); :func:`load_scene`
     reads any by ``kind``.
-``planning``, ``auto``, ``store``
+``planning``, ``auto``, ``folder``, ``store``
     A staring period's field and tensor; the automatic fidelity choice;
-    results on disk (checks, per-unit files, resume).
+    a results folder's lock, owner (manifest, ``overwrite``), orphaned
+    temporaries and safe names; results on disk (checks, per-unit files, resume).
 ``staring``, ``conical_period``, ``conical``, ``nacelle``
     One unit of work of each scene kind: a staring period, a conical period
     (field, lidar, cup, sonic, VAD fits, CS's model) and the conical scene's

@@ -14,7 +14,10 @@ Layout of a campaign folder ``DIR``:
   removed once the task's file is written;
 * ``tasks/<task_id>.nc``: each finished task's results (a scene results file,
   as :func:`cwlidar_sim.campaign.run_scene` writes);
-* ``campaign.nc`` and ``figures/``: written by :func:`merge_campaign`.
+* ``campaign.nc`` and ``figures/``: written by :func:`merge_campaign`;
+* ``cwlidar-run.json`` and ``.cwlidar-sim.lock``: the folder's owner (this
+  campaign: a scene's or another campaign's folder is refused unless
+  ``overwrite``) and the lock a run holds (:mod:`cwlidar_sim.campaign.folder`).
 
 Every unit of every task is its own Dask task, and the driver writes every
 file, so workers need no shared file system.  Re-running the same command

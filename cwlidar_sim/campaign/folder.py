@@ -195,7 +195,14 @@ def _legacy_owner(folder, name: str, kind: str) -> list:
     return sorted(set(found))
 
 
+def _plain(rel) -> bool:
+    """Whether a manifest's entry is a plain file name in the folder (a damaged or crafted one may not be)."""
+    return isinstance(rel, str) and rel not in ("", ".", "..") and os.path.basename(rel) == rel and "\\" not in rel
+
+
 def _remove(folder, rel, log) -> None:
+    if not _plain(rel):
+        return
     path = os.path.join(folder, rel)
     if os.path.isdir(path) and not os.path.islink(path):
         shutil.rmtree(path)
@@ -263,7 +270,7 @@ def claim(folder, name: str, kind: str, *, overwrite: bool = False, log=None) ->
 
 def finish(folder, manifest: dict, results: str, log=None) -> None:
     """After the new results file ``results`` is written: remove the old run's results, record the new."""
-    for rel in manifest.get("remove_after", []):
+    for rel in filter(_plain, manifest.get("remove_after", [])):
         path = os.path.join(os.fspath(folder), rel)
         if os.path.isfile(path):
             os.unlink(path)
@@ -290,7 +297,7 @@ def settle(folder, manifest: dict, digest: str, periods_dir, keep, log=None) -> 
         if log is not None:
             log(f"the scene {manifest['name']!r} changed since its results in {folder!r} were written: "
                 f"the periods it affects are computed again, the others reused; the old figures are removed")
-        stale += [os.path.join(folder, f) for f in manifest.get("figures", [])]
+        stale += [os.path.join(folder, f) for f in manifest.get("figures", []) if _plain(f)]
         manifest["figures"] = []
     for path in stale:
         if os.path.isfile(path):

@@ -248,3 +248,101 @@ def test_campaign_and_scene_folders_do_not_mix(tmp_path, monkeypatch):
     assert json.loads((out / "index.json").read_text())["tasks"]
     with pytest.raises(PreflightError, match="campaign 'c', not of the staring scene 'one'"):
         run_scene(scene(), out, progress=False)
+
+
+def hold_lock(folder_path):
+    """A child process holding the folder's lock (as a live run would); returns it once it holds it."""
+    folder_path.mkdir(parents=True, exist_ok=True)
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import fcntl, os, time\n"
+        f"fd = os.open({str(folder_path / folder.LOCK_NAME)!r}, os.O_RDWR | os.O_CREAT)\n"
+        "fcntl.flock(fd, fcntl.LOCK_EX)\n"
+        "os.write(fd, str(os.getpid()).encode())\n"
+        "print('locked', flush=True)\n"
+        "time.sleep(60)\n")], stdout=subprocess.PIPE, text=True)
+    assert holder.stdout.readline().strip() == "locked"
+    return holder
+
+
+def test_a_campaign_folder_is_locked_and_its_orphans_cleaned(tmp_path, monkeypatch):
+    from cwlidar_sim.campaign import batch
+    from cwlidar_sim.campaign.sweep import loads_campaign
+
+    (tmp_path / "base.toml").write_text(TEXT.format(name="base", p="P", q="Q"))
+    spec = loads_campaign('name = "c"\nseed = 3\nbase = "base.toml"\n[[sweep]]\n"lidar.span" = [10.0]\n',
+                          base_dir=str(tmp_path))
+    out = tmp_path / "o"
+    calls = []
+    real = batch._run_unit
+    monkeypatch.setattr(batch, "_run_unit", lambda *a: calls.append(a[1]) or real(*a))
+    holder = hold_lock(out)
+    try:
+        with pytest.raises(PreflightError, match=rf"in use by another run \(pid {holder.pid}\)"):
+            batch.run_campaign(spec, out, local=True, progress=False)
+    finally:
+        holder.kill()
+        holder.wait()
+    assert calls == [] and not (out / "tasks").exists()
+
+    def stop(task, index):
+        raise Stop
+
+    with pytest.raises(Stop):
+        batch.run_campaign(spec, out, local=True, progress=False, on_unit=stop)
+    (task_dir,) = [p for p in (out / "tasks").iterdir() if p.is_dir()]
+    orphans = [task_dir / "base.periods" / ".tmp-k1.nc", out / "index.json.tmp-4242"]
+    for p in orphans:
+        p.write_bytes(b"half")
+    calls.clear()
+    present = []  # seen while the task runs (its folder is removed once it is done)
+    s = batch.run_campaign(spec, out, local=True, progress=False,
+                           on_unit=lambda task, index: present.append([p.exists() for p in orphans]))
+    assert calls == [1] and s["units_reused"] == 1
+    assert present == [[False, False]]
+
+
+def test_the_old_results_survive_a_failed_final_write(tmp_path, monkeypatch):
+    import errno
+
+    run_scene(scene("one"), tmp_path, progress=False)
+    before = (tmp_path / "one.nc").read_bytes()
+    real = xr.Dataset.to_netcdf
+
+    def full_disk(ds, path, **kw):
+        if "scene_key" not in ds.attrs:  # the scene's results file, not a period's: the disk fills mid-file
+            with open(path, "wb") as fh:
+                fh.write(b"partial")
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(ds, path, **kw)
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", full_disk)
+    for sc, kw in ((scene("one", seed=2), {}), (scene("two"), {"overwrite": True})):
+        with pytest.raises(ResultsWriteError, match="No space left"):
+            run_scene(sc, tmp_path, progress=False, **kw)
+        assert (tmp_path / "one.nc").read_bytes() == before
+    assert not [p for p in tmp_path.rglob(".tmp-*")]
+
+
+def test_a_look_alike_of_a_separator_stays_inside_the_folder(tmp_path):
+    """U+2215 (division slash) and U+FF0E (fullwidth full stop) look like '/' and '.' but are plain characters."""
+    out = tmp_path / "out"
+    ds = run_scene(scene(q="\uff0e\uff0e\u2215x"), out, progress=False)
+    assert list(ds.period.values) == ["P", "\uff0e\uff0e\u2215x"]
+    assert sorted(os.listdir(out / "one.periods")) == ["000_P.nc", "001_\uff0e\uff0e\u2215x.nc"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_crafted_manifest_never_removes_a_file_outside_the_folder(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    victims = [tmp_path / "victim.png", tmp_path / "victim.nc", tmp_path / "x.periods"]
+    for v in victims:
+        v.write_text("keep me")
+    folder.write_manifest(out, {"name": "../x", "kind": "staring", "digest": "0", "results": "../victim.nc",
+                                "figures": ["../victim.png", str(tmp_path / "victim.png")],
+                                "remove_after": ["../victim.nc"]})
+    run_scene(scene("one"), out, progress=False, overwrite=True)
+    folder.write_manifest(out, {"name": "one", "kind": "staring", "digest": "changed", "results": "one.nc",
+                                "figures": ["../victim.png"], "remove_after": ["../victim.nc"]})
+    run_scene(scene("one"), out, progress=False)
+    assert all(v.read_text() == "keep me" for v in victims)

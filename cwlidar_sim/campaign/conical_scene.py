@@ -72,14 +72,19 @@ Example
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
-from ..turbulence.limits import check_frozen_turbulence
+from ..turbulence.limits import MAX_TURBULENCE_INTENSITY, check_frozen_turbulence
 from .conical_period import default_spacing
 from .lidar_spec import ConicalLidarSpec
 from .spec import Spec, check_condition_on, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
+
+#: sigma_u / u* of the surface-layer sources, the larger of the two (IEC's 2.4; Mann's fit to Kaimal: 2.24), for the
+#: closed-form turbulence intensity of the frozen-turbulence check.
+SURFACE_SIGMA_U_OVER_USTAR = 2.4
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS"]
 
@@ -378,10 +383,23 @@ class ConicalScene(Spec):
             raise ValueError(f"units {dup[:5]} are named twice: scan.periods_per_height names a template's "
                              f"later passes <name>_<pass>; allowed: period names that are not another's "
                              f"<name>_<pass>")
-        fixed = self.turbulence.params()[0] if self.turbulence.source == "fixed" else None
-        for p in periods:
-            if fixed is not None:  # the surface-layer sources set sigma_u from U: ~0.1-0.2 of it
+        if self.turbulence.source == "fixed":
+            fixed = self.turbulence.params()[0]
+            for p in periods:
                 check_frozen_turbulence(fixed, p.mean_speed, f"period[{p.name}]")
+        else:
+            # the surface layer's sigma_u / U = c kappa / ln(z / z0), whatever U (c = sigma_u / u*: 2.4 for 'iec',
+            # 2.24 for Mann's fit): in closed form, without the tensors' quadratures
+            z0, zmin = self.turbulence.z0, min(self.scan.heights)
+            ti = SURFACE_SIGMA_U_OVER_USTAR * 0.4 / math.log(zmin / z0)
+            if ti > MAX_TURBULENCE_INTENSITY:
+                raise ValueError(
+                    f"scan.heights: {zmin:g} m over turbulence.z0 = {z0:g} m gives a surface-layer turbulence "
+                    f"intensity sigma_u/U = {ti:.2f}, above the {MAX_TURBULENCE_INTENSITY:g} that Taylor's "
+                    f"frozen-turbulence hypothesis carries; allowed: heights >= "
+                    f"{z0 * math.exp(SURFACE_SIGMA_U_OVER_USTAR * 0.4 / MAX_TURBULENCE_INTENSITY):.3g} m, or a "
+                    f"smaller z0")
+        for p in periods:
             dur = check_real(f"period {p.name!r} duration", self.period_duration(p), lo=10.0, hi=3600.0)
             if self.scan.cycle:
                 block = self.scan.block_time()

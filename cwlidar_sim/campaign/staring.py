@@ -322,8 +322,9 @@ def period_dataset(scene: Scene, params, r: dict):
         "field_shape": (("period",), np.array(["x".join(map(str, r["plan"].shape))], dtype=object)),
         "field_seed": (("period",), pk(r["field_seed"], np.int64)),
         "availability": (("period",), pk(r["availability"]),
-                         {"units": "1", "long_name": "fraction of usable 50 Hz lidar estimates: finite, with no failure, "
-                                       "NEAR_ZERO or NEAR_NYQUIST flag (signal.processing.usable_mask)"}),
+                         {"units": "1", "long_name": "fraction of usable 50 Hz lidar estimates: finite, with no "
+                                                     "failure, NEAR_ZERO or NEAR_NYQUIST flag "
+                                                     "(signal.processing.usable_mask)"}),
         "availability_10hz": (("period",), pk(r["availability_10hz"]),
                               {"units": "1", "long_name": "fraction of 10 Hz samples with at least one usable "
                                                           "50 Hz estimate"}),

@@ -110,3 +110,25 @@ def test_cli_runs_a_conical_scene_file(tmp_path, capsys):
         "cs_std_ratio.png", "cs_std_scatter.png", "cs_mean_speed.png", "cs_radial_variance.png"}
     ds = read_results(out / "cone.nc")
     assert ds.attrs["sensor"] == "conical" and "std_ratio" in ds
+
+
+def test_turbulence_the_wind_cannot_carry_is_refused():
+    """sigma_u / U <= 0.5: a fixed tensor per period; the surface layer's c kappa / ln(z / z0) per height."""
+    from cwlidar_sim.turbulence.limits import longitudinal_std
+    from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
+
+    rough = TEXT.replace("[lidar]", "[turbulence]\nz0 = 2.0\n[lidar]")
+    # 14 m over z0 = 2 m: 2.4 x 0.4 / ln 7 = 0.49, accepted; 12 m: 0.54, refused
+    assert loads_scene(rough.replace("heights = [40.0]", "heights = [14.0]")).scan.heights == (14.0,)
+    with pytest.raises(ValueError, match=r"scan.heights: 12 m over turbulence.z0 = 2 m .* sigma_u/U = 0.54"):
+        loads_scene(rough.replace("heights = [40.0]", "heights = [12.0, 40.0]"))
+    # the closed form is the tensors' own: IEC's target, and Mann's fit below it
+    for source, bound in (("iec", 1.0), ("mann1994", 2.24 / 2.4)):
+        p, su, _ = surface_layer_parameters(12.0, 8.0, z0=2.0, source=source)
+        assert su / 8.0 == pytest.approx(bound * 2.4 * 0.4 / np.log(6.0), rel=2e-3)
+    assert longitudinal_std(surface_layer_parameters(12.0, 8.0, z0=2.0)[0]) / 8.0 < 0.5
+    fixed = TEXT.replace("[lidar]", "[turbulence]\nsource = 'fixed'\nalpha_eps = 0.5\nlength_scale = 20.0\n"
+                                    "gamma = 3.9\n[lidar]")  # sigma_u = 2.86 m/s
+    loads_scene(fixed.replace("mean_speed = 8.0", "mean_speed = 6.0"))  # 0.48
+    with pytest.raises(ValueError, match=r"period\[a\]: the tensor alpha_eps=0.5 .* sigma_u/U = 0.57"):
+        loads_scene(fixed.replace("mean_speed = 8.0", "mean_speed = 5.0"))

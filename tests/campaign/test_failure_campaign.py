@@ -65,3 +65,19 @@ def test_near_zero_estimates_are_not_available_and_never_averaged():
     # the variant: the same definition on its own estimates
     vs = ds["lidar_10hz_variant"].values[0, 0]
     assert 0.0 < ds["availability_variant"].values[0, 0] < 1.0 and np.isnan(vs).any()
+
+
+def test_a_fitted_tensor_too_strong_for_the_wind_is_refused_before_the_field(monkeypatch):
+    """With fit_to the tensor is known only when the run starts: run_period checks it before planning a field."""
+    import pytest
+
+    from cwlidar_sim.campaign import staring
+    from cwlidar_sim.turbulence import MannParameters
+
+    def no_field(*a, **k):
+        raise AssertionError("a field was planned")
+
+    monkeypatch.setattr(staring, "plan_field", no_field)
+    sc = bundled_scene("a2012", quick=True)
+    with pytest.raises(ValueError, match=r"period\[A\]: the tensor alpha_eps=1000 .* Taylor"):
+        staring.run_period(sc, 0, MannParameters(1e3, 18.76, 3.9))

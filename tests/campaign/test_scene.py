@@ -171,7 +171,8 @@ def test_turbulence_the_periods_wind_cannot_carry_is_refused_at_the_scene():
     strong = MINIMAL.replace("alpha_eps = 0.05", "alpha_eps = 0.5")  # sigma_u = 2.86 m/s (0.05: 0.91 m/s)
     assert loads_scene(strong).periods[0].mean_speed == 8.0  # intensity 0.36 at 8 m/s: accepted
     slow = strong + '[[period]]\nname = "calm"\nmean_speed = 5.0\n'  # 0.57 at 5 m/s
-    with pytest.raises(ValueError, match=r"period\[calm\]: the tensor alpha_eps=0.5 .* sigma_u = 2.86 m/s, a turbulence intensity sigma_u/U = 0.57"):
+    with pytest.raises(ValueError, match=r"period\[calm\]: the tensor alpha_eps=0.5 .* sigma_u = 2.86 m/s, "
+                                         r"a turbulence intensity sigma_u/U = 0.57"):
         loads_scene(slow)
     with pytest.raises(ValueError, match=r"gamma=9.0 is above 8"):
         loads_scene(MINIMAL.replace("gamma = 3.9", "gamma = 9.0"))

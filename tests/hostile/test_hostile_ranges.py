@@ -115,3 +115,11 @@ def test_near_zero_estimates_run_flagged_and_are_not_available(tmp_path, corpus)
     # the command's summary reports the same availability
     assert json.loads(child.stdout)["availability"]["A"] == pytest.approx(1.0 - near.mean(), abs=1e-4)
     corpus.record("right", child)
+
+
+def test_box_refuses_gamma_outside_the_fitted_range(tmp_path, corpus):
+    child = run_cli(["box", "--alpha-eps", "0.05", "--length-scale", "20", "--gamma", "1000", "--shape", "16", "4",
+                     "4", "--spacing", "1", "1", "1", "--seed", "1", "--out", "x.nc"], cwd=tmp_path)
+    assert_one_line_error(child, "gamma=1000", "fitted for", "[0, 8]")
+    assert not (tmp_path / "x.nc").exists()
+    corpus.record("error", child)

@@ -52,7 +52,10 @@ def test_gain_mismatch_against_its_effect_on_the_threshold(mismatch):
     rec = measure_staring(_calm(), lid, np.arange(n) / 50.0, 0.0, 11, calibration_time=600.0)
     a = _noise_availability(inst, 1.0 + mismatch)
     tol = 4 * math.sqrt(max(a * (1 - a), 1.0 / n) / n)
-    assert rec.availability == pytest.approx(a, abs=tol)
+    # the law is that of a finite estimate (some bin above the threshold); availability leaves out the
+    # false alarms flagged NEAR_ZERO / NEAR_NYQUIST as well
+    finite = np.isfinite(rec.speed_e).mean()
+    assert finite == pytest.approx(a, abs=tol) and rec.availability <= finite
     if mismatch > 0:
         assert 0.3 < a < 0.9  # the floor lifted by 2.9 % puts the 4-sigma threshold at 2.65 sigma
 
@@ -67,7 +70,7 @@ def test_drift_between_calibrations_against_its_effect():
     g = background_gain(inst, t + 4200.0)
     assert g[0] == pytest.approx(1.0 + 0.04 * 3600 / 10200)
     a = np.mean(_noise_availability(inst, g))
-    assert rec.availability == pytest.approx(a, abs=4 * math.sqrt(a * (1 - a) / n))
+    assert np.isfinite(rec.speed_e).mean() == pytest.approx(a, abs=4 * math.sqrt(a * (1 - a) / n))
     assert rec.info["background_gain"][0] == pytest.approx(g[0])
 
 

@@ -31,6 +31,7 @@ import contextlib
 import errno as _errno
 import io
 import os
+import sys
 import stat
 import tempfile
 
@@ -64,7 +65,11 @@ def temp_name_pattern(path) -> tuple[str, str]:
     picks its format from the name (matplotlib's ``savefig``) picks the same.
     """
     name = os.path.basename(os.fspath(path))
-    return f".{name}.", f".tmp{os.path.splitext(name)[1]}"
+    suffix = f".tmp{os.path.splitext(name)[1]}"
+    # the temporary's name fits NAME_MAX whenever the target's does: '.' + name + '.' + 8 random + suffix
+    room = 255 - 10 - len(suffix.encode())
+    stem = name.encode()[:room].decode("utf-8", "ignore")
+    return f".{stem}.", suffix
 
 
 def check_output_file(path, *, label: str = "output file", create_folder: bool = False) -> str:
@@ -272,6 +277,19 @@ class _SinkFile(io.FileIO):
         return self.tell() if size is None else size
 
 
+@contextlib.contextmanager
+def _local_scheduler():
+    """Dask's synchronous scheduler for the block, if dask is imported: xarray hands its writes to the
+    distributed scheduler whenever a client exists, and an open file cannot travel to a worker."""
+    if "dask" not in sys.modules:
+        yield
+        return
+    import dask
+
+    with dask.config.set(scheduler="synchronous"):
+        yield
+
+
 def write_netcdf_atomic(ds, path, *, encoding=None, format: str = "NETCDF4") -> None:
     """Write an xarray Dataset to NetCDF-4 (h5netcdf) atomically; a failed write never reaches HDF5.
 
@@ -306,8 +324,11 @@ def write_netcdf_atomic(ds, path, *, encoding=None, format: str = "NETCDF4") -> 
     otherwise; a 64 x 8 x 8 box: 61594 bytes instead of 63030).
     """
     path = os.fspath(path)
+    # dask-backed variables are computed here, in this process: with a distributed client about (a
+    # campaign's worker), to_netcdf would otherwise ship its writes, and the open file, to the cluster
+    ds = ds.load() if any(getattr(v, "chunks", None) for v in ds.variables.values()) else ds
     with atomic_path(path) as tmp:
-        with _SinkFile(tmp, "w+b") as sink:
+        with _SinkFile(tmp, "w+b") as sink, _local_scheduler():
             try:
                 # xarray validates names and attributes, encodes, writes (dask too) and closes its
                 # h5netcdf File; HDF5 never sees a failed write, so the close cannot fail half-way

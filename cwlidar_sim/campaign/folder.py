@@ -136,7 +136,7 @@ def clean_temporaries(folder, log=None) -> list:
     folder = os.fspath(folder)
     found = []
     for sub in ("", "*.periods", "tasks", os.path.join("tasks", "*", "*.periods")):
-        for pattern in (".tmp-*", ".write-check-*", "*.json.tmp-*"):
+        for pattern in (".tmp-*", ".write-check-*", "*.json.tmp-*", ".*.tmp", ".*.tmp.*"):  # the last two: _atomic's
             found.extend(glob.glob(os.path.join(folder, sub, pattern)))
     for path in sorted(found):
         try:

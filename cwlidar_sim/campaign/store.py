@@ -34,10 +34,10 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import warnings
 
 from .. import __version__
+from .._atomic import write_netcdf_atomic
 from .._preflight import PreflightError, ResultsWriteError, check_scheduler, preflight
 from .spec import RESULTS_VERSION
 
@@ -81,25 +81,9 @@ def scene_digest(scene, params) -> str:
 
 
 def _atomic_write(ds, path) -> None:
-    """Write ``ds`` to ``path`` via a temporary file in the same folder and a rename."""
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".nc")
-    os.close(fd)
-    try:
-        ds.to_netcdf(tmp, engine=ENGINE)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; the result gets the usual permissions
-        os.replace(tmp, path)
-    except BaseException as e:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if isinstance(e, OSError):
-            raise ResultsWriteError(e.errno, f"cannot write {path!r}: {e.strerror or e}") from None
-        raise
+    """Write ``ds`` to ``path`` atomically (:func:`cwlidar_sim._atomic.write_netcdf_atomic`: a temporary
+    file beside it, fsync, rename; a full disk is a :class:`ResultsWriteError` and leaves the old file)."""
+    write_netcdf_atomic(ds, path)
 
 
 def _for_netcdf(ds):
@@ -125,6 +109,35 @@ def read_results(path):
             return ds.load()
     except (OSError, ValueError, KeyError, RuntimeError) as e:  # h5py's errors for a damaged file
         raise ValueError(f"cannot read results file {os.fspath(path)!r}: {e}") from None
+
+
+def content_digest(ds) -> str:
+    """SHA-256 (hex) of a Dataset's variables: names, dimensions and values.
+
+    HDF5 keeps no checksum of the data, so a bit flipped in a stored
+    period's numbers reads back without an error; the digest, stored with
+    the period (``content_sha256``) and checked when it is reused, turns
+    that silent change into a recomputation.  Values are hashed in a
+    canonical form (floats as float64, integers as int64, strings as UTF-8
+    text), so the digest of a Dataset equals that of the file written from it
+    and read back.
+    """
+    import numpy as np
+
+    h = hashlib.sha256()
+    for name in sorted(map(str, ds.variables)):
+        var = ds.variables[name]
+        a = np.asarray(var.values)
+        h.update(f"{name}|{var.dims}|{a.shape}|{a.dtype.kind}|".encode())
+        if a.dtype.kind in "OUS":
+            h.update("\x1f".join(map(str, a.ravel())).encode("utf-8", "surrogatepass"))
+        elif a.dtype.kind in "fc":
+            h.update(np.ascontiguousarray(a, dtype=np.complex128 if a.dtype.kind == "c" else np.float64).tobytes())
+        elif a.dtype.kind in "Mm":
+            h.update(np.ascontiguousarray(a.view(np.int64)).tobytes())
+        else:
+            h.update(np.ascontiguousarray(a, dtype=np.int64).tobytes())
+    return h.hexdigest()
 
 
 class PeriodStore:
@@ -164,7 +177,13 @@ class PeriodStore:
         except ValueError as e:
             warnings.warn(f"period file {p} is damaged and is computed again ({e})", RuntimeWarning, stacklevel=2)
             return None
-        return ds if ds.attrs.get("scene_key") == self.keys[index] else None
+        if ds.attrs.get("scene_key") != self.keys[index]:
+            return None
+        if ds.attrs.get("content_sha256") != content_digest(ds):
+            warnings.warn(f"period file {p} is damaged (its numbers do not match the digest stored with them) "
+                          f"and is computed again", RuntimeWarning, stacklevel=2)
+            return None
+        return ds
 
     def save(self, index: int, ds):
         """Write period ``index`` atomically and return it as read back (the bits the scene's file gets).
@@ -176,18 +195,20 @@ class PeriodStore:
             process wrote it meanwhile): never combined into the results.
         """
         os.makedirs(self.folder, exist_ok=True)
-        ds = ds.assign_attrs(scene_key=self.keys[index])
+        ds = ds.assign_attrs(scene_key=self.keys[index], content_sha256=content_digest(_for_netcdf(ds)))
         p = self.path(index)
         write_results(ds, p)
         back = read_results(p)
         if back.attrs.get("scene_key") != self.keys[index]:
             raise ResultsWriteError(f"period file {p!r} was replaced by another run while this one wrote it "
                                     f"(scene key {back.attrs.get('scene_key')!r}, expected {self.keys[index]!r})")
+        if content_digest(back) != ds.attrs["content_sha256"]:
+            raise ResultsWriteError(f"period file {p!r} does not read back as written (its digest differs)")
         return back
 
 
 #: Attributes that belong to one period; :func:`combine_periods` gathers them into JSON maps.
-PERIOD_ATTRS = ("period_index", "scene_key", "field_reason", "timing", "unit_name")
+PERIOD_ATTRS = ("period_index", "scene_key", "field_reason", "timing", "unit_name", "content_sha256")
 
 
 def _check_same_scene(datasets, attrs) -> None:

@@ -105,29 +105,28 @@ def completed(client, futures, *, worker_timeout: float = DEFAULT_WORKER_TIMEOUT
     poll : float
         Seconds between two questions to the scheduler while nothing finishes.
     """
-    from dask.distributed import wait
+    from dask.distributed import as_completed
 
     worker_timeout = check_worker_timeout(worker_timeout)
-    pending = set(futures)
+    # as_completed's own queue, filled by callbacks: each completion costs O(1) however many are pending
+    ac = as_completed(futures)
     alone_since = None
-    while pending:
-        try:
-            done, _ = wait(list(pending), timeout=poll, return_when="FIRST_COMPLETED")
-        except TimeoutError:
-            done = set()
-        # a future that lost its scheduler is 'cancelled' or 'lost'; still reported, result() raises
-        done = {f for f in pending if f in done or f.status in ("finished", "error", "cancelled", "lost")}
-        for f in done:
-            pending.discard(f)
-            yield f
-        if done or not pending:
+    last_asked = time.monotonic()
+    while not ac.is_empty():
+        if ac.has_ready():
+            yield from ac.next_batch(block=False)
             alone_since = None
             continue
+        time.sleep(min(0.05, poll))  # a blocking next() could not be interrupted when the workers are gone
+        now = time.monotonic()
+        if now - last_asked < poll:
+            continue
+        last_asked = now
         if _n_workers(client):
             alone_since = None
         elif alone_since is None:
-            alone_since = time.monotonic()
-        elif time.monotonic() - alone_since > worker_timeout:
+            alone_since = now
+        elif now - alone_since > worker_timeout:
             where = address or getattr(client.scheduler, "address", None) or "the scheduler"
             raise WorkersLostError(f"dask scheduler {where} has had no worker for {worker_timeout:g} s "
-                                   f"with {len(pending)} task(s) pending; stopped (--worker-timeout)")
+                                   f"with {ac.count()} task(s) pending; stopped (--worker-timeout)")

@@ -4,6 +4,7 @@ Loopback only: an in-process cluster (``processes=False``) whose workers are
 threads of this process, so a test can take them away.
 """
 
+import json
 import os
 import signal
 import threading
@@ -154,3 +155,48 @@ def test_a_run_whose_workers_die_stops_and_resumes(tmp_path, monkeypatch, alarm)
     assert [p.name[:4] for p in stored.glob("*.nc")] == ["000_"]
     ds = run_scene(scene, out, progress=False)
     assert ds.attrs["periods_reused"] == '["A"]'
+
+
+def _held_cnr12(scene, index, params, status=None):
+    """Every unit as always but the CNR -12 dB task's, held until RELEASE."""
+    if scene.lidar.cnr_db == -12.0:
+        RELEASE.wait(120)
+    return _REAL_PERIOD(scene, index, params, status=status)
+
+
+def test_a_campaign_whose_workers_die_stops_and_resumes(tmp_path, monkeypatch, alarm):
+    """One task finishes on the cluster, then the last worker goes: a clear error; the rerun reuses that task."""
+    from cwlidar_sim.campaign import batch
+    from cwlidar_sim.campaign.sweep import loads_campaign
+
+    RELEASE.clear()
+    (tmp_path / "base.toml").write_text(SCENE.split("[[period]]\nname = \"B\"")[0])
+    spec = loads_campaign('name = "c"\nseed = 3\nbase = "base.toml"\npaired = false\n'
+                          '[[sweep]]\n"lidar.cnr_db" = [-10.0, -12.0]', base_dir=str(tmp_path))
+    monkeypatch.setattr(staring, "run_period", _held_cnr12)
+    out = tmp_path / "out"
+
+    def done_tasks():
+        try:
+            entries = json.loads((out / "index.json").read_text())["tasks"].values()
+        except (OSError, ValueError):
+            return []
+        return [e["values"]["lidar.cnr_db"] for e in entries if e["status"] == "done"]
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        def take_workers_away():  # once the -10 dB task is recorded
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline and not done_tasks():
+                time.sleep(0.1)
+            cluster.scale(0)
+
+        threading.Thread(target=take_workers_away, daemon=True).start()
+        try:
+            with pytest.raises(WorkersLostError, match="no worker for 1 s with 1 task"):
+                batch.run_campaign(spec, out, client=client, progress=False, worker_timeout=1.0)
+        finally:
+            RELEASE.set()
+    assert done_tasks() == [-10.0]
+    s = batch.run_campaign(spec, out, local=True, progress=False)
+    assert s["reused"] == 1 and s["computed"] == 1 and not s["failed"]

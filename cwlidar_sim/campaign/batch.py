@@ -207,6 +207,10 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     out_dir = os.fspath(out_dir)
     preflight(out_dir, sum(runner._sensor(t.scene)[1](t.scene) for t in tasks),
               scheduler=scheduler if client is None else None)
+    if scheduler is not None and client is None and not local:
+        # before any task is prepared or written: the scheduler answers and has a worker (a probe, closed;
+        # the run connects again below only if something is left to compute)
+        connect_scheduler(scheduler, worker_timeout=worker_timeout).close()
     task_dir = os.path.join(out_dir, "tasks")
     os.makedirs(task_dir, exist_ok=True)
     _write_json(os.path.join(out_dir, "campaign.json"),

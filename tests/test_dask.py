@@ -116,6 +116,13 @@ def test_worker_timeout_is_checked(bad):
         check_worker_timeout(bad)
 
 
+def test_run_scene_checks_the_worker_timeout_before_anything(tmp_path, monkeypatch):
+    monkeypatch.setattr(staring, "run_period", None)  # computing anything would fail otherwise
+    with pytest.raises(ValueError, match=r"worker_timeout \(--worker-timeout\) -1"):
+        run_scene(loads_scene(SCENE), tmp_path / "o", worker_timeout=-1)
+    assert not (tmp_path / "o").exists()
+
+
 def test_losing_the_last_worker_stops_the_wait(alarm):
     RELEASE.clear()
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,

@@ -26,7 +26,7 @@ import json
 import os
 import time
 
-from .._dask import DEFAULT_WORKER_TIMEOUT, completed
+from .._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed
 from . import conical, nacelle, staring, store
 from .auto import resolve
 from .conical_scene import ConicalScene
@@ -217,6 +217,7 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         When the cluster has had no worker for ``worker_timeout`` seconds.
     """
     say = log or (lambda s: None)
+    worker_timeout = check_worker_timeout(worker_timeout)
     t0 = time.perf_counter()
     run = prepare_scene(scene, out_dir, log=say)
     scene, names, todo = run.scene, run.names, run.todo

@@ -87,12 +87,27 @@ def _n_workers(client) -> int:
         return 0
 
 
+def _where(client, address) -> str:
+    return address or getattr(client.scheduler, "address", None) or "(unknown address)"
+
+
+def _reason(future) -> str:
+    """Why a cancelled future was cancelled, in one line (distributed says it in the exception)."""
+    try:
+        future.result(timeout=1)
+    except Exception as e:  # FutureCancelledError names the reason, e.g. scheduler-connection-lost
+        return " ".join(str(e).split())[:300]
+    return "cancelled"
+
+
 def completed(client, futures, *, worker_timeout: float = DEFAULT_WORKER_TIMEOUT, address=None, poll: float = POLL_S):
     """Yield ``futures`` as they finish (with a result or an error), like ``dask.distributed.as_completed``.
 
     Unlike it, raise :class:`WorkersLostError` once the scheduler has had no
     worker, or has not answered, for ``worker_timeout`` seconds while
-    futures are pending: Dask would wait forever.
+    futures are pending (Dask would wait forever), and as soon as a future
+    comes back cancelled (the client lost its scheduler; the caller only
+    cancels after the loop), instead of handing it on to raise a traceback.
 
     Parameters
     ----------
@@ -114,7 +129,11 @@ def completed(client, futures, *, worker_timeout: float = DEFAULT_WORKER_TIMEOUT
     last_asked = time.monotonic()
     while not ac.is_empty():
         if ac.has_ready():
-            yield from ac.next_batch(block=False)
+            for f in ac.next_batch(block=False):
+                if f.status == "cancelled":  # not by us (we cancel only after the loop): the scheduler is gone
+                    raise WorkersLostError(f"dask scheduler {_where(client, address)} lost task {f.key} "
+                                           f"({_reason(f)}); stopped with {ac.count()} more pending")
+                yield f
             alone_since = None
             continue
         time.sleep(min(0.05, poll))  # a blocking next() could not be interrupted when the workers are gone
@@ -127,6 +146,6 @@ def completed(client, futures, *, worker_timeout: float = DEFAULT_WORKER_TIMEOUT
         elif alone_since is None:
             alone_since = now
         elif now - alone_since > worker_timeout:
-            where = address or getattr(client.scheduler, "address", None) or "the scheduler"
-            raise WorkersLostError(f"dask scheduler {where} has had no worker for {worker_timeout:g} s "
+            raise WorkersLostError(f"dask scheduler {_where(client, address)} has had no worker for "
+                                   f"{worker_timeout:g} s "
                                    f"with {ac.count()} task(s) pending; stopped (--worker-timeout)")

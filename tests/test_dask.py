@@ -10,6 +10,7 @@ import signal
 import threading
 import time
 
+import dask
 import distributed
 import pytest
 
@@ -207,3 +208,21 @@ def test_a_campaign_whose_workers_die_stops_and_resumes(tmp_path, monkeypatch, a
     assert done_tasks() == [-10.0]
     s = batch.run_campaign(spec, out, local=True, progress=False)
     assert s["reused"] == 1 and s["computed"] == 1 and not s["failed"]
+
+
+def test_losing_the_scheduler_stops_with_its_reason(alarm):
+    """The client loses its scheduler: the pending futures come back cancelled, which is said in one error."""
+    RELEASE.clear()
+    # short reconnect attempts: closing what is left of the cluster would otherwise wait 30 s
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}), \
+            distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp://",
+                                     host="127.0.0.1", dashboard_address=None) as cluster:
+        address = cluster.scheduler_address
+        with distributed.Client(address) as client:
+            futures = [client.submit(_slow, i, pure=False) for i in range(2)]
+            threading.Timer(0.5, cluster.sync, (cluster.scheduler.close,)).start()
+            try:
+                with pytest.raises(WorkersLostError, match=f"dask scheduler {address} lost task .*cancelled"):
+                    list(completed(client, futures, worker_timeout=30.0, address=address, poll=0.2))
+            finally:
+                RELEASE.set()

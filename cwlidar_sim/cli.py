@@ -333,7 +333,7 @@ def _cmd_report(args) -> int:
     import os
 
     from .campaign.figures import make_figures
-    from .campaign.results_file import open_results
+    from .campaign.results_file import lacking, open_results
 
     if not os.path.isdir(args.dir):
         raise ValueError(f"{args.dir!r} is not a folder; 'report' reads the results (*.nc) of a folder")
@@ -347,7 +347,10 @@ def _cmd_report(args) -> int:
         sub = args.out or args.dir
         if len(files) > 1:
             sub = os.path.join(sub, os.path.splitext(os.path.basename(f))[0])
-        out.extend(make_figures(ds, sub))
+        try:
+            out.extend(make_figures(ds, sub))
+        except (KeyError, AttributeError) as e:  # a variable or attribute missing from an older or edited file
+            raise lacking(f, ds, e, "the figures") from None
     print(json.dumps({"figures": out}, indent=2))
     return 0
 
@@ -473,7 +476,7 @@ def _cmd_probe_length(args) -> int:
 
     from .analysis.estimator_theory import DEFAULT_BAND
     from .campaign import fit_probe_length_results
-    from .campaign.results_file import open_results
+    from .campaign.results_file import lacking, open_results
 
     path = args.results
     if os.path.isdir(path):
@@ -484,8 +487,11 @@ def _cmd_probe_length(args) -> int:
     if not os.path.lexists(path):
         raise ValueError(f"no results file {path!r}")
     ds = open_results(path, sensor="staring")
-    fit = fit_probe_length_results(ds, estimator=args.estimator, band=tuple(args.band or DEFAULT_BAND),
-                                   n_lines=args.lines)
+    try:
+        fit = fit_probe_length_results(ds, estimator=args.estimator, band=tuple(args.band or DEFAULT_BAND),
+                                       n_lines=args.lines)
+    except (KeyError, AttributeError) as e:  # a variable or attribute missing from an older or edited file
+        raise lacking(path, ds, e, "the probe-length fit") from None
     out = fit.summary()
     out.pop("zR_grid")
     out.pop("chi2_grid")

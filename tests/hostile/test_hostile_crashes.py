@@ -204,3 +204,34 @@ def test_a_worker_timeout_out_of_range(tmp_path, corpus):
                     cwd=tmp_path, timeout=60)
     assert_one_line_error(child, "--worker-timeout", "-5")
     corpus.record("error", child)
+
+
+@pytest.fixture(scope="module")
+def real_results(tmp_path_factory):
+    """A real results file of a tiny scene (written in this process)."""
+    from cwlidar_sim.campaign import loads_scene, run_scene
+
+    out = tmp_path_factory.mktemp("real")
+    run_scene(loads_scene(SCENE), out, progress=False)
+    return out / "h.nc"
+
+
+@pytest.mark.parametrize("command, drop, missing", [
+    ("report", "spectrum_lidar", "spectrum_lidar"),
+    ("report", "@rayleigh_length", "rayleigh_length"),
+    ("probe-length", "transfer_cross", "transfer_cross"),
+])
+def test_a_results_file_lacking_what_is_read(tmp_path, corpus, real_results, command, drop, missing):
+    """An edited or older file: one line naming the file, what it lacks and the results versions."""
+    from cwlidar_sim.campaign import read_results, write_results
+
+    ds = read_results(real_results)
+    if drop.startswith("@"):
+        del ds.attrs[drop[1:]]
+    else:
+        ds = ds.drop_vars(drop)
+    (tmp_path / "res").mkdir()
+    write_results(ds, tmp_path / "res" / "x.nc")
+    child = run_cli([command, "res" if command == "report" else "res/x.nc"], cwd=tmp_path, timeout=120)
+    assert_one_line_error(child, "x.nc", f"lacks '{missing}'", "results_version")
+    corpus.record("error", child)

@@ -235,3 +235,21 @@ def test_a_results_file_lacking_what_is_read(tmp_path, corpus, real_results, com
     child = run_cli([command, "res" if command == "report" else "res/x.nc"], cwd=tmp_path, timeout=120)
     assert_one_line_error(child, "x.nc", f"lacks '{missing}'", "results_version")
     corpus.record("error", child)
+
+
+@pytest.mark.parametrize("kind, fragments", [
+    ("fifo", ("campaign.json", "FIFO")),
+    ("missing", ("not a campaign folder", "no campaign.json")),
+    ("binary", ("campaign.json", "not a cwlidar_sim campaign file")),
+])
+def test_campaign_report_on_a_folder_whose_campaign_json_is_not_one(tmp_path, corpus, kind, fragments):
+    fake_campaign(tmp_path / "c", "foreign")
+    meta = tmp_path / "c" / "campaign.json"
+    meta.unlink()
+    if kind == "fifo":
+        os.mkfifo(meta)
+    elif kind == "binary":
+        meta.write_bytes(bytes(range(256)))
+    child = run_cli(["campaign-report", "c"], cwd=tmp_path, timeout=60)
+    assert_one_line_error(child, *fragments)
+    corpus.record("error", child)

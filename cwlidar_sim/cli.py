@@ -535,10 +535,11 @@ def _cmd_twin(args) -> int:
             print(line, file=sys.stderr)
 
     scene = load_scene(args.scene)
-    client = _client(args.dask, _worker_timeout(args))
+    timeout = _worker_timeout(args)
+    client = _client(args.dask, timeout)
     try:
         files = run_twin(scene, args.out, paths=args.records, n_twins=args.twins, progress=log, periods=args.periods,
-                         client=client)
+                         client=client, worker_timeout=timeout)
     except KeyboardInterrupt:
         print(f"cwlidar-sim twin: interrupted; finished periods are kept in {args.out}; run the same command again "
               f"to resume", file=sys.stderr)

@@ -87,12 +87,27 @@ def _n_workers(client) -> int:
         return 0
 
 
+def _where(client, address) -> str:
+    return address or getattr(client.scheduler, "address", None) or "(unknown address)"
+
+
+def _reason(future) -> str:
+    """Why a cancelled future was cancelled, in one line (distributed says it in the exception)."""
+    try:
+        future.result(timeout=1)
+    except Exception as e:  # FutureCancelledError names the reason, e.g. scheduler-connection-lost
+        return " ".join(str(e).split())[:300]
+    return "cancelled"
+
+
 def completed(client, futures, *, worker_timeout: float = DEFAULT_WORKER_TIMEOUT, address=None, poll: float = POLL_S):
     """Yield ``futures`` as they finish (with a result or an error), like ``dask.distributed.as_completed``.
 
     Unlike it, raise :class:`WorkersLostError` once the scheduler has had no
     worker, or has not answered, for ``worker_timeout`` seconds while
-    futures are pending: Dask would wait forever.
+    futures are pending (Dask would wait forever), and as soon as a future
+    comes back cancelled (the client lost its scheduler; the caller only
+    cancels after the loop), instead of handing it on to raise a traceback.
 
     Parameters
     ----------
@@ -105,29 +120,32 @@ def completed(client, futures, *, worker_timeout: float = DEFAULT_WORKER_TIMEOUT
     poll : float
         Seconds between two questions to the scheduler while nothing finishes.
     """
-    from dask.distributed import wait
+    from dask.distributed import as_completed
 
     worker_timeout = check_worker_timeout(worker_timeout)
-    pending = set(futures)
+    # as_completed's own queue, filled by callbacks: each completion costs O(1) however many are pending
+    ac = as_completed(futures)
     alone_since = None
-    while pending:
-        try:
-            done, _ = wait(list(pending), timeout=poll, return_when="FIRST_COMPLETED")
-        except TimeoutError:
-            done = set()
-        # a future that lost its scheduler is 'cancelled' or 'lost'; still reported, result() raises
-        done = {f for f in pending if f in done or f.status in ("finished", "error", "cancelled", "lost")}
-        for f in done:
-            pending.discard(f)
-            yield f
-        if done or not pending:
+    last_asked = time.monotonic()
+    while not ac.is_empty():
+        if ac.has_ready():
+            for f in ac.next_batch(block=False):
+                if f.status == "cancelled":  # not by us (we cancel only after the loop): the scheduler is gone
+                    raise WorkersLostError(f"dask scheduler {_where(client, address)} lost task {f.key} "
+                                           f"({_reason(f)}); stopped with {ac.count()} more pending")
+                yield f
             alone_since = None
             continue
+        time.sleep(min(0.05, poll))  # a blocking next() could not be interrupted when the workers are gone
+        now = time.monotonic()
+        if now - last_asked < poll:
+            continue
+        last_asked = now
         if _n_workers(client):
             alone_since = None
         elif alone_since is None:
-            alone_since = time.monotonic()
-        elif time.monotonic() - alone_since > worker_timeout:
-            where = address or getattr(client.scheduler, "address", None) or "the scheduler"
-            raise WorkersLostError(f"dask scheduler {where} has had no worker for {worker_timeout:g} s "
-                                   f"with {len(pending)} task(s) pending; stopped (--worker-timeout)")
+            alone_since = now
+        elif now - alone_since > worker_timeout:
+            raise WorkersLostError(f"dask scheduler {_where(client, address)} has had no worker for "
+                                   f"{worker_timeout:g} s "
+                                   f"with {ac.count()} task(s) pending; stopped (--worker-timeout)")

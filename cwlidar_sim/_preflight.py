@@ -33,7 +33,7 @@ def check_engine() -> None:
         except ImportError as e:
             raise PreflightError(
                 f"cannot write NetCDF results: {module} does not import ({e}); "
-                f"fix: pip install 'h5netcdf>=1.3' 'h5py>=3.8' (or reinstall cwlidar_sim)") from None
+                f"fix: pip install 'h5netcdf>=1.3' 'h5py>=3.15' (or reinstall cwlidar_sim)") from None
 
 
 def check_writable(folder) -> None:

@@ -361,7 +361,7 @@ def _cmd_report(args) -> int:
 
     from ._preflight import check_writable
     from .campaign.figures import make_figures
-    from .campaign.results_file import open_results
+    from .campaign.results_file import lacking, open_results
 
     if not os.path.isdir(args.dir):
         raise ValueError(f"{args.dir!r} is not a folder; 'report' reads the results (*.nc) of a folder")
@@ -376,7 +376,10 @@ def _cmd_report(args) -> int:
         sub = args.out or args.dir
         if len(files) > 1:
             sub = os.path.join(sub, os.path.splitext(os.path.basename(f))[0])
-        out.extend(make_figures(ds, sub))
+        try:
+            out.extend(make_figures(ds, sub))
+        except (KeyError, AttributeError) as e:  # a variable or attribute missing from an older or edited file
+            raise lacking(f, ds, e, "the figures") from None
     print(json.dumps({"figures": out}, indent=2))
     return 0
 
@@ -506,7 +509,7 @@ def _cmd_probe_length(args) -> int:
 
     from .analysis.estimator_theory import DEFAULT_BAND
     from .campaign import fit_probe_length_results
-    from .campaign.results_file import open_results
+    from .campaign.results_file import lacking, open_results
 
     path = args.results
     if os.path.isdir(path):
@@ -517,8 +520,11 @@ def _cmd_probe_length(args) -> int:
     if not os.path.lexists(path):
         raise ValueError(f"no results file {path!r}")
     ds = open_results(path, sensor="staring")
-    fit = fit_probe_length_results(ds, estimator=args.estimator, band=tuple(args.band or DEFAULT_BAND),
-                                   n_lines=args.lines)
+    try:
+        fit = fit_probe_length_results(ds, estimator=args.estimator, band=tuple(args.band or DEFAULT_BAND),
+                                       n_lines=args.lines)
+    except (KeyError, AttributeError) as e:  # a variable or attribute missing from an older or edited file
+        raise lacking(path, ds, e, "the probe-length fit") from None
     out = fit.summary()
     out.pop("zR_grid")
     out.pop("chi2_grid")
@@ -568,10 +574,11 @@ def _cmd_twin(args) -> int:
     # are written one by one, so a disk that fills later keeps the finished ones)
     longest = max(scene.period_duration(p) for p in scene.periods)
     preflight(args.out, 1e6 + 2 * 8 * 10 * longest * max(1, args.twins), engine=True)
-    client = _client(args.dask, _worker_timeout(args))
+    timeout = _worker_timeout(args)
+    client = _client(args.dask, timeout)
     try:
         files = run_twin(scene, args.out, paths=args.records, n_twins=args.twins, progress=log, periods=args.periods,
-                         client=client)
+                         client=client, worker_timeout=timeout)
     except KeyboardInterrupt:
         print(f"cwlidar-sim twin: interrupted; finished periods are kept in {args.out}; run the same command again "
               f"to resume", file=sys.stderr)

@@ -4,11 +4,13 @@ Loopback only: an in-process cluster (``processes=False``) whose workers are
 threads of this process, so a test can take them away.
 """
 
+import json
 import os
 import signal
 import threading
 import time
 
+import dask
 import distributed
 import pytest
 
@@ -115,6 +117,13 @@ def test_worker_timeout_is_checked(bad):
         check_worker_timeout(bad)
 
 
+def test_run_scene_checks_the_worker_timeout_before_anything(tmp_path, monkeypatch):
+    monkeypatch.setattr(staring, "run_period", None)  # computing anything would fail otherwise
+    with pytest.raises(ValueError, match=r"worker_timeout \(--worker-timeout\) -1"):
+        run_scene(loads_scene(SCENE), tmp_path / "o", worker_timeout=-1)
+    assert not (tmp_path / "o").exists()
+
+
 def test_losing_the_last_worker_stops_the_wait(alarm):
     RELEASE.clear()
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
@@ -154,3 +163,66 @@ def test_a_run_whose_workers_die_stops_and_resumes(tmp_path, monkeypatch, alarm)
     assert [p.name[:4] for p in stored.glob("*.nc")] == ["000_"]
     ds = run_scene(scene, out, progress=False)
     assert ds.attrs["periods_reused"] == '["A"]'
+
+
+def _held_cnr12(scene, index, params, status=None):
+    """Every unit as always but the CNR -12 dB task's, held until RELEASE."""
+    if scene.lidar.cnr_db == -12.0:
+        RELEASE.wait(120)
+    return _REAL_PERIOD(scene, index, params, status=status)
+
+
+def test_a_campaign_whose_workers_die_stops_and_resumes(tmp_path, monkeypatch, alarm):
+    """One task finishes on the cluster, then the last worker goes: a clear error; the rerun reuses that task."""
+    from cwlidar_sim.campaign import batch
+    from cwlidar_sim.campaign.sweep import loads_campaign
+
+    RELEASE.clear()
+    (tmp_path / "base.toml").write_text(SCENE.split("[[period]]\nname = \"B\"")[0])
+    spec = loads_campaign('name = "c"\nseed = 3\nbase = "base.toml"\npaired = false\n'
+                          '[[sweep]]\n"lidar.cnr_db" = [-10.0, -12.0]', base_dir=str(tmp_path))
+    monkeypatch.setattr(staring, "run_period", _held_cnr12)
+    out = tmp_path / "out"
+
+    def done_tasks():
+        try:
+            entries = json.loads((out / "index.json").read_text())["tasks"].values()
+        except (OSError, ValueError):
+            return []
+        return [e["values"]["lidar.cnr_db"] for e in entries if e["status"] == "done"]
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        def take_workers_away():  # once the -10 dB task is recorded
+            deadline = time.monotonic() + 120
+            while time.monotonic() < deadline and not done_tasks():
+                time.sleep(0.1)
+            cluster.scale(0)
+
+        threading.Thread(target=take_workers_away, daemon=True).start()
+        try:
+            with pytest.raises(WorkersLostError, match="no worker for 1 s with 1 task"):
+                batch.run_campaign(spec, out, client=client, progress=False, worker_timeout=1.0)
+        finally:
+            RELEASE.set()
+    assert done_tasks() == [-10.0]
+    s = batch.run_campaign(spec, out, local=True, progress=False)
+    assert s["reused"] == 1 and s["computed"] == 1 and not s["failed"]
+
+
+def test_losing_the_scheduler_stops_with_its_reason(alarm):
+    """The client loses its scheduler: the pending futures come back cancelled, which is said in one error."""
+    RELEASE.clear()
+    # short reconnect attempts: closing what is left of the cluster would otherwise wait 30 s
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}), \
+            distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp://",
+                                     host="127.0.0.1", dashboard_address=None) as cluster:
+        address = cluster.scheduler_address
+        with distributed.Client(address) as client:
+            futures = [client.submit(_slow, i, pure=False) for i in range(2)]
+            threading.Timer(0.5, cluster.sync, (cluster.scheduler.close,)).start()
+            try:
+                with pytest.raises(WorkersLostError, match=f"dask scheduler {address} lost task .*cancelled"):
+                    list(completed(client, futures, worker_timeout=30.0, address=address, poll=0.2))
+            finally:
+                RELEASE.set()

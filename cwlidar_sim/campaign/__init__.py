@@ -10,10 +10,12 @@ the stages below the campaign layer):
     The scene files: conical (:class:`ConicalScene`), nacelle
     (:class:`NacelleScene`) and staring (:class:`Scene`); :func:`load_scene`
     reads any by ``kind``.
-``planning``, ``auto``, ``folder``, ``store``
+``planning``, ``auto``, ``folder``, ``store``, ``results_file``
     A staring period's field and tensor; the automatic fidelity choice;
     a results folder's lock, owner (manifest, ``overwrite``), orphaned
-    temporaries and safe names; results on disk (checks, per-unit files, resume).
+    temporaries and safe names; results on disk (checks, per-unit files,
+    resume); results files a user names, checked before they are read
+    (``report``, ``probe-length``, ``campaign-report``).
 ``staring``, ``conical_period``, ``conical``, ``nacelle``
     One unit of work of each scene kind: a staring period, a conical period
     (field, lidar, cup, sonic, VAD fits, CS's model) and the conical scene's

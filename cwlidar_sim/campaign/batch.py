@@ -51,6 +51,7 @@ from .._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed, con
 from .._preflight import preflight
 from . import folder, runner
 from .results_file import open_results
+from .spec import open_regular_file
 from .store import write_results
 from .sweep import CampaignSpec, _expand_values, estimate_task, expand
 
@@ -218,6 +219,10 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
         folder.check_file_names(t.scene)
     preflight(out_dir, sum(runner._sensor(t.scene)[1](t.scene) for t in tasks),
               scheduler=scheduler if client is None else None)
+    if scheduler is not None and client is None and not local:
+        # before any task is prepared or written: the scheduler answers and has a worker (a probe, closed;
+        # the run connects again below only if something is left to compute)
+        connect_scheduler(scheduler, worker_timeout=worker_timeout).close()
     with folder.locked(out_dir):
         folder.clean_temporaries(out_dir, say)
         manifest = folder.claim(out_dir, spec.name, "campaign", overwrite=overwrite, log=say)
@@ -407,6 +412,8 @@ def _run_campaign(spec, out_dir, tasks, t0, say, *, workers, scheduler, client, 
     return summary
 
 
+#: Largest campaign.json read [bytes]: a million tasks take about 200 MB.
+_MAX_META_BYTES = 256 << 20
 #: Names merge_campaign gives coordinates of its own along ``task``; a sweep dimension may not take them.
 _MERGE_NAMES = ("task", "replica", "task_seed")
 
@@ -432,12 +439,16 @@ def _dim_names(sweep, taken=()):
 def _read_campaign_meta(out_dir) -> dict:
     """``campaign.json`` of a campaign folder, its shape checked: a ValueError names the file and the fault."""
     path = os.path.join(out_dir, "campaign.json")
-    try:
-        with open(path, encoding="utf-8") as fh:
-            meta = json.load(fh)
-    except (OSError, ValueError) as e:
-        raise ValueError(f"{out_dir!r} is not a campaign folder (campaign.json: {e}); "
-                         f"run 'cwlidar-sim campaign' first") from None
+    if not os.path.lexists(path):
+        raise ValueError(f"{out_dir!r} is not a campaign folder (no campaign.json); run 'cwlidar-sim campaign' first")
+    with open_regular_file(path, "campaign file") as fh:  # a FIFO named campaign.json is refused, not waited on
+        size = os.fstat(fh.fileno()).st_size
+        if size > _MAX_META_BYTES:
+            raise ValueError(f"campaign file {path!r} is {size} bytes, more than {_MAX_META_BYTES}; not one of ours")
+        try:
+            meta = json.loads(fh.read().decode("utf-8"))
+        except (OSError, ValueError) as e:  # UnicodeDecodeError is a ValueError
+            raise ValueError(f"{path!r} is not a cwlidar_sim campaign file ({e})") from None
     tasks = meta.get("tasks") if isinstance(meta, dict) else None
     if not isinstance(meta, dict) or not isinstance(meta.get("campaign"), dict) or not isinstance(tasks, list):
         raise ValueError(f"{path!r} is not a cwlidar_sim campaign file: it needs a 'campaign' table and a "

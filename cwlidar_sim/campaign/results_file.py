@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import json
 import os
+import re
 
-from .spec import SCENE_KINDS, open_regular_file
+from .spec import RESULTS_VERSION, SCENE_KINDS, open_regular_file
 from .store import ENGINE
 
-__all__ = ["HDF5_SIGNATURE", "check_results_file", "results_problem", "open_results"]
+__all__ = ["HDF5_SIGNATURE", "check_results_file", "results_problem", "open_results", "lacking"]
 
 #: The first 8 bytes of an HDF5 (hence NetCDF-4) file's superblock.
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -137,3 +138,18 @@ def open_results(path, *, sensor=None, what: str = "results file"):
         except _DECODE_ERRORS as e:
             raise ValueError(f"cannot read {what} {path!r} (damaged or truncated?): "
                              f"{' '.join(str(e).split())[:300]}") from None
+
+
+def lacking(path, ds, error, need: str) -> ValueError:
+    """The one-line error for a results file that lacks a variable or attribute ``need`` reads.
+
+    ``error`` is the KeyError or AttributeError raised by the reading code
+    (the figures, the probe-length fit); the message names the file, what is
+    missing, and the file's results version against this one's (an older
+    file may lack what is read now).
+    """
+    named = re.search(r"attribute '([^']+)'", str(error))  # xarray: "'Dataset' object has no attribute 'x'"
+    missing = error.args[0] if isinstance(error, KeyError) and error.args else named.group(1) if named else str(error)
+    version = ds.attrs.get("results_version", "unknown")
+    return ValueError(f"results file {os.fspath(path)!r} lacks {missing!r}, which {need} read (its results_version "
+                      f"is {version}, this version writes {RESULTS_VERSION}); fix: run its scene again")

@@ -26,7 +26,7 @@ import json
 import os
 import time
 
-from .._dask import DEFAULT_WORKER_TIMEOUT, completed
+from .._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed
 from . import conical, folder, nacelle, staring, store
 from .auto import resolve
 from .conical_scene import ConicalScene
@@ -225,6 +225,7 @@ def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True,
         When the cluster has had no worker for ``worker_timeout`` seconds.
     """
     say = log or (lambda s: None)
+    worker_timeout = check_worker_timeout(worker_timeout)
     if out_dir is None:
         return _run_scene(scene, None, client, progress, say, on_period, None, worker_timeout)
     folder.check_file_names(scene)

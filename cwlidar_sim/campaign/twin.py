@@ -87,6 +87,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from .._dask import DEFAULT_WORKER_TIMEOUT, completed
 from .._times import ns_text
 from ._twin_common import _TWIN_TAG, TWIN_VERSION, clock_attrs, record_statistics
 from .conical_scene import ConicalScene
@@ -476,7 +477,8 @@ def _identity(scene, params, tp, n_twins):
     return h.hexdigest()[:32]
 
 
-def run_twin(scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, periods=None, client=None) -> list:
+def run_twin(scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, periods=None, client=None,
+             worker_timeout: float = DEFAULT_WORKER_TIMEOUT) -> list:
     """The twins of every period of the scene's records, one NetCDF per period; resumes.
 
     Parameters
@@ -497,7 +499,12 @@ def run_twin(scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, per
     client : dask.distributed.Client, optional
         Run every (period, twin) as a task on this cluster; default: here,
         one after the other.  The files are identical bit for bit (each twin
-        is seeded from the scene, the period and its index alone).
+        is seeded from the scene, the period and its index alone).  Only a
+        cluster you trust (see the README's Dask section).
+    worker_timeout : float
+        With ``client``: the longest the cluster may have no worker while
+        twins are pending [s]; then :class:`~cwlidar_sim._dask.WorkersLostError`
+        (finished periods stay, a rerun resumes).
 
     Returns
     -------
@@ -550,8 +557,6 @@ def run_twin(scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, per
         files[n] = path
 
     if client is not None and todo:
-        from dask.distributed import as_completed
-
         futures, pending = {}, {}
         for n, tp, path, key in todo:
             pending[n] = [None] * n_twins
@@ -559,7 +564,8 @@ def run_twin(scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, per
                 futures[client.submit(twin_task, scene, tp, j, params, pure=False)] = (n, j)
         info = {n: (tp, path, key) for n, tp, path, key in todo}
         try:
-            for fut in as_completed(futures):
+            # as dask's as_completed, but stops when the cluster has had no worker for worker_timeout s
+            for fut in completed(client, futures, worker_timeout=worker_timeout):
                 n, j = futures[fut]
                 pending[n][j] = fut.result()
                 say(f"[{n + 1}/{len(tps)}] P{info[n][0].index:03d} twin {j + 1}/{n_twins} done")

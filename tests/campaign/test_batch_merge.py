@@ -34,7 +34,8 @@ seed = 99
 
 def run(folder, tier, lines, sweep):
     (folder / "base.toml").write_text(BASE.format(tier=tier, lines=lines))
-    spec = loads_campaign(f'name = "c"\nseed = 3\nbase = "base.toml"\n{sweep}', base_dir=str(folder))
+    # paired = false: each task its own turbulence, so that two tasks' numbers differ
+    spec = loads_campaign(f'name = "c"\nseed = 3\nbase = "base.toml"\npaired = false\n{sweep}', base_dir=str(folder))
     out = folder / "out"
     s = batch.run_campaign(spec, out, local=True, progress=False)
     assert s["done"] == 2 and not s["failed"]
@@ -116,7 +117,8 @@ def test_index_json_cannot_point_outside_the_folder(folder, tmp_path):
     idx["tasks"][tid_a]["result"] = str(tmp_path / "elsewhere.nc")
     (folder / "index.json").write_text(json.dumps(idx))
     merged = batch.merge_campaign(folder)
-    own = read_results(path_a)
+    own, other = read_results(path_a), read_results(path_b)
+    assert not np.array_equal(own.transfer_cross.values, other.transfer_cross.values)
     np.testing.assert_array_equal(merged.sel(cnr_db=-10.0, replica=0).transfer_cross.values, own.transfer_cross.values)
 
 

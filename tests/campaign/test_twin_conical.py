@@ -7,6 +7,8 @@ circle's centre at U / dx = 5 Hz with 0.05 m/s of white noise: 60 s, two 30-s pe
 import math
 import os
 import shutil
+import signal
+import threading
 
 import numpy as np
 import pytest
@@ -290,3 +292,38 @@ def test_cycle_mode_conditions_one_box_on_the_records_at_every_height(run, tmp_p
     assert ds["height"].values.tolist() == [Z, 60.0] and ds.sizes["twin"] == 1
     assert ds["records_used"].values.tolist() == ["[0, 1]", "[0, 1]"]
     assert np.all(np.isfinite(ds["lidar_std"].values))
+
+
+
+#: Released at the end of a test so that a worker thread held in a twin may end.
+_RELEASE = threading.Event()
+
+
+def _held_twin(scene, tp, j, params=None, status=None):
+    """Held until the test ends (module level: the cluster pickles it by name)."""
+    _RELEASE.wait(120)
+
+
+def test_a_twin_run_whose_workers_die_stops(run, tmp_path, monkeypatch):
+    """The last worker goes while twins are pending: a clear error in bounded time, not a wait forever."""
+    distributed = pytest.importorskip("distributed")
+    from cwlidar_sim._dask import WorkersLostError
+    from cwlidar_sim.campaign import twin
+
+    def ring(signum, frame):
+        raise AssertionError("still waiting after 60 s")
+
+    monkeypatch.setattr(twin, "twin_task", _held_twin)
+    _RELEASE.clear()
+    old = signal.signal(signal.SIGALRM, ring)
+    signal.alarm(60)
+    try:
+        with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                      dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+            threading.Timer(0.5, cluster.scale, (0,)).start()
+            with pytest.raises(WorkersLostError, match="no worker for 1 s"):
+                twin.run_twin(run["scene"], tmp_path / "dask", n_twins=N_TWINS, client=client, worker_timeout=1.0)
+    finally:
+        _RELEASE.set()
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)

@@ -61,11 +61,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import re
 
 import numpy as np
 
 from .._validation import check_choice, check_keys, check_real, check_tuple
+from .record_files import MAX_SAMPLES, absurd_speeds, parse_speed_units, parse_time_units, read_record_file
 
 __all__ = ["RecordSpec", "Record", "read_record", "read_periods", "parse_speed_units", "parse_time_units",
            "fit_mann_to_record"]
@@ -75,12 +75,6 @@ ROTATIONS = ("double", "planar", "none")
 FLAG_SPIKE = 1
 FLAG_GAP = 2
 _ROLES = {"sonic": ("u", "v", "w"), "cup": ("speed",)}
-_CF_NAMES = {
-    "u": ("eastward_wind", "x_wind", "u"),
-    "v": ("northward_wind", "y_wind", "v"),
-    "w": ("upward_air_velocity", "w"),
-    "speed": ("wind_speed", "speed", "ws"),
-}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -220,181 +214,15 @@ def _role_map(field, value, roles):
 
 
 # ---------------------------------------------------------------------------
-# units
+# reading (the file itself: :mod:`.record_files`, shared with a scene's ``fit_to``)
 # ---------------------------------------------------------------------------
-_LENGTH = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0, "cm": 0.01, "mm": 1e-3,
-           "km": 1e3, "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "mi": 1609.344, "mile": 1609.344,
-           "miles": 1609.344}
-_TIME = {"s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "min": 60.0,
-         "mins": 60.0, "minute": 60.0, "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hrs": 3600.0,
-         "hour": 3600.0, "hours": 3600.0, "d": 86400.0, "day": 86400.0, "days": 86400.0}
-_SPEED_WORDS = {"knot": 1852.0 / 3600.0, "knots": 1852.0 / 3600.0, "kt": 1852.0 / 3600.0,
-                "kts": 1852.0 / 3600.0, "kn": 1852.0 / 3600.0, "mph": 1609.344 / 3600.0,
-                "kph": 1.0 / 3.6, "kmh": 1.0 / 3.6}
-
-
-def parse_speed_units(units: str) -> float:
-    """Factor from a speed unit string to m/s: ``m s-1``, ``m/s``, ``cm s^-1``, ``km h-1``, ``knots``, ``mph`` ...
-
-    Raises ValueError naming the string when it does not parse.
-    """
-    if not isinstance(units, str):
-        raise TypeError(f"units must be a str, got {type(units).__name__}")
-    s = units.strip().lower()
-    if s in _SPEED_WORDS:
-        return _SPEED_WORDS[s]
-    m = (re.fullmatch(r"([a-z]+)\s*(?:/|\s+per\s+)\s*([a-z]+)", s)
-         or re.fullmatch(r"([a-z]+)\s*[\s.*·]\s*([a-z]+)\s*(?:\^|\*\*)?\s*-\s*1", s))
-    if m and m.group(1) in _LENGTH and m.group(2) in _TIME:
-        return _LENGTH[m.group(1)] / _TIME[m.group(2)]
-    raise ValueError(f"units {units!r} do not parse as a speed; allowed: a length over a time such as 'm s-1', "
-                     f"'m/s', 'cm s-1', 'km h-1', or 'knots', 'mph'")
-
-
-def parse_time_units(units: str) -> float:
-    """Factor from a time unit string (``s``, ``seconds since 2020-01-01``, ``min``, ``hours`` ...) to seconds."""
-    if not isinstance(units, str):
-        raise TypeError(f"units must be a str, got {type(units).__name__}")
-    s = units.strip().lower().split(" since ")[0].strip()
-    if s in _TIME:
-        return _TIME[s]
-    raise ValueError(f"time units {units!r} do not parse; allowed: s, min, h, days (optionally '... since DATE')")
-
-
-# ---------------------------------------------------------------------------
-# reading
-# ---------------------------------------------------------------------------
-def _to_float(text):
-    t = text.strip()
-    if t == "" or t.lower() in ("nan", "na", "n/a", "null", "none"):
-        return math.nan
-    return float(t)
-
-
-def _read_csv(spec):
-    """(times [s] or None, {role: values [m/s]}) of a CSV record."""
-    import csv
-
-    roles = _ROLES[spec.kind]
-    with open(spec.path, newline="", encoding="utf-8") as f:
-        rows = list(csv.reader(f))
-    if not rows:
-        raise ValueError(f"{spec.name}: {spec.path!r} is empty")
-    header = [h.strip() for h in rows[0]]
-    names = {r: spec.column(r) or r for r in roles}
-    tcol = spec.column("time")
-    if tcol is None and "time" in header:
-        tcol = "time"
-    missing = [n for n in list(names.values()) + ([tcol] if tcol else []) if n not in header]
-    if missing:
-        raise ValueError(f"{spec.name}: {spec.path!r} lacks column(s) {missing}; it has {header}")
-    body = rows[1:]
-    out = {}
-    for r, n in names.items():
-        j = header.index(n)
-        try:
-            vals = np.array([_to_float(row[j]) if j < len(row) else math.nan for row in body])
-        except ValueError as e:
-            raise ValueError(f"{spec.name}: column {n!r} of {spec.path!r} is not numeric ({e})") from None
-        out[r] = vals * parse_speed_units(spec.unit(r) or "m s-1")
-    t = None
-    if tcol:
-        j = header.index(tcol)
-        cells = [row[j].strip() if j < len(row) else "" for row in body]
-        t = _parse_times(cells, spec, f"column {tcol!r}")
-    return t, out
-
-
-def _parse_times(cells, spec, where):
-    try:
-        t = np.array([float(c) for c in cells])
-        return t * parse_time_units(spec.unit("time") or "s")
-    except ValueError:
-        pass
-    try:
-        d = np.array(cells, dtype="datetime64[ns]")
-    except ValueError:
-        raise ValueError(f"{spec.name}: {where} of {spec.path!r} holds neither seconds nor ISO 8601 times "
-                         f"(first value {cells[0]!r})") from None
-    return (d - d[0]).astype(np.int64) * 1e-9
-
-
-def _find_variable(ds, role, spec):
-    name = spec.column(role)
-    if name is not None:
-        if name not in ds.variables:
-            raise ValueError(f"{spec.name}: {spec.path!r} has no variable {name!r} (columns[{role!r}]); "
-                             f"it has {sorted(map(str, ds.variables))}")
-        return name
-    by_std = {str(ds[v].attrs.get("standard_name", "")): str(v) for v in ds.variables}
-    for cand in _CF_NAMES[role]:
-        if cand in by_std:
-            return by_std[cand]
-        if cand in ds.variables:
-            return cand
-    raise ValueError(f"{spec.name}: {spec.path!r} has no variable for {role} (tried standard names and names "
-                     f"{list(_CF_NAMES[role])}; set columns[{role!r}]); it has {sorted(map(str, ds.variables))}")
-
-
-def _read_netcdf(spec):
-    import xarray as xr
-
-    ds = None
-    errors = []
-    for engine in ("h5netcdf", "scipy"):
-        try:
-            ds = xr.open_dataset(spec.path, engine=engine, decode_times=False, decode_cf=False)
-            break
-        except Exception as e:  # noqa: BLE001  (either engine may refuse the format)
-            errors.append(f"{engine}: {e}")
-    if ds is None:
-        raise ValueError(f"{spec.name}: cannot read {spec.path!r} as NetCDF ({'; '.join(errors)})")
-    with ds:
-        out = {}
-        for role in _ROLES[spec.kind]:
-            v = _find_variable(ds, role, spec)
-            da = ds[v]
-            if da.ndim != 1:
-                raise ValueError(f"{spec.name}: variable {v!r} of {spec.path!r} has dims {da.dims}; allowed: one")
-            units = da.attrs.get("units") or spec.unit(role) or "m s-1"
-            a = np.asarray(da.values, dtype=np.float64)
-            fill = da.attrs.get("_FillValue", da.attrs.get("missing_value"))
-            if fill is not None:
-                a = np.where(a == float(np.asarray(fill).ravel()[0]), np.nan, a)
-            try:
-                out[role] = a * parse_speed_units(str(units))
-            except ValueError as e:
-                raise ValueError(f"{spec.name}: variable {v!r} of {spec.path!r}: {e}") from None
-        t = None
-        tname = spec.column("time") or ("time" if "time" in ds.variables else None)
-        if tname is not None:
-            if tname not in ds.variables:
-                raise ValueError(f"{spec.name}: {spec.path!r} has no time variable {tname!r}")
-            tu = str(ds[tname].attrs.get("units", spec.unit("time") or "s"))
-            try:
-                t = np.asarray(ds[tname].values, dtype=np.float64) * parse_time_units(tu)
-            except ValueError as e:
-                raise ValueError(f"{spec.name}: time of {spec.path!r}: {e}") from None
-    return t, out
-
-
 def _load(spec):
-    if not os.path.isfile(spec.path):
-        raise ValueError(f"{spec.name}: no such file {spec.path!r}")
-    ext = os.path.splitext(spec.path)[1].lower()
-    if ext in (".csv", ".txt"):
-        t, vals = _read_csv(spec)
-    elif ext in (".nc", ".nc4", ".cdf", ".netcdf"):
-        t, vals = _read_netcdf(spec)
-    else:
-        raise ValueError(f"{spec.name}: {spec.path!r} has extension {ext!r}; allowed: .csv, .txt (CSV) or .nc, "
-                         f".nc4, .cdf (NetCDF)")
-    n = len(next(iter(vals.values())))
-    if any(len(v) != n for v in vals.values()) or (t is not None and len(t) != n):
-        raise ValueError(f"{spec.name}: columns of {spec.path!r} differ in length")
-    if n < 16:
-        raise ValueError(f"{spec.name}: {spec.path!r} has {n} samples; allowed: >= 16")
-    return t, vals
+    """(times [s] or None, {role: values [m/s]}, {role: units}); samples beyond MAX_SPEED become NaN (gaps)."""
+    t, vals, units = read_record_file(spec)
+    bad = absurd_speeds(vals, units, spec, spec.max_filled_fraction)
+    if bad.any():
+        vals = {r: np.where(bad, np.nan, v) for r, v in vals.items()}
+    return t, vals, units
 
 
 def _regular_grid(t, vals, spec):
@@ -425,9 +253,20 @@ def _regular_grid(t, vals, spec):
         i = int(np.argmax(off))
         raise ValueError(f"{spec.name}: sample {i} of {spec.path!r} at t = {t[i]:.6g} s lies {off[i]:.2f} steps off "
                          f"the regular {fs:.6g} Hz grid; allowed: 0.25 (resample irregular records first)")
-    if np.any(np.diff(idx) == 0):
+    step_i = np.diff(idx)
+    if np.any(step_i == 0):
         raise ValueError(f"{spec.name}: two samples of {spec.path!r} fall on one time step of the {fs:.6g} Hz grid")
+    # Missing grid times are checked before the grid is allocated: a row far in the future must not
+    # allocate the whole span first.  A run longer than max_gap is an error wherever it lies.
+    max_run = int(math.floor(spec.max_gap * fs + 1e-9))
+    j = int(np.argmax(step_i))
+    if step_i[j] - 1 > max_run:
+        raise ValueError(f"{spec.name}: gap of {(step_i[j] - 1) / fs:.6g} s ({int(step_i[j]) - 1} samples) in the time "
+                         f"column of {spec.path!r} after t = {t[j]:.6g} s is longer than max_gap = {spec.max_gap:.6g} s")
     m = int(idx[-1]) + 1
+    if m > MAX_SAMPLES:
+        raise ValueError(f"{spec.name}: the time column of {spec.path!r} spans {m} samples at {fs:.6g} Hz; allowed: "
+                         f"at most {MAX_SAMPLES} (MAX_SAMPLES)")
     out = {}
     for r, v in vals.items():
         a = np.full(m, np.nan)
@@ -563,6 +402,9 @@ class Record:
         Time of the period's first sample on the file's clock [s] (seconds
         as written; ISO 8601 times from the file's first; 0 without a time
         column).
+    units : dict
+        Role -> the speed units the file's values were read in (converted to
+        m/s).
     """
 
     spec: RecordSpec
@@ -574,6 +416,7 @@ class Record:
     mean_speed: float
     rotation: dict
     time0: float = 0.0
+    units: dict = dataclasses.field(default_factory=dict)
 
     @property
     def n_samples(self) -> int:
@@ -627,7 +470,7 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
     """
     if not isinstance(spec, RecordSpec):
         raise TypeError(f"spec must be a RecordSpec, got {type(spec).__name__}")
-    t, raw = _load(spec)
+    t, raw, units = _load(spec)
     fs, t0, grid = _regular_grid(t, raw, spec)
     n = len(next(iter(grid.values())))
     if period_duration is None:
@@ -665,7 +508,7 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
         for a in vals.values():
             a.setflags(write=False)
         flags.setflags(write=False)
-        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start))
+        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start, dict(units)))
     return out
 
 

@@ -241,6 +241,10 @@ def _regular_grid(t, vals, spec):
                          f"t = {t[i + 1]:.6g} s follows t = {t[i]:.6g} s")
     step = float(np.median(dt))
     fs = 1.0 / step
+    # A rate within 1e-9 of a round one (10 Hz from times i / 10 whose differences scatter by an ulp) is that
+    # rate: 1 / median(dt) alone gives 10.000000000009 Hz for 2**15 samples at 10 Hz.
+    if abs(fs - round(fs, 6)) <= 1e-9 * fs:
+        fs = round(fs, 6)
     if spec.sample_rate is not None:
         if abs(spec.sample_rate * step - 1.0) > 0.01:
             raise ValueError(f"{spec.name}: sample_rate = {spec.sample_rate} Hz but the time column of "

@@ -318,7 +318,10 @@ def _open_netcdf(spec):
     names = []
     for engine in ("h5netcdf", "scipy"):
         try:
-            return xr.open_dataset(spec.path, engine=engine, decode_times=False, decode_cf=False)
+            # No default indexes: a dimension coordinate would otherwise be read whole at opening, before
+            # its declared length can be checked (a 7 KB file may declare 2e9 samples).
+            return xr.open_dataset(spec.path, engine=engine, decode_times=False, decode_cf=False,
+                                   create_default_indexes=False)
         except Exception as e:  # noqa: BLE001  (either engine may refuse the format; their messages quote the file)
             names.append(f"{engine}: {type(e).__name__}")
     raise ValueError(f"{spec.name}: {spec.path!r} is neither netCDF-4 (HDF5) nor netCDF-3, or is truncated "

@@ -1,0 +1,170 @@
+"""The one reader of records (twin and fit_to): units, sizes before allocation, files that are not records."""
+
+import hashlib
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from cwlidar_sim.analysis import record_files
+from cwlidar_sim.analysis.record_files import file_digest, parse_speed_units
+from cwlidar_sim.analysis.records import RecordSpec, read_record
+
+
+def _wind(n, seed=1, U=8.0):
+    rng = np.random.default_rng(seed)
+    x = np.convolve(rng.normal(0, 1, n + 31), np.ones(32) / 6.0, mode="valid")
+    return {"u": U + 0.5 * x, "v": 0.3 * rng.normal(size=n), "w": 0.2 * rng.normal(size=n)}
+
+
+def _csv(path, vals, t=None, header="time,u,v,w"):
+    n = len(vals["u"])
+    t = np.arange(n) / 10.0 if t is None else t
+    with open(path, "w") as f:
+        f.write(header + "\n")
+        for row in zip(t, vals["u"], vals["v"], vals["w"]):
+            f.write(",".join(repr(float(x)) for x in row) + "\n")
+    return str(path)
+
+
+def _nc(path, vals, units="m s-1", scale=1.0):
+    n = len(vals["u"])
+    xr.Dataset({c: ("time", vals[c] * scale, {"units": units}) for c in "uvw"},
+               coords={"time": ("time", np.arange(n) / 10.0, {"units": "s"})}).to_netcdf(path, engine="h5netcdf")
+    return str(path)
+
+
+@pytest.mark.parametrize("units, factor", [("m s-1", 1.0), ("m/s", 1.0), ("cm s-1", 0.01), ("cm s^-1", 0.01),
+                                           ("km h-1", 1 / 3.6), ("km/h", 1 / 3.6), ("knots", 1852 / 3600),
+                                           ("mph", 1609.344 / 3600), ("ft s-1", 0.3048)])
+def test_speed_units_convert_by_the_table(units, factor):
+    assert parse_speed_units(units) == pytest.approx(factor, rel=1e-15)
+
+
+@pytest.mark.parametrize("units", ["furlongs per fortnight", "m", "m s-2", "kg m-3", "", "s m-1"])
+def test_speed_units_that_do_not_parse_are_refused_by_name(units):
+    with pytest.raises(ValueError, match=r"units .* do not parse as a speed"):
+        parse_speed_units(units)
+
+
+def test_one_record_in_csv_m_s_and_netcdf_cm_s_reads_alike(tmp_path):
+    vals = _wind(400)
+    a = read_record(RecordSpec(_csv(tmp_path / "a.csv", vals), rotation="none"))
+    b = read_record(RecordSpec(_nc(tmp_path / "b.nc", vals, "cm s-1", 100.0), rotation="none"))
+    for c in "uvw":
+        np.testing.assert_allclose(b.values[c], a.values[c], rtol=1e-13, atol=1e-13)
+    assert a.units == {"u": "m s-1", "v": "m s-1", "w": "m s-1"} and b.units["u"] == "cm s-1"
+    assert a.sample_rate == b.sample_rate == 10.0  # 1 / median(dt) is 10.000000000000568 Hz here: snapped
+
+
+def test_a_rate_that_is_not_round_is_kept():
+    from cwlidar_sim.analysis.records import _regular_grid
+
+    t = np.arange(500) * 0.3
+    fs, _, _ = _regular_grid(t, {"u": np.ones(500)}, RecordSpec("x.csv", rotation="none"))
+    assert fs == pytest.approx(1 / 0.3, rel=1e-12) and fs != round(fs, 6)
+
+
+def test_a_time_gap_is_refused_before_the_grid_is_allocated(tmp_path):
+    """A last row 1e15 s later would need a grid of 1e16 samples: the gap is refused first."""
+    vals = _wind(400)
+    t = np.arange(400) / 10.0
+    t[-1] = 1e15
+    with pytest.raises(ValueError, match=r"gap of 1e\+15 s .* longer than max_gap = 1 s"):
+        read_record(RecordSpec(_csv(tmp_path / "a.csv", vals, t), rotation="none"))
+
+
+def test_the_declared_length_of_a_netcdf_variable_is_checked_before_reading(tmp_path, monkeypatch):
+    monkeypatch.setattr(record_files, "MAX_SAMPLES", 300)
+
+    def no_read(*a, **k):
+        raise AssertionError("the variable was read before its length was checked")
+
+    p = _nc(tmp_path / "a.nc", _wind(400))
+    monkeypatch.setattr(record_files.np, "asarray", no_read)
+    with pytest.raises(ValueError, match=r"variable 'u' of .* declares 400 samples; allowed: at most 300"):
+        read_record(RecordSpec(p, rotation="none"))
+
+
+def test_a_csv_is_read_in_chunks_and_refused_past_the_sample_limit(tmp_path, monkeypatch):
+    monkeypatch.setattr(record_files, "MAX_SAMPLES", 300)
+    monkeypatch.setattr(record_files, "_CHUNK_ROWS", 100)
+    p = _csv(tmp_path / "a.csv", _wind(1000))
+    seen = []
+    real = record_files._numbers
+    monkeypatch.setattr(record_files, "_numbers", lambda col, *a: seen.append(len(col)) or real(col, *a))
+    with pytest.raises(ValueError, match=r"holds more than 300 rows"):
+        read_record(RecordSpec(p, rotation="none"))
+    assert len(seen) == 3 * 3 and max(seen) == 100  # three chunks of three columns, then refused
+
+
+def test_a_non_numeric_field_is_named_by_line_with_a_short_excerpt(tmp_path):
+    p = tmp_path / "a.csv"
+    _csv(p, _wind(100))
+    rows = p.read_text().splitlines()
+    rows[7] = "0.6," + "9" * 200_000 + "x,0,0"  # over csv.field_size_limit (131072)
+    p.write_text("\n".join(rows) + "\n")
+    with pytest.raises(ValueError, match=r"column 'u' of .* is not numeric at line 8 \('9{32}\.\.\.'\)$") as e:
+        read_record(RecordSpec(str(p), rotation="none"))
+    assert len(str(e.value)) < 300
+
+
+def test_the_header_is_named_only_when_it_is_a_header_of_column_names(tmp_path):
+    p = tmp_path / "a.csv"
+    p.write_text("root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1::/usr/sbin:/usr/sbin/nologin\n")
+    with pytest.raises(ValueError, match="not a header of column names") as e:
+        read_record(RecordSpec(str(p), rotation="none"))
+    assert "root:x" not in str(e.value) and "bash" not in str(e.value)
+    q = tmp_path / "b.csv"
+    _csv(q, _wind(100), header="time,U,V,W")
+    with pytest.raises(ValueError, match=r"lacks column\(s\) \['u', 'v', 'w'\]; it has \['time', 'U', 'V', 'W'\]"):
+        read_record(RecordSpec(str(q), rotation="none"))
+
+
+def test_a_file_that_is_not_netcdf_is_not_quoted(tmp_path):
+    p = tmp_path / "a.nc"
+    p.write_bytes(b"SECRET-CONTENTS " * 100)
+    with pytest.raises(ValueError, match=r"is neither netCDF-4 \(HDF5\) nor netCDF-3") as e:
+        read_record(RecordSpec(str(p), rotation="none"))
+    assert "SECRET" not in str(e.value)
+
+
+def test_a_few_absurd_speeds_are_gaps_and_many_are_refused_as_units(tmp_path):
+    vals = _wind(400)
+    vals["u"][[50, 51]] = -9999.0  # a logger's sentinel
+    rec = read_record(RecordSpec(_csv(tmp_path / "a.csv", vals), rotation="none"))
+    assert rec.n_filled == 2 and rec.values["u"].max() < 20
+    big = {c: v * 1000 for c, v in _wind(400).items()}
+    with pytest.raises(ValueError, match=r"400 of 400 samples .* exceed 100 m/s \(largest 8\d{3} m/s"):
+        read_record(RecordSpec(_csv(tmp_path / "b.csv", big), rotation="none"))
+
+
+def test_the_digest_is_the_file_s_sha256_read_in_chunks(tmp_path, monkeypatch):
+    p = tmp_path / "a.nc"
+    blob = np.random.default_rng(3).bytes(3 * 2**20 + 17)
+    p.write_bytes(blob)
+    reads = []
+    real_open = open
+
+    class Spy:
+        def __init__(self, f):
+            self.f = f
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *a):
+            self.f.close()
+
+        def read(self, n=-1):
+            reads.append(n)
+            return self.f.read(n)
+
+    monkeypatch.setattr("builtins.open", lambda path, mode="r", *a, **k: Spy(real_open(path, mode, *a, **k)))
+    assert file_digest(p, "x") == hashlib.sha256(blob).hexdigest()
+    assert reads and all(0 < n <= 2**20 for n in reads)
+    monkeypatch.setattr(record_files, "MAX_FILE_BYTES", 2**20)
+    reads.clear()
+    with pytest.raises(ValueError, match=r"x: .* holds 0\.00293 GiB; allowed: at most 0\.000977 GiB"):
+        file_digest(p, "x")
+    assert reads == []

@@ -9,6 +9,13 @@ wrong.  :meth:`Record.line_record` hands the result to
 
 Files
 -----
+The file itself is read by :mod:`cwlidar_sim.analysis.record_files`, also
+the reader of a scene's ``turbulence.fit_to``: it checks that the path is a
+regular, non-empty file within 4 GiB and that the record holds at most
+2**25 samples before reading it, and names the file (never its contents)
+in its errors.  Samples faster than 100 m/s are wrong units or sentinel
+values: a few are gaps, more than ``max_filled_fraction`` an error.
+
 * CSV: a header row of column names, then one row per sample; numbers
   (empty, ``nan`` or ``NA`` fields are missing values).  The time column (if
   any) holds seconds or ISO 8601 timestamps; without one the spec's
@@ -28,7 +35,9 @@ Cleaning (per period)
 ---------------------
 1. Times: strictly increasing (else an error naming the first offending
    sample); samples must sit within a quarter step of the regular grid
-   ``t0 + i / fs``; missing grid times become gaps.
+   ``t0 + i / fs`` (fs = 1 / median step, taken as the round rate within
+   1e-9 of it); missing grid times become gaps, and a run of them longer
+   than ``max_gap`` is an error before the grid is allocated.
 2. Despiking: a sample is a spike if it departs from the running median
    (window ``despike_window`` s) by more than ``despike_threshold`` robust
    standard deviations, 1.4826 x the median absolute deviation of the

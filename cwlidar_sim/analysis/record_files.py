@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import inspect
 import io
 import os
 import re
@@ -45,6 +46,7 @@ MAX_SPEED = 100.0
 _CHUNK_ROWS = 2**20
 _HASH_CHUNK = 2**20
 _NA_WORDS = ("", "nan", "na", "n/a", "null", "none")
+_NA_TOKENS = sorted({f(w) for w in _NA_WORDS for f in (str.lower, str.upper, str.title)} | {"NaN", "N/A"})
 
 _LENGTH = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0, "cm": 0.01, "mm": 1e-3,
            "km": 1e3, "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "mi": 1609.344, "mile": 1609.344,
@@ -162,16 +164,40 @@ def _first_line(spec):
     return [h.strip() for h in next(csv.reader(io.StringIO(line)), [])]
 
 
-def _chunks(spec, names, header):
-    """pandas chunks (text) of the columns ``names`` (rows of the file after the header), with one-line errors."""
+class _NotPlain(Exception):
+    """A field the fast path (pandas' numeric parser) does not take: blanks around a word, ISO times, text."""
+
+
+def _chunks(spec, names, header, plain):
+    """pandas chunks of the columns ``names`` (rows after the header): float64 (``plain``) or text; one-line errors.
+
+    The plain chunks are parsed by a correctly rounded converter, so a field
+    reads exactly as ``float`` reads it.
+    """
     import pandas as pd
 
+    kw = dict(dtype=np.float64, na_values=_NA_TOKENS, keep_default_na=False) if plain else dict(dtype=str,
+                                                                                                  na_filter=False)
+    if plain and int(pd.__version__.split(".")[0]) < 3:
+        # Before pandas 3 the default converter is not correctly rounded; "round_trip" is Python's own
+        # (pandas 3 deprecates the option: its default agrees with float() on 470 000 test strings).
+        kw["float_precision"] = "round_trip"
     try:
-        reader = pd.read_csv(spec.path, header=0, names=header, usecols=names, dtype=str, encoding="utf-8-sig",
-                             na_filter=False, skip_blank_lines=False, index_col=False, engine="c",
-                             chunksize=_CHUNK_ROWS)
+        reader = pd.read_csv(spec.path, header=0, names=header, usecols=names, encoding="utf-8-sig",
+                             skip_blank_lines=False, index_col=False, engine="c", chunksize=_CHUNK_ROWS, **kw)
         with reader:
-            yield from reader
+            while True:
+                try:
+                    chunk = next(reader)
+                except StopIteration:
+                    return
+                except (UnicodeDecodeError, pd.errors.ParserError):
+                    raise
+                except (ValueError, TypeError):
+                    if plain:
+                        raise _NotPlain() from None
+                    raise
+                yield chunk
     except UnicodeDecodeError:
         raise ValueError(f"{spec.name}: {spec.path!r} is not UTF-8 text; allowed: a UTF-8 CSV") from None
     except pd.errors.ParserError as e:
@@ -183,6 +209,10 @@ def _chunks(spec, names, header):
 
 def _numbers(col, spec, name, first_line):
     """A chunk's column of text as float64 by Python's ``float`` (the fields stripped; missing-value words NaN)."""
+    try:  # float() itself takes surrounding blanks, nan and inf: the common case needs no string work
+        return col.to_numpy(dtype=object).astype(np.float64)
+    except ValueError:
+        pass
     s = col.str.strip()
     s = s.where(~s.str.lower().isin(_NA_WORDS), "nan").to_numpy(dtype=object)
     try:
@@ -201,13 +231,32 @@ def _is_float(c):
         return False
 
 
+def _columns(spec, wanted, header, tcol, plain):
+    """{name: [arrays per chunk]} and the row count, refused as soon as the rows pass MAX_SAMPLES."""
+    parts = {n: [] for n in wanted}
+    rows = 0
+    for chunk in _chunks(spec, wanted, header, plain):
+        first = rows + 2  # the file's line number of the chunk's first row (the header is line 1)
+        rows += len(chunk)
+        if rows > MAX_SAMPLES:
+            raise ValueError(f"{spec.name}: {spec.path!r} holds more than {MAX_SAMPLES} rows; allowed: at most "
+                             f"{MAX_SAMPLES} samples (MAX_SAMPLES; split the record)")
+        for n in wanted:
+            if plain:
+                parts[n].append(chunk[n].to_numpy(dtype=np.float64))
+            else:
+                parts[n].append(_times_of(chunk[n], spec, n, first) if n == tcol
+                                else _numbers(chunk[n], spec, n, first))
+    return parts, rows
+
+
 def _times_of(col, spec, tcol, first_line):
     """A chunk of the time column: floats [file units] when numeric, else datetime64[ns] (ISO 8601)."""
-    cells = col.str.strip().to_numpy(dtype=object)
+    cells = col.to_numpy(dtype=object)
     try:
         return cells.astype(np.float64)
     except ValueError:
-        pass
+        cells = col.str.strip().to_numpy(dtype=object)
     try:
         return np.array(cells, dtype="datetime64[ns]")
     except ValueError:
@@ -234,16 +283,10 @@ def _read_csv(spec):
         raise ValueError(f"{spec.name}: {spec.path!r} names a column twice; {_header_text(header)}")
     units = {r: spec.unit(r) or "m s-1" for r in roles}
     factors = {r: parse_speed_units(u) for r, u in units.items()}
-    parts = {n: [] for n in wanted}
-    rows = 0
-    for chunk in _chunks(spec, wanted, header):
-        first = rows + 2  # the file's line number of the chunk's first row (the header is line 1)
-        rows += len(chunk)
-        if rows > MAX_SAMPLES:
-            raise ValueError(f"{spec.name}: {spec.path!r} holds more than {MAX_SAMPLES} rows; allowed: at most "
-                             f"{MAX_SAMPLES} samples (MAX_SAMPLES; split the record)")
-        for n in wanted:
-            parts[n].append(_times_of(chunk[n], spec, n, first) if n == tcol else _numbers(chunk[n], spec, n, first))
+    try:
+        parts, rows = _columns(spec, wanted, header, tcol, plain=True)
+    except _NotPlain:  # some field needs Python's float on stripped text, or the times are ISO 8601
+        parts, rows = _columns(spec, wanted, header, tcol, plain=False)
     if rows == 0:
         raise ValueError(f"{spec.name}: {spec.path!r} has a header but no rows")
     out = {r: np.concatenate(parts[n]) * factors[r] for r, n in names.items()}
@@ -312,16 +355,36 @@ def _numeric_1d(ds, v, spec):
                          f"file is truncated or corrupt)") from None
 
 
+def _check_hdf5_dimensions(spec):
+    """Refuse an HDF5 (netCDF-4) file declaring a dimension longer than MAX_SAMPLES, reading only its metadata."""
+    import h5netcdf
+
+    try:
+        with h5netcdf.File(spec.path, "r") as f:
+            sizes = {str(k): int(d.size) for k, d in f.dimensions.items()}
+    except Exception:  # noqa: BLE001  (not HDF5: left to the readers below)
+        return
+    for k, n in sizes.items():
+        if n > MAX_SAMPLES:
+            raise ValueError(f"{spec.name}: dimension {k!r} of {spec.path!r} declares {n} samples; allowed: at most "
+                             f"{MAX_SAMPLES} (MAX_SAMPLES; split the record)")
+
+
 def _open_netcdf(spec):
     import xarray as xr
 
     names = []
+    # No default indexes: a dimension coordinate would otherwise be read whole at opening, before its
+    # declared length can be checked (a 7 KB netCDF-4 file may declare 2e9 samples).  An xarray without
+    # the option gets the HDF5 file's dimensions checked first (netCDF-3 stores its data uncompressed, so
+    # its declared sizes are bounded by the file's).
+    no_index = {"create_default_indexes": False}
+    if "create_default_indexes" not in inspect.signature(xr.open_dataset).parameters:
+        no_index = {}
+        _check_hdf5_dimensions(spec)
     for engine in ("h5netcdf", "scipy"):
         try:
-            # No default indexes: a dimension coordinate would otherwise be read whole at opening, before
-            # its declared length can be checked (a 7 KB file may declare 2e9 samples).
-            return xr.open_dataset(spec.path, engine=engine, decode_times=False, decode_cf=False,
-                                   create_default_indexes=False)
+            return xr.open_dataset(spec.path, engine=engine, decode_times=False, decode_cf=False, **no_index)
         except Exception as e:  # noqa: BLE001  (either engine may refuse the format; their messages quote the file)
             names.append(f"{engine}: {type(e).__name__}")
     raise ValueError(f"{spec.name}: {spec.path!r} is neither netCDF-4 (HDF5) nor netCDF-3, or is truncated "

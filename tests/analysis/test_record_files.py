@@ -91,11 +91,29 @@ def test_a_csv_is_read_in_chunks_and_refused_past_the_sample_limit(tmp_path, mon
     monkeypatch.setattr(record_files, "_CHUNK_ROWS", 100)
     p = _csv(tmp_path / "a.csv", _wind(1000))
     seen = []
-    real = record_files._numbers
-    monkeypatch.setattr(record_files, "_numbers", lambda col, *a: seen.append(len(col)) or real(col, *a))
+    real = record_files._chunks
+
+    def spy(*a, **k):
+        for chunk in real(*a, **k):
+            seen.append(len(chunk))
+            yield chunk
+
+    monkeypatch.setattr(record_files, "_chunks", spy)
     with pytest.raises(ValueError, match=r"holds more than 300 rows"):
         read_record(RecordSpec(p, rotation="none"))
-    assert len(seen) == 3 * 3 and max(seen) == 100  # three chunks of three columns, then refused
+    assert seen == [100, 100, 100, 100]  # refused at the fourth chunk of 100 rows, not after reading 1000
+
+
+def test_without_xarray_s_no_index_option_an_hdf5_file_s_dimensions_are_checked_first(tmp_path):
+    import h5netcdf
+
+    p = tmp_path / "a.nc"
+    with h5netcdf.File(p, "w") as f:
+        f.dimensions = {"time": 2_000_000_000}
+        f.create_variable("u", ("time",), float, chunks=(2**16,))
+    with pytest.raises(ValueError, match=r"dimension 'time' of .* declares 2000000000 samples"):
+        record_files._check_hdf5_dimensions(RecordSpec(str(p)))
+    record_files._check_hdf5_dimensions(RecordSpec(_nc(tmp_path / "b.nc", _wind(100))))  # a record passes
 
 
 def test_a_non_numeric_field_is_named_by_line_with_a_short_excerpt(tmp_path):

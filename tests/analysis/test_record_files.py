@@ -187,3 +187,23 @@ def test_the_digest_is_the_file_s_sha256_read_in_chunks(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match=r"x: .* holds 0\.00293 GiB; allowed: at most 0\.000977 GiB"):
         file_digest(p, "x")
     assert reads == []
+
+
+def test_fields_with_blanks_and_missing_words_read_as_float_reads_them(tmp_path):
+    """The fast numeric path and the text path (taken when a field needs it) agree with Python's float."""
+    vals = _wind(200)
+    plain = _csv(tmp_path / "plain.csv", vals)
+    rows = (tmp_path / "plain.csv").read_text().splitlines()
+    for i, word in ((3, " NA "), (9, "null"), (15, " nan"), (21, "")):
+        f = rows[i].split(",")
+        f[1] = word
+        rows[i] = ",".join(f)
+    rows[30] = ",".join(" " + x + " " for x in rows[30].split(","))
+    (tmp_path / "odd.csv").write_text("\n".join(rows) + "\n")
+    a = read_record(RecordSpec(plain, rotation="none", despike_threshold=0.0))
+    b = read_record(RecordSpec(str(tmp_path / "odd.csv"), rotation="none", despike_threshold=0.0))
+    assert b.n_filled == 4 and np.array_equal(np.nonzero(b.flags)[0], [2, 8, 14, 20])  # rows[0] is the header
+    keep = b.flags == 0
+    np.testing.assert_array_equal(b.values["u"][keep], a.values["u"][keep])  # bit for bit, row 30 included
+    expect = [float(x) for x in rows[30].split(",")[1:]]
+    assert [b.values[c][29] for c in "uvw"] == expect

@@ -32,8 +32,8 @@ import stat
 
 import numpy as np
 
-__all__ = ["MAX_FILE_BYTES", "MAX_SAMPLES", "MAX_SPEED", "absurd_speeds", "check_record_file", "file_digest", "parse_speed_units",
-           "parse_time_units", "read_record_file"]
+__all__ = ["MAX_FILE_BYTES", "MAX_SAMPLES", "MAX_SPEED", "absurd_speeds", "check_record_file", "file_digest",
+           "parse_speed_units", "parse_time_units", "read_record_file"]
 
 #: Largest record file read or hashed [bytes]: 4 GiB (a CSV of 2**25 rows of 4 columns at ~100 characters a row
 #: fits; a compressed NetCDF of as many samples is far smaller).

@@ -274,8 +274,9 @@ def _regular_grid(t, vals, spec):
     max_run = int(math.floor(spec.max_gap * fs + 1e-9))
     j = int(np.argmax(step_i))
     if step_i[j] - 1 > max_run:
-        raise ValueError(f"{spec.name}: gap of {(step_i[j] - 1) / fs:.6g} s ({int(step_i[j]) - 1} samples) in the time "
-                         f"column of {spec.path!r} after t = {t[j]:.6g} s is longer than max_gap = {spec.max_gap:.6g} s")
+        gap = int(step_i[j]) - 1
+        raise ValueError(f"{spec.name}: gap of {gap / fs:.6g} s ({gap} samples) in the time column of {spec.path!r} "
+                         f"after t = {t[j]:.6g} s is longer than max_gap = {spec.max_gap:.6g} s")
     m = int(idx[-1]) + 1
     if m > MAX_SAMPLES:
         raise ValueError(f"{spec.name}: the time column of {spec.path!r} spans {m} samples at {fs:.6g} Hz; allowed: "

@@ -120,6 +120,8 @@ def check_record_file(path, label: str) -> int:
         raise ValueError(f"{label}: {os.fspath(path)!r} is {kind}; allowed: a regular CSV or NetCDF file")
     if st.st_size == 0:
         raise ValueError(f"{label}: {os.fspath(path)!r} is empty (0 bytes)")
+    if not os.access(path, os.R_OK):  # else an OSError mid-read, which the CLI reports as a failed write
+        raise ValueError(f"{label}: {os.fspath(path)!r} is not readable (permission denied)")
     if st.st_size > MAX_FILE_BYTES:
         raise ValueError(f"{label}: {os.fspath(path)!r} holds {st.st_size / 2**30:.3g} GiB; allowed: at most "
                          f"{MAX_FILE_BYTES / 2**30:.3g} GiB (MAX_FILE_BYTES; split the record)")

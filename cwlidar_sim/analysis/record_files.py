@@ -178,14 +178,16 @@ def _chunks(spec, names, header, plain):
     """
     import pandas as pd
 
-    kw = dict(dtype=np.float64, na_values=_NA_TOKENS, keep_default_na=False) if plain else dict(dtype=str,
-                                                                                                  na_filter=False)
+    # Every column is parsed (no usecols: with it pandas drops a line's extra fields silently, and a
+    # line with a field too many has its values shifted); only the wanted ones are converted.
+    kw = (dict(dtype={n: np.float64 for n in names}, na_values=_NA_TOKENS, keep_default_na=False) if plain
+          else dict(dtype=str, na_filter=False))
     if plain and int(pd.__version__.split(".")[0]) < 3:
         # Before pandas 3 the default converter is not correctly rounded; "round_trip" is Python's own
         # (pandas 3 deprecates the option: its default agrees with float() on 470 000 test strings).
         kw["float_precision"] = "round_trip"
     try:
-        reader = pd.read_csv(spec.path, header=0, names=header, usecols=names, encoding="utf-8-sig",
+        reader = pd.read_csv(spec.path, header=0, names=header, encoding="utf-8-sig",
                              skip_blank_lines=False, index_col=False, engine="c", chunksize=_CHUNK_ROWS, **kw)
         with reader:
             while True:
@@ -199,7 +201,7 @@ def _chunks(spec, names, header, plain):
                     if plain:
                         raise _NotPlain() from None
                     raise
-                yield chunk
+                yield chunk[names]
     except UnicodeDecodeError:
         raise ValueError(f"{spec.name}: {spec.path!r} is not UTF-8 text; allowed: a UTF-8 CSV") from None
     except pd.errors.ParserError as e:

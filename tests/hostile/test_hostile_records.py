@@ -310,3 +310,38 @@ def test_a_fit_to_record_of_nan_only_is_refused(tmp_path, corpus, line):
     child = run_fit_to(tmp_path, "r.nc")
     assert_one_line_error(child, "fit_to", "gap of 819.2 s", "longer than max_gap")
     corpus.record("error", child)
+
+
+# ---------------------------------------------------------------------------
+# the twin's records (the same reader)
+# ---------------------------------------------------------------------------
+def test_a_twin_record_with_units_that_do_not_parse_is_refused_by_name(tmp_path, corpus, line):
+    write_csv(tmp_path / "m.csv", line)
+    (tmp_path / "tw.toml").write_text(TWIN.format(path="m.csv").replace(
+        'rotation = "none" }', 'rotation = "none", units = { u = "parsecs", v = "m s-1", w = "m s-1" } }'))
+    child = run_cli(["twin", "tw.toml", "--twins", "1", "--out", "o", "--no-progress"], cwd=tmp_path, timeout=120)
+    assert_one_line_error(child, "'parsecs'", "do not parse as a speed")
+    corpus.record("error", child)
+
+
+def test_a_twin_record_symlinked_to_another_file_is_not_echoed(tmp_path, corpus):
+    secret = tmp_path / "passwd"
+    secret.write_text("root:x:0:0:root:/root:/bin/bash\n")
+    os.symlink(secret, tmp_path / "m.csv")
+    (tmp_path / "tw.toml").write_text(TWIN.format(path="m.csv"))
+    child = run_cli(["twin", "tw.toml", "--twins", "1", "--out", "o", "--no-progress"], cwd=tmp_path, timeout=120)
+    assert_one_line_error(child, "m.csv", "not a header of column names")
+    assert "root:x" not in child.stderr and "bash" not in child.stderr
+    corpus.record("error", child)
+
+
+def test_a_csv_line_with_more_fields_than_the_header_is_named(tmp_path, corpus, line):
+    """Was: the extra fields were dropped silently (a shifted row read as another sample)."""
+    p = write_csv(tmp_path / "m.csv", line)
+    rows = p.read_text().splitlines()
+    rows[40] += ",9.9"
+    p.write_text("\n".join(rows) + "\n")
+    (tmp_path / "tw.toml").write_text(TWIN.format(path="m.csv"))
+    child = run_cli(["twin", "tw.toml", "--twins", "1", "--out", "o", "--no-progress"], cwd=tmp_path, timeout=120)
+    assert_one_line_error(child, "m.csv", "line 41 has 5 fields, the header 4")
+    corpus.record("error", child)

@@ -1,8 +1,11 @@
 """Reading a wind record's file: the one reader of the twin's records and of a scene's ``fit_to``.
 
-:func:`read_record_file` turns a CSV or NetCDF file into times [s] and
-velocities [m/s]; :mod:`cwlidar_sim.analysis.records` cleans them.  Every
-check that bounds the work comes before the work:
+:func:`read_record_file` turns a CSV or NetCDF file into exact times (a
+:class:`cwlidar_sim._times.TimeColumn`: integer ns parsed from a CSV's
+digits, read as text, or from NetCDF floats; the unit from the column
+header or the spec) and velocities [m/s];
+:mod:`cwlidar_sim.analysis.records` cleans them.  Every check that bounds
+the work comes before the work:
 
 * the path must name a regular, non-empty file (a directory, a FIFO or a
   device is refused by kind, so that nothing blocks or streams without
@@ -31,6 +34,8 @@ import re
 import stat
 
 import numpy as np
+
+from .._times import TimeColumn, column_unit, find_time_column, float_times, parse_time_cells, unit_ns
 
 __all__ = ["MAX_FILE_BYTES", "MAX_SAMPLES", "MAX_SPEED", "absurd_speeds", "check_record_file", "file_digest",
            "parse_speed_units", "parse_time_units", "read_record_file"]
@@ -92,13 +97,13 @@ def parse_speed_units(units: str) -> float:
 
 
 def parse_time_units(units: str) -> float:
-    """Factor from a time unit string (``s``, ``seconds since 2020-01-01``, ``min``, ``hours`` ...) to seconds."""
+    """Factor from a time unit string (``s``, ``ms``, ``seconds since 2020-01-01``, ``min``, ``hours`` ...) to seconds.
+
+    The table is :mod:`cwlidar_sim._times`' (the one the readers use, exact in ns).
+    """
     if not isinstance(units, str):
         raise TypeError(f"units must be a str, got {type(units).__name__}")
-    s = units.strip().lower().split(" since ")[0].strip()
-    if s in _TIME:
-        return _TIME[s]
-    raise ValueError(f"time units {_short(units)} do not parse; allowed: s, min, h, days (optionally '... since DATE')")
+    return unit_ns(units, "time") / 1e9
 
 
 def check_record_file(path, label: str) -> int:
@@ -167,20 +172,23 @@ def _first_line(spec):
 
 
 class _NotPlain(Exception):
-    """A field the fast path (pandas' numeric parser) does not take: blanks around a word, ISO times, text."""
+    """A field the fast path (pandas' numeric parser) does not take: blanks around a word, text."""
 
 
-def _chunks(spec, names, header, plain):
+def _chunks(spec, names, header, plain, tcol=None):
     """pandas chunks of the columns ``names`` (rows after the header): float64 (``plain``) or text; one-line errors.
 
     The plain chunks are parsed by a correctly rounded converter, so a field
-    reads exactly as ``float`` reads it.
+    reads exactly as ``float`` reads it.  The time column ``tcol`` is text
+    in both (its digits are parsed exactly by :mod:`cwlidar_sim._times`).
     """
     import pandas as pd
 
     # Every column is parsed (no usecols: with it pandas drops a line's extra fields silently, and a
     # line with a field too many has its values shifted); only the wanted ones are converted.
-    kw = (dict(dtype={n: np.float64 for n in names}, na_values=_NA_TOKENS, keep_default_na=False) if plain
+    nums = [n for n in names if n != tcol]
+    kw = (dict(dtype={**{n: np.float64 for n in nums}, **({tcol: str} if tcol else {})},
+               na_values={n: _NA_TOKENS for n in nums}, keep_default_na=False) if plain
           else dict(dtype=str, na_filter=False))
     if plain and int(pd.__version__.split(".")[0]) < 3:
         # Before pandas 3 the default converter is not correctly rounded; "round_trip" is Python's own
@@ -236,49 +244,40 @@ def _is_float(c):
 
 
 def _columns(spec, wanted, header, tcol, plain):
-    """{name: [arrays per chunk]} and the row count, refused as soon as the rows pass MAX_SAMPLES."""
+    """{name: [arrays per chunk]} and the row count, refused as soon as the rows pass MAX_SAMPLES.
+
+    The time column's parts are :class:`cwlidar_sim._times.TimeColumn` s (exact ns), parsed chunk by chunk so
+    that the text of at most one chunk is held at a time.
+    """
     parts = {n: [] for n in wanted}
     rows = 0
-    for chunk in _chunks(spec, wanted, header, plain):
+    where = f"{spec.name}: time column {tcol!r} of {spec.path!r}"
+    unit = column_unit(tcol, spec.unit("time"), where) if tcol else None
+    for chunk in _chunks(spec, wanted, header, plain, tcol):
         first = rows + 2  # the file's line number of the chunk's first row (the header is line 1)
         rows += len(chunk)
         if rows > MAX_SAMPLES:
             raise ValueError(f"{spec.name}: {spec.path!r} holds more than {MAX_SAMPLES} rows; allowed: at most "
                              f"{MAX_SAMPLES} samples (MAX_SAMPLES; split the record)")
         for n in wanted:
-            if plain:
+            if n == tcol:
+                parts[n].append(parse_time_cells(chunk[n].to_numpy(dtype=object), unit, where, first - 2))
+            elif plain:
                 parts[n].append(chunk[n].to_numpy(dtype=np.float64))
             else:
-                parts[n].append(_times_of(chunk[n], spec, n, first) if n == tcol
-                                else _numbers(chunk[n], spec, n, first))
+                parts[n].append(_numbers(chunk[n], spec, n, first))
     return parts, rows
 
 
-def _times_of(col, spec, tcol, first_line):
-    """A chunk of the time column: floats [file units] when numeric, else datetime64[ns] (ISO 8601)."""
-    cells = col.to_numpy(dtype=object)
-    try:
-        return cells.astype(np.float64)
-    except ValueError:
-        cells = col.str.strip().to_numpy(dtype=object)
-    try:
-        return np.array(cells, dtype="datetime64[ns]")
-    except ValueError:
-        i = next((j for j, c in enumerate(cells) if not _is_time(c)), 0)
-        raise ValueError(f"{spec.name}: column {tcol!r} of {spec.path!r} holds neither seconds nor ISO 8601 times "
-                         f"(line {first_line + i}: {_short(cells[i])})") from None
-
-
 def _read_csv(spec):
-    """(times [s] or None, {role: values [m/s]}, {role: units}) of a CSV record, read in chunks of rows."""
+    """(times (TimeColumn) or None, {role: values [m/s]}, {role: units}) of a CSV record, read in chunks of rows."""
     roles = _ROLES[spec.kind]
     header = _first_line(spec)
     if not any(header):
         raise ValueError(f"{spec.name}: {spec.path!r} has no header line of column names")
     names = {r: spec.column(r) or r for r in roles}
-    tcol = spec.column("time")
-    if tcol is None and "time" in header:
-        tcol = "time"
+    # 'time', or one 'time' with its unit ('time_ms', 'time [ms]'): cwlidar_sim._times
+    tcol = spec.column("time") or find_time_column(header, f"{spec.name}: {spec.path!r}")
     wanted = list(dict.fromkeys(list(names.values()) + ([tcol] if tcol else [])))
     missing = [n for n in wanted if n not in header]
     if missing:
@@ -289,7 +288,7 @@ def _read_csv(spec):
     factors = {r: parse_speed_units(u) for r, u in units.items()}
     try:
         parts, rows = _columns(spec, wanted, header, tcol, plain=True)
-    except _NotPlain:  # some field needs Python's float on stripped text, or the times are ISO 8601
+    except _NotPlain:  # some field needs Python's float on stripped text
         parts, rows = _columns(spec, wanted, header, tcol, plain=False)
     if rows == 0:
         raise ValueError(f"{spec.name}: {spec.path!r} has a header but no rows")
@@ -298,22 +297,13 @@ def _read_csv(spec):
     return t, out, units
 
 
-def _is_time(c):
-    try:
-        np.datetime64(c, "ns")
-        return True
-    except ValueError:
-        return False
-
-
 def _join_times(parts, spec, tcol):
-    kinds = {p.dtype.kind for p in parts}
-    if kinds == {"f"}:
-        return np.concatenate(parts) * parse_time_units(spec.unit("time") or "s")
-    if kinds == {"M"}:
-        d = np.concatenate(parts)
-        return (d - d[0]).astype(np.int64) * 1e-9
-    raise ValueError(f"{spec.name}: column {tcol!r} of {spec.path!r} mixes seconds and ISO 8601 times")
+    """One :class:`cwlidar_sim._times.TimeColumn` of the chunks' (the finest resolution of any chunk)."""
+    if len({p.iso for p in parts}) > 1:
+        raise ValueError(f"{spec.name}: time column {tcol!r} of {spec.path!r} mixes numbers and ISO 8601 times")
+    p0 = parts[0]
+    return TimeColumn(np.concatenate([p.ns for p in parts]), min(p.quantum_ns for p in parts), iso=p0.iso,
+                      unit=p0.unit, where=p0.where)
 
 
 # ---------------------------------------------------------------------------
@@ -396,7 +386,7 @@ def _open_netcdf(spec):
 
 
 def _read_netcdf(spec):
-    """(times [s] or None, {role: values [m/s]}, {role: units}) of a NetCDF record."""
+    """(times (TimeColumn, exact ns) or None, {role: values [m/s]}, {role: units}) of a NetCDF record."""
     ds = _open_netcdf(spec)
     with ds:
         out, units = {}, {}
@@ -425,16 +415,14 @@ def _read_netcdf(spec):
             if tname not in ds.variables:
                 raise ValueError(f"{spec.name}: {spec.path!r} has no time variable {tname!r}; {_names_text(ds)}")
             tu = str(ds[tname].attrs.get("units", spec.unit("time") or "s"))
-            try:
-                factor = parse_time_units(tu)
-            except ValueError as e:
-                raise ValueError(f"{spec.name}: time of {spec.path!r}: {e}") from None
-            t = _numeric_1d(ds, tname, spec) * factor
+            where = f"{spec.name}: time variable {tname!r} of {spec.path!r}"
+            unit_ns(tu, where)  # the unit before the values are read
+            t = float_times(_numeric_1d(ds, tname, spec), tu, where)
     return t, out, units
 
 
 def read_record_file(spec):
-    """(times [s] or None, {role: values [m/s]}, {role: units as read}) of a record's file, checked.
+    """(times (TimeColumn) or None, {role: values [m/s]}, {role: units as read}) of a record's file, checked.
 
     ``spec`` is a :class:`cwlidar_sim.analysis.records.RecordSpec`.  Raises
     ValueError (one line naming the file) for a file that is not a record,
@@ -451,7 +439,7 @@ def read_record_file(spec):
         raise ValueError(f"{spec.name}: {spec.path!r} has extension {ext!r}; allowed: .csv, .txt (CSV) or .nc, "
                          f".nc4, .cdf (NetCDF)")
     n = len(next(iter(vals.values())))
-    if any(len(v) != n for v in vals.values()) or (t is not None and len(t) != n):
+    if any(len(v) != n for v in vals.values()) or (t is not None and len(t.ns) != n):
         raise ValueError(f"{spec.name}: columns of {spec.path!r} differ in length")
     if n < 16:
         raise ValueError(f"{spec.name}: {spec.path!r} has {n} samples; allowed: >= 16")

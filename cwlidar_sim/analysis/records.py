@@ -18,8 +18,11 @@ values: a few are gaps, more than ``max_filled_fraction`` an error.
 
 * CSV: a header row of column names, then one row per sample; numbers
   (empty, ``nan`` or ``NA`` fields are missing values).  The time column (if
-  any) holds seconds or ISO 8601 timestamps; without one the spec's
-  ``sample_rate`` gives the times.  Velocities in m/s unless the spec's
+  any: ``time``, or one ``time`` with its unit, ``time_ms``, ``time [ms]``)
+  holds numbers or ISO 8601 timestamps, read as text and kept exact in
+  integer ns (:mod:`cwlidar_sim._times`); its unit is the header's or the
+  spec's ``units['time']`` (they must agree), else seconds; without one the
+  spec's ``sample_rate`` gives the times.  Velocities in m/s unless the spec's
   ``units`` says otherwise (CSV carries no units of its own).
 * NetCDF (netCDF-4 through h5netcdf, netCDF-3 through scipy): variables
   found by the spec's ``columns``, else by CF standard name or name:
@@ -28,16 +31,19 @@ values: a few are gaps, more than ``max_filled_fraction`` an error.
   ``wind_speed`` or ``speed``.  The ``units`` attribute is parsed (m s-1,
   m/s, cm s-1, km h-1, knots, mph, ft s-1 ...); units that do not parse are
   an error; a variable without units is taken as m s-1.  Time: a ``time``
-  coordinate in s, min, h or days (``... since ...`` accepted; only
-  differences are used), or the spec's ``sample_rate``.
+  coordinate in s, ms, us, ns, min, h or days (``... since DATE`` accepted:
+  the numbers are the file's clock, in ns to the floats' resolution), or
+  the spec's ``sample_rate``.
 
 Cleaning (per period)
 ---------------------
 1. Times: strictly increasing (else an error naming the first offending
    sample); samples must sit within a quarter step of the regular grid
-   ``t0 + i / fs`` (fs = 1 / median step, taken as the round rate within
-   1e-9 of it); missing grid times become gaps, and a run of them longer
-   than ``max_gap`` is an error before the grid is allocated.
+   ``t0 + i / fs`` (fs inferred from the exact times and snapped to the
+   coarsest decimal within their resolution, or the spec's ``sample_rate``;
+   an undeclared rate outside ``RECORD_RATES`` is an error naming the time
+   unit that would fit); missing grid times become gaps, and a run of them
+   longer than ``max_gap`` is an error before the grid is allocated.
 2. Despiking: a sample is a spike if it departs from the running median
    (window ``despike_window`` s) by more than ``despike_threshold`` robust
    standard deviations, 1.4826 x the median absolute deviation of the
@@ -69,10 +75,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from fractions import Fraction
 import os
 
 import numpy as np
 
+from .._times import infer_grid, ns_text
 from .._validation import check_choice, check_keys, check_real, check_tuple
 from .record_files import MAX_SAMPLES, absurd_speeds, parse_speed_units, parse_time_units, read_record_file
 
@@ -226,7 +234,7 @@ def _role_map(field, value, roles):
 # reading (the file itself: :mod:`.record_files`, shared with a scene's ``fit_to``)
 # ---------------------------------------------------------------------------
 def _load(spec):
-    """(times [s] or None, {role: values [m/s]}, {role: units}); samples beyond MAX_SPEED become NaN (gaps)."""
+    """(times (TimeColumn) or None, {role: values [m/s]}, {role: units}); samples beyond MAX_SPEED become NaN (gaps)."""
     t, vals, units = read_record_file(spec)
     bad = absurd_speeds(vals, units, spec, spec.max_filled_fraction)
     if bad.any():
@@ -234,49 +242,33 @@ def _load(spec):
     return t, vals, units
 
 
+#: Plausible rates of a wind record whose rate is not declared [Hz]: a time column in ms read as s
+#: (a 20 Hz sonic at 0.02 Hz) or in min/h read as s (a 20 Hz sonic at 1200 or 72 000 Hz) falls outside.
+RECORD_RATES = (0.1, 1000.0)
+
+
 def _regular_grid(t, vals, spec):
-    """Place the samples on t0 + i / fs; missing grid times become NaN.  Returns (fs, t0, {role: values})."""
+    """Place the samples on t0 + i / fs; missing grid times become NaN.  Returns (fs, t0 [s], {role: values}).
+
+    ``t`` is a :class:`cwlidar_sim._times.TimeColumn` (exact ns) or None.
+    """
     if t is None:
         if spec.sample_rate is None:
             raise ValueError(f"{spec.name}: {spec.path!r} has no time column; give sample_rate [Hz] in the spec")
         return spec.sample_rate, 0.0, vals
-    if not np.all(np.isfinite(t)):
-        i = int(np.nonzero(~np.isfinite(t))[0][0])
-        raise ValueError(f"{spec.name}: time of {spec.path!r} is missing at sample {i}")
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        i = int(np.nonzero(dt <= 0)[0][0])
-        raise ValueError(f"{spec.name}: time of {spec.path!r} is not strictly increasing: sample {i + 1} at "
-                         f"t = {t[i + 1]:.6g} s follows t = {t[i]:.6g} s")
-    step = float(np.median(dt))
-    fs = 1.0 / step
-    # A rate within 1e-9 of a round one (10 Hz from times i / 10 whose differences scatter by an ulp) is that
-    # rate: 1 / median(dt) alone gives 10.000000000009 Hz for 2**15 samples at 10 Hz.
-    if abs(fs - round(fs, 6)) <= 1e-9 * fs:
-        fs = round(fs, 6)
-    if spec.sample_rate is not None:
-        if abs(spec.sample_rate * step - 1.0) > 0.01:
-            raise ValueError(f"{spec.name}: sample_rate = {spec.sample_rate} Hz but the time column of "
-                             f"{spec.path!r} steps by {step:.6g} s ({fs:.6g} Hz)")
-        fs = spec.sample_rate
-    pos = (t - t[0]) * fs
-    idx = np.rint(pos).astype(np.int64)
-    off = np.abs(pos - idx)
-    if np.any(off > 0.25):
-        i = int(np.argmax(off))
-        raise ValueError(f"{spec.name}: sample {i} of {spec.path!r} at t = {t[i]:.6g} s lies {off[i]:.2f} steps off "
-                         f"the regular {fs:.6g} Hz grid; allowed: 0.25 (resample irregular records first)")
-    step_i = np.diff(idx)
-    if np.any(step_i == 0):
-        raise ValueError(f"{spec.name}: two samples of {spec.path!r} fall on one time step of the {fs:.6g} Hz grid")
+    where = t.where or f"{spec.name}: time of {spec.path!r}"
+    # a declared rate vouches for the times' unit through the 1 % check; else the rate must be a wind record's
+    rates = (0.0, 1e4) if spec.sample_rate is not None else RECORD_RATES
+    fs, idx = infer_grid(t, where, sample_rate=spec.sample_rate, rate_range=rates, unit=t.unit, what="wind record")
     # Missing grid times are checked before the grid is allocated: a row far in the future must not
     # allocate the whole span first.  A run longer than max_gap is an error wherever it lies.
+    step_i = np.diff(idx)
     max_run = int(math.floor(spec.max_gap * fs + 1e-9))
     j = int(np.argmax(step_i))
     if step_i[j] - 1 > max_run:
         gap = int(step_i[j]) - 1
         raise ValueError(f"{spec.name}: gap of {gap / fs:.6g} s ({gap} samples) in the time column of {spec.path!r} "
-                         f"after t = {t[j]:.6g} s is longer than max_gap = {spec.max_gap:.6g} s")
+                         f"after t = {ns_text(t.ns[j])} s is longer than max_gap = {spec.max_gap:.6g} s")
     m = int(idx[-1]) + 1
     if m > MAX_SAMPLES:
         raise ValueError(f"{spec.name}: the time column of {spec.path!r} spans {m} samples at {fs:.6g} Hz; allowed: "
@@ -286,7 +278,8 @@ def _regular_grid(t, vals, spec):
         a = np.full(m, np.nan)
         a[idx] = v
         out[r] = a
-    return fs, float(t[0]), out
+    # the file's clock as written (ISO 8601 times from the file's first sample)
+    return fs, (0 if t.iso else int(t.ns[0])) / 10**9, out
 
 
 def _runs(mask):
@@ -416,6 +409,10 @@ class Record:
         Time of the period's first sample on the file's clock [s] (seconds
         as written; ISO 8601 times from the file's first; 0 without a time
         column).
+    time0_ns : int
+        The same, exact, in integer nanoseconds on the file's clock (numbers
+        as written, ISO 8601 times since 1970-01-01T00:00); the twin's clock
+        is built on it (float seconds near a Unix time of 1.7e9 s step in 2.4e-7 s).
     units : dict
         Role -> the speed units the file's values were read in (converted to
         m/s).
@@ -430,6 +427,7 @@ class Record:
     mean_speed: float
     rotation: dict
     time0: float = 0.0
+    time0_ns: int = 0
     units: dict = dataclasses.field(default_factory=dict)
 
     @property
@@ -486,6 +484,7 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
         raise TypeError(f"spec must be a RecordSpec, got {type(spec).__name__}")
     t, raw, units = _load(spec)
     fs, t0, grid = _regular_grid(t, raw, spec)
+    t0_ns = 0 if t is None else int(t.ns[0])
     n = len(next(iter(grid.values())))
     if period_duration is None:
         m = n
@@ -522,7 +521,8 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
         for a in vals.values():
             a.setflags(write=False)
         flags.setflags(write=False)
-        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start, dict(units)))
+        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start,
+                          t0_ns + round(Fraction(k * m * 10**9) / Fraction(fs)), dict(units)))
     return out
 
 

@@ -1,15 +1,24 @@
-"""What the staring and the conical twins share: the files' layout version, the seed tag, the records' statistics."""
+"""What the staring and the conical twins share: the files' layout version, the seed tag, the clock, the records'
+statistics."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["TWIN_VERSION", "record_statistics"]
+from .._times import ns_text
 
-#: Layout version of the twin files (part of their identity).
-TWIN_VERSION = 1
+__all__ = ["TWIN_VERSION", "record_statistics", "clock_attrs"]
+
+#: Layout version of the twin files (part of their identity).  2: the twin's clock starts half a sample
+#: before the reference record (record_10hz on the lidar's tenths), times exact; files of 1 are recomputed.
+TWIN_VERSION = 2
 #: Second word of the twins' seed sequence ("tw").
 _TWIN_TAG = 0x7477
+
+
+def clock_attrs(tp) -> dict:
+    """The period's clock: its start on the records' clock (exact decimal seconds and ns), the records' delay [s]."""
+    return {"time_origin": ns_text(tp.origin_ns), "time_origin_ns": int(tp.origin_ns), "record_delay": tp.delay}
 
 
 def record_statistics(ds, tp):

@@ -280,6 +280,11 @@ class NacellePlatformSpec(Spec):
         Phase per degree of freedom [deg] (keys among :data:`PLATFORM_DOFS`); default 0.
     csv : str
         Path of a time series instead of the sinusoids; "" (default): none.
+        Its time column is ``time`` [s] or names its unit (``time_ms``,
+        ``time [ms]``; :func:`cwlidar_sim.sensors.platform.read_platform_csv`).
+    max_gap : float, optional
+        Longest step between the csv's samples [s], in (0, 3600]; default
+        (None) 1 s.  A longer hole is refused, not interpolated across.
     correction : bool
         Correct the line-of-sight speeds with an ideal motion sensor
         (:class:`cwlidar_sim.sensors.NacelleLidar` ``motion_correction``).
@@ -295,6 +300,7 @@ class NacellePlatformSpec(Spec):
     phase_deg: dict = dataclasses.field(default_factory=dict)
     csv: str = ""
     correction: bool = False
+    max_gap: float | None = None  # None keeps a scene's identity (as_dict drops it)
 
     def __post_init__(self):
         set_field(self, "period", check_real("platform.period", self.period, lo=0.5, hi=3600.0))
@@ -310,24 +316,23 @@ class NacellePlatformSpec(Spec):
                                       for k, v in self.phase_deg.items()})
         check_str("platform.csv", self.csv, allow_empty=True)
         set_field(self, "correction", check_bool("platform.correction", self.correction))
+        if self.max_gap is not None:
+            set_field(self, "max_gap", check_real("platform.max_gap", self.max_gap, lo=0.0, hi=3600.0, lo_open=True))
+            if not self.csv:
+                raise ValueError("platform.max_gap applies to a csv series; the sinusoids have no gaps")
         if self.csv and any(getattr(self, k) for k in PLATFORM_DOFS):
             raise ValueError("platform: give either amplitudes (sinusoids) or csv, not both")
 
     def motion(self, duration: float, base_dir: str = "."):
         """The :class:`cwlidar_sim.sensors.PlatformMotion` over ``[0, duration]`` [s] (None: no motion)."""
-        from ..sensors.platform import PlatformMotion
+        from ..sensors.platform import PLATFORM_MAX_GAP, PlatformMotion, read_platform_csv
 
         if self.csv:
             path = resolve_path(base_dir, self.csv)
             if not os.path.isfile(path):
                 raise ValueError(f"platform.csv: no file {path!r} (resolved relative to the scene file)")
-            data = np.genfromtxt(path, delimiter=",", names=True, dtype=np.float64)
-            names = data.dtype.names or ()
-            unknown = sorted(set(names) - {"time", *PLATFORM_DOFS})
-            if "time" not in names or unknown:
-                raise ValueError(f"platform.csv {path!r}: columns {list(names)}; allowed: 'time' and any of "
-                                 f"{list(PLATFORM_DOFS)}")
-            motion = PlatformMotion(time=data["time"], **{k: data[k] for k in names if k != "time"})
+            gap = PLATFORM_MAX_GAP if self.max_gap is None else self.max_gap
+            motion = read_platform_csv(path, max_gap=gap, where="platform.csv")
             motion.check_covers(0.0, duration)
             return motion
         if not any(getattr(self, k) for k in PLATFORM_DOFS):

@@ -29,10 +29,17 @@ Geometry and clock
   the scene's spacing dx0, ``nx = n * max(1, round(U / (fs dx0)))`` nodes for
   n samples at fs.  A record is read as periodic: its first and last seconds
   meet.
-* The twin's clock starts at the whole second at or before the file's first
-  sample, plus k T for period k; a record whose first sample lies ``d``
-  seconds after that start is placed at ``x - U d`` (the field moves along
-  +x), so that twin and record agree sample by sample.
+* Times are kept exact, in integer nanoseconds on the records' clock
+  (:mod:`cwlidar_sim._times`): a 20 Hz record timed in Unix seconds is 20 Hz,
+  not 20.0000191.  The twin's clock starts half a sample before the
+  reference sonic record's first sample (without one: at the whole second
+  at or before the first sample), plus k T for period k; the file keeps that
+  start (``time_origin``, exact decimal seconds, and ``time_origin_ns``).  A
+  record whose first sample lies ``d`` seconds after the start is placed at
+  ``x - U d`` (the field moves along +x), so that twin and record agree
+  sample by sample; with the half-sample start the record's 10 Hz series
+  (``record_10hz``) spans the same tenths as the lidar's and the twin's sonic,
+  whatever fraction of a second the record starts at.
 * T1/T2 and the coherence use the first sonic record's speed toward the
   lidar, ``-(U + u, v, w) . n``, at 10 Hz: A2012's resampling for 32 Hz
   records, block averages for multiples of 10 Hz (any other rate is an
@@ -75,12 +82,13 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 import os
+from fractions import Fraction
 
 import numpy as np
 
-from ._twin_common import _TWIN_TAG, TWIN_VERSION, record_statistics
+from .._times import ns_text
+from ._twin_common import _TWIN_TAG, TWIN_VERSION, clock_attrs, record_statistics
 from .conical_scene import ConicalScene
 from .scene import PeriodSpec, Scene
 from .twin_conical import conical_twin, conical_twin_period, conical_twin_scene, conical_unit_records
@@ -104,13 +112,18 @@ class TwinPeriod:
     U : float
         Convection speed: the mean of the records' mean speeds [m/s].
     delay : float
-        Time of the records' first sample after the twin period's start [s].
+        Time of the records' first sample after the twin period's start [s]
+        (the reference sonic's, else the first record's).
+    origin_ns : int
+        The twin period's start on the records' clock [ns] (exact; numbers as
+        written in the files, ISO 8601 times since 1970-01-01T00:00).
     """
 
     index: int
     records: tuple
     U: float
     delay: float
+    origin_ns: int = 0
 
     @property
     def duration(self) -> float:
@@ -170,11 +183,11 @@ def twin_periods(scene: Scene, paths=None) -> list:
     ref = _reference(scene) if isinstance(scene, Scene) else -1
     if ref >= 0:
         fs = per[ref][0].sample_rate
-        if not (fs == 32.0 or (abs(fs / 10.0 - round(fs / 10.0)) < 1e-9 and fs >= 10.0)):
-            raise ValueError(f"{specs[ref].name}: T1/T2 against the record need it at 10 Hz: its {fs:g} Hz is neither "
-                             f"32 Hz (A2012's resampling) nor a multiple of 10 Hz (block averages)")
-    t_start = min(p[0].time0 for p in per)
-    origin = math.floor(t_start + 1e-9)
+        if not (fs == 32.0 or (fs >= 10.0 and fs / 10.0 == round(fs / 10.0))):
+            raise ValueError(f"{specs[ref].name}: T1/T2 against the record need it at 10 Hz: its rate, {fs:.9g} Hz, "
+                             f"is neither 32 Hz (A2012's resampling) nor a multiple of 10 Hz (block averages)")
+    origin_ns = _clock_origin_ns(per, ref)
+    T_ns = round(Fraction(T) * 10**9)
     out = []
     for k in range(counts[0]):
         recs = tuple(p[k] for p in per)
@@ -182,12 +195,31 @@ def twin_periods(scene: Scene, paths=None) -> list:
         if not 1.0 <= U <= 30.0:
             raise ValueError(f"period {k}: the records' mean speed is {U:.3g} m/s; allowed: [1, 30] m/s (Taylor's "
                              f"hypothesis)")
-        starts = [r.time0 for r in recs]
-        if max(starts) - min(starts) > 0.5 / recs[0].sample_rate:
-            raise ValueError(f"period {k}: the records start at different times {starts} s; allowed: simultaneous "
-                             f"records (within half a sample)")
-        out.append(TwinPeriod(k, recs, U, float(recs[0].time0 - (origin + k * T))))
+        starts = [r.time0_ns for r in recs]
+        if (max(starts) - min(starts)) / 10**9 > 0.5 / recs[0].sample_rate:
+            raise ValueError(f"period {k}: the records start at different times "
+                             f"{[ns_text(x) for x in starts]} s; allowed: simultaneous records (within half a sample)")
+        # the records are placed by the reference's start (the others are within half a sample of it)
+        lead = recs[max(ref, 0)]
+        out.append(TwinPeriod(k, recs, U, (lead.time0_ns - (origin_ns + k * T_ns)) / 10**9,
+                              origin_ns + k * T_ns))
     return out
+
+
+def _clock_origin_ns(per, ref: int) -> int:
+    """The twin's clock's zero [ns on the records' clock] (module notes, Geometry and clock).
+
+    With a reference sonic (staring scenes): half a record sample before its
+    first sample, so that the record's 10 Hz blocks (A2012's partitions)
+    span the twin's own: its samples then fall where the twin's sonic
+    samples (32 Hz: at ``SONIC_DELAY``) and ``record_10hz`` shares the
+    lidar's clock, for a record that starts at any fraction of a second.
+    Without one: the whole second at or before the first sample.
+    """
+    if ref >= 0:
+        first = per[ref][0]
+        return first.time0_ns - round(Fraction(10**9, 2) / Fraction(first.sample_rate))
+    return min(p[0].time0_ns for p in per) // 10**9 * 10**9
 
 
 def twin_period_scene(scene: Scene, tp: TwinPeriod, twin: int) -> Scene:
@@ -382,7 +414,8 @@ def _dataset(scene, tp, rows, rec10, k_edges):
     son = np.stack([r["sonic"] for r in rows])
     TT = ("twin", "time_10hz")
     coords = {"twin": ("twin", np.arange(N)),
-              "time_10hz": ("time_10hz", 0.05 + 0.1 * np.arange(n10), {"units": "s", "long_name": "time in the period"})}
+              "time_10hz": ("time_10hz", 0.05 + 0.1 * np.arange(n10),
+                            {"units": "s", "long_name": "time in the period, from time_origin (every series)"})}
     dv = {"lidar_10hz": (TT, lid.astype(np.float32), {"units": "m s-1", "long_name": "each twin's lidar speed, 10 Hz"}),
           "sonic_10hz": (TT, son.astype(np.float32),
                          {"units": "m s-1", "long_name": "each twin's sonic speed toward the lidar, 10 Hz"}),
@@ -416,7 +449,7 @@ def _dataset(scene, tp, rows, rec10, k_edges):
         dv["record_mean"] = ((), rm, {"units": "m s-1", "long_name": "10-min mean of record_10hz"})
         dv["record_std"] = ((), rs, {"units": "m s-1", "long_name": "10-min std of record_10hz"})
     attrs = {"scene": scene.name, "period": f"P{tp.index:03d}", "period_index": tp.index, "n_twins": N,
-             "convection_speed": tp.U, "duration": tp.duration, "record_delay": tp.delay,
+             "convection_speed": tp.U, "duration": tp.duration, **clock_attrs(tp),
              "records": json.dumps([r.spec.name for r in tp.records]),
              "reference_record": (tp.records[_reference(scene)].spec.name if rec10 is not None else ""),
              "twin_version": TWIN_VERSION}
@@ -431,10 +464,11 @@ def twin_path(out_dir, scene: Scene, index: int) -> str:
 
 
 def _identity(scene, params, tp, n_twins):
-    """Digest of what a period's file depends on: the scene, the tensor, the records' bytes, the twin count."""
+    """Digest of what a period's file depends on: the scene, the tensor, the records' bytes and clock, the twins."""
     h = hashlib.sha256()
     h.update(json.dumps({"scene": scene.as_dict(), "params": params.as_dict() if params is not None else None,
-                         "n_twins": n_twins, "version": TWIN_VERSION, "period": tp.index},
+                         "n_twins": n_twins, "version": TWIN_VERSION, "period": tp.index, "delay": tp.delay,
+                         "origin_ns": tp.origin_ns},
                         sort_keys=True, default=str).encode())
     for r in tp.records:
         for c in sorted(r.values):

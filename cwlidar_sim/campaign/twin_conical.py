@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ._twin_common import _TWIN_TAG, TWIN_VERSION, record_statistics
+from ._twin_common import _TWIN_TAG, TWIN_VERSION, clock_attrs, record_statistics
 from .conical_scene import ConicalPeriodSpec, ConicalScene
 
 __all__ = ["conical_unit_records", "conical_twin_scene", "conical_twin", "conical_twin_period"]
@@ -189,6 +189,6 @@ def conical_twin_period(scene: ConicalScene, tp, results):
                                      {"units": "m", "long_name": f"{spec.name}: position in the lidar's frame"})
     ds.attrs = {"scene": scene.name, "scene_kind": "conical", "period": f"P{tp.index:03d}",
                 "period_index": tp.index, "n_twins": N, "convection_speed": tp.U, "duration": tp.duration,
-                "record_delay": tp.delay, "records": json.dumps([r.spec.name for r in tp.records]),
-                "twin_version": TWIN_VERSION}
+                "records": json.dumps([r.spec.name for r in tp.records]),
+                "twin_version": TWIN_VERSION, **clock_attrs(tp)}
     return ds

@@ -10,7 +10,11 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["PlatformMotion", "rotation_matrices"]
+__all__ = ["PlatformMotion", "rotation_matrices", "read_platform_csv", "PLATFORM_MAX_GAP"]
+
+#: Default longest step of a platform series [s]: the motion between samples is interpolated linearly, and a
+#: floater's wave-driven motion (periods of 3-20 s) is not linear over more than about a second.
+PLATFORM_MAX_GAP = 1.0
 
 _MOTION_NAMES = ("surge", "sway", "heave", "roll_deg", "pitch_deg", "yaw_deg")
 
@@ -98,3 +102,79 @@ class PlatformMotion:
                      axis=-1)
         ang = [np.interp(t, self.time, getattr(self, k)) for k in _MOTION_NAMES[3:]]
         return d, v, rotation_matrices(*ang)
+
+
+def read_platform_csv(path, *, max_gap: float = PLATFORM_MAX_GAP, where: str = "platform.csv") -> PlatformMotion:
+    """A :class:`PlatformMotion` from a CSV: a header row, a time column, any of the degrees of freedom.
+
+    Parameters
+    ----------
+    path : str
+        The file: a header row naming the time column (``time`` [s], or
+        with its unit: ``time_ms``, ``time [ms]``, ``time (us)``; s, ms, us,
+        ns, min, h) and any of surge, sway, heave [m], roll_deg, pitch_deg,
+        yaw_deg [deg]; one sample per row.
+    max_gap : float
+        Longest step between consecutive samples [s], in (0, 3600]: the motion
+        is interpolated linearly between samples, so a longer hole is refused
+        with its place named, not bridged.
+    where : str
+        Label for messages.
+
+    Raises ValueError (one line, naming the file and the column) for a
+    missing or unknown column, a value that is not a number, times that are
+    missing, repeated or unsorted, a step longer than ``max_gap`` (with a
+    hint when the unit is likely wrong: a column in ms read as s steps by
+    100 s at 10 Hz), or motion out of range.
+    """
+    import csv
+
+    from .._times import check_increasing, check_rate, column_unit, find_time_column, ns_text, parse_time_cells
+    from .._validation import check_real
+
+    max_gap = check_real(f"{where} max_gap", max_gap, lo=0.0, hi=3600.0, lo_open=True)
+    with open(path, newline="", encoding="utf-8-sig") as f:
+        rows = [r for r in csv.reader(f) if r]
+    if len(rows) < 3:
+        raise ValueError(f"{where} {path!r}: {max(len(rows) - 1, 0)} sample row(s); allowed: a header row and >= 2 "
+                         f"samples")
+    header = [h.strip() for h in rows[0]]
+    tcol = find_time_column(header, f"{where} {path!r}")
+    unknown = sorted(set(header) - {tcol, *_MOTION_NAMES})
+    if tcol is None or unknown:
+        raise ValueError(f"{where} {path!r}: columns {header}; allowed: 'time' (or 'time_ms', 'time [ms]' ...) and "
+                         f"any of {list(_MOTION_NAMES)}")
+    body = rows[1:]
+    cols = {}
+    for j, name in enumerate(header):
+        cells = [row[j].strip() if j < len(row) else "" for row in body]
+        if name == tcol:
+            w = f"{where} {path!r}: time column {tcol!r}"
+            tc = parse_time_cells(cells, column_unit(tcol, None, w), w)
+            t = check_increasing(tc, w)
+            d = np.diff(t)
+            # the median step says the unit (a column in ms read as s steps by 100 s); single long steps are holes
+            check_rate(float(np.median(d)), w, rate_range=(1.0 / max_gap, 1e3), unit=tc.unit, what="platform series")
+            i = int(np.argmax(d))
+            if d[i] > max_gap * 1e9:
+                raise ValueError(f"{w}: a hole of {d[i] / 1e9:.6g} s between samples {i} and {i + 1} (t = "
+                                 f"{ns_text(t[i])} to {ns_text(t[i + 1])} s); allowed: steps up to max_gap = "
+                                 f"{max_gap:g} s (the motion is not interpolated across a hole)")
+            # seconds as written parse as before (float of the text); other units from the exact ns
+            cols["time"] = np.array([float(c) for c in cells]) if tc.unit == "s" and not tc.iso else t / 1e9
+            continue
+        try:
+            cols[name] = np.array([float(c) for c in cells])
+        except ValueError:
+            bad = next(i for i, c in enumerate(cells) if not _is_number(c))
+            raise ValueError(f"{where} {path!r}: column {name!r} sample {bad} is {cells[bad][:20]!r}; allowed: a "
+                             f"number") from None
+    return PlatformMotion(**cols)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

@@ -57,20 +57,20 @@ def test_one_record_in_csv_m_s_and_netcdf_cm_s_reads_alike(tmp_path):
     assert a.sample_rate == b.sample_rate == 10.0  # 1 / median(dt) is 10.000000000000568 Hz here: snapped
 
 
-def test_a_rate_that_is_not_round_is_kept():
-    from cwlidar_sim.analysis.records import _regular_grid
-
-    t = np.arange(500) * 0.3
-    fs, _, _ = _regular_grid(t, {"u": np.ones(500)}, RecordSpec("x.csv", rotation="none"))
-    assert fs == pytest.approx(1 / 0.3, rel=1e-12) and fs != round(fs, 6)
+def test_a_rate_that_is_not_round_is_kept(tmp_path):
+    rec = read_record(RecordSpec(_csv(tmp_path / "a.csv", _wind(500), np.arange(500) * 0.3), rotation="none"))
+    assert rec.sample_rate == pytest.approx(1 / 0.3, rel=1e-12) and rec.sample_rate != round(rec.sample_rate, 3)
 
 
 def test_a_time_gap_is_refused_before_the_grid_is_allocated(tmp_path):
-    """A last row 1e15 s later would need a grid of 1e16 samples: the gap is refused first."""
+    """A last row 1e9 s later would need a grid of 1e10 samples (80 GB): the gap is refused first.
+
+    (1e15 s, as this test had before exact times, is now refused earlier: beyond int64 nanoseconds.)
+    """
     vals = _wind(400)
     t = np.arange(400) / 10.0
-    t[-1] = 1e15
-    with pytest.raises(ValueError, match=r"gap of 1e\+15 s .* longer than max_gap = 1 s"):
+    t[-1] = 1e9
+    with pytest.raises(ValueError, match=r"gap of 1e\+09 s .* after t = 39\.800000000 s is longer than max_gap = 1 s"):
         read_record(RecordSpec(_csv(tmp_path / "a.csv", vals, t), rotation="none"))
 
 
@@ -207,3 +207,48 @@ def test_fields_with_blanks_and_missing_words_read_as_float_reads_them(tmp_path)
     np.testing.assert_array_equal(b.values["u"][keep], a.values["u"][keep])  # bit for bit, row 30 included
     expect = [float(x) for x in rows[30].split(",")[1:]]
     assert [b.values[c][29] for c in "uvw"] == expect
+
+
+def _time_csv(path, cells, vals=None):
+    vals = _wind(len(cells)) if vals is None else vals
+    with open(path, "w") as f:
+        f.write("time,u,v,w\n")
+        for c, a, b, d in zip(cells, vals["u"], vals["v"], vals["w"]):
+            f.write(f"{c},{float(a)!r},{float(b)!r},{float(d)!r}\n")
+    return str(path)
+
+
+def test_csv_times_are_read_as_text_to_the_nanosecond(tmp_path):
+    """A float64 holds a Unix time to 2.4e-7 s: the time column is text, its digits parsed exactly (both paths)."""
+    cells = [f"{1_700_000_000 + k}.{f:09d}" for k in range(30) for f in range(1, 10**9, 50_000_000)]
+    rec = read_record(RecordSpec(_time_csv(tmp_path / "a.csv", cells), rotation="none"))
+    assert rec.sample_rate == 20.0 and rec.time0_ns == 1_700_000_000_000_000_001
+    rows = (tmp_path / "a.csv").read_text().splitlines()
+    rows[5] = rows[5].replace(",", ", ", 1)  # a blank before a number: the text path
+    (tmp_path / "b.csv").write_text("\n".join(rows) + "\n")
+    rec = read_record(RecordSpec(str(tmp_path / "b.csv"), rotation="none"))
+    assert rec.sample_rate == 20.0 and rec.time0_ns == 1_700_000_000_000_000_001
+
+
+def test_csv_times_parsed_in_chunks_name_the_column_s_sample(tmp_path, monkeypatch):
+    monkeypatch.setattr(record_files, "_CHUNK_ROWS", 100)
+    cells = [f"{1_700_000_000.525 + i / 20:.3f}" for i in range(400)]
+    rec = read_record(RecordSpec(_time_csv(tmp_path / "a.csv", cells), rotation="none"))
+    assert rec.sample_rate == 20.0 and rec.time0_ns == 1_700_000_000_525_000_000 and rec.n_samples == 400
+    with pytest.raises(ValueError, match=r"time column 'time' of .*: time is missing at sample 250$"):
+        read_record(RecordSpec(_time_csv(tmp_path / "b.csv", cells[:250] + ["nan"] + cells[251:]), rotation="none"))
+    iso = [str(np.datetime64("2023-11-14T22:13:20.525") + np.timedelta64(50 * i, "ms")) for i in range(400)]
+    rec = read_record(RecordSpec(_time_csv(tmp_path / "c.csv", iso), rotation="none"))
+    assert rec.sample_rate == 20.0 and rec.time0_ns == 1_700_000_000_525_000_000
+    with pytest.raises(ValueError, match=r"time column 'time' of .* mixes numbers and ISO 8601 times"):
+        read_record(RecordSpec(_time_csv(tmp_path / "d.csv", iso[:200] + cells[200:]), rotation="none"))
+
+
+def test_a_netcdf_time_unit_that_does_not_parse_is_named(tmp_path):
+    p = _nc(tmp_path / "a.nc", _wind(100))
+    with xr.open_dataset(p) as ds:
+        ds = ds.load()
+    ds["time"].attrs["units"] = "fortnights"
+    ds.to_netcdf(tmp_path / "b.nc", engine="h5netcdf")
+    with pytest.raises(ValueError, match=r"time variable 'time' of .*b.nc': time units 'fortnights' do not parse"):
+        read_record(RecordSpec(str(tmp_path / "b.nc"), rotation="none"))

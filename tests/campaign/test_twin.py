@@ -295,3 +295,94 @@ def test_cli_twin_runs_and_refuses_bad_records_in_one_line(closed_loop, tmp_path
     rc = main(["twin", closed_loop["paths"]["scene"], "--twins", str(N_TWINS), "--out", str(closed_loop["out"]),
                "--no-progress"])
     assert rc == 0 and json.loads(capsys.readouterr().out)["periods"] == closed_loop["files"]
+
+
+# ---------------------------------------------------------------------------
+# the twin's clock: records starting at any fraction of a second, Unix times
+# ---------------------------------------------------------------------------
+def _mast_at(path, fs, start, n=None, seed=3):
+    """A sonic record at ``fs`` whose first sample is at ``start`` (exact decimal text), times written exactly."""
+    from decimal import Decimal
+
+    n = n or int(60 * fs)
+    u, v, w = _smooth(n, seed)
+    t0, step = Decimal(start), Decimal(1) / Decimal(int(fs))
+    with open(path, "w") as f:
+        f.write("time,u,v,w\n")
+        for i in range(n):
+            f.write(f"{t0 + i * step},{u[i]},{v[i]},{w[i]}\n")
+
+
+def _twin_file(d, fs, start):
+    from cwlidar_sim.campaign import read_results
+    from cwlidar_sim.campaign.twin import run_twin
+
+    _mast_at(d / "m.csv", fs, start)
+    (f,) = run_twin(loads_scene(SCENE.format(path="m.csv"), base_dir=str(d)), d / "out", n_twins=2)
+    return read_results(f)
+
+
+_ALIGNED = {}
+
+
+def _aligned(tmp_path_factory, fs):
+    """The same record starting half a sample after a whole second: on the twin's tenths as written."""
+    if fs not in _ALIGNED:
+        _ALIGNED[fs] = _twin_file(tmp_path_factory.mktemp(f"aligned{int(fs)}"), fs, str(0.5 / fs))
+    return _ALIGNED[fs]
+
+
+@pytest.mark.parametrize("fs, start", [(32.0, "0.525"), (32.0, "0.0333"), (20.0, "1700000000.525")])
+def test_records_starting_off_a_tenth_share_the_twins_clock(tmp_path, tmp_path_factory, fs, start):
+    """record_10hz lines up with each twin's own sonic (cross-correlation peak at lag 0) and T1/T2 and the
+    coherence equal those of the same record starting on the twin's tenths, whatever its start.
+
+    The twin at the sonic reproduces the record within the noise, so a record series shifted by m tenths
+    (a record starting 0.525 s past a second read as starting on it: m = 5) peaks at lag m, and T2 falls
+    where the shift reaches the eddies (0.82x at 0.09 rad/m, 0.17x at 0.28 rad/m in issue 34's case).
+    """
+    from decimal import Decimal
+
+    ds = _twin_file(tmp_path, fs, start)
+    rec = np.asarray(ds["record_10hz"].values, dtype=np.float64)
+    lags = np.arange(-10, 11)
+    for son in np.asarray(ds["sonic_10hz"].values, dtype=np.float64):
+        a, b = rec - rec.mean(), son - son.mean()
+        cc = [np.dot(np.roll(a, lag), b) for lag in lags]
+        assert lags[int(np.argmax(cc))] == 0, (start, cc)
+    ref = _aligned(tmp_path_factory, fs)
+    for name in ("transfer_cross", "transfer_ratio", "coherence_record"):
+        x, y = ds[name].values, ref[name].values
+        ok = np.isfinite(y)
+        assert np.array_equal(np.isfinite(x), ok) and ok.sum() >= 10
+        # the twins' sampling scatter is all that may differ (here nothing does: same delay, same seeds)
+        assert np.allclose(x[ok], y[ok], rtol=0.02, atol=1e-3), (name, x[ok] / y[ok])
+    # one clock, kept exactly: the period's start plus the record's delay is the record's first sample
+    assert Decimal(ds.attrs["time_origin"]) + Decimal(str(ds.attrs["record_delay"])) == Decimal(start)
+    assert ds.attrs["time_origin_ns"] == int(Decimal(ds.attrs["time_origin"]) * 10**9)
+
+
+def test_unix_20_hz_record_needs_no_sample_rate_and_is_exactly_20_hz(tmp_path):
+    from cwlidar_sim.campaign.twin import twin_periods
+
+    _mast_at(tmp_path / "m.csv", 20.0, "1700000000.525")
+    (tp,) = twin_periods(loads_scene(SCENE.format(path="m.csv"), base_dir=str(tmp_path)))
+    r = tp.records[0]
+    assert r.sample_rate == 20.0 and r.time0_ns == 1_700_000_000_525_000_000
+    assert tp.origin_ns == 1_700_000_000_500_000_000 and tp.delay == 0.025
+
+
+def test_records_of_different_days_are_not_simultaneous(tmp_path):
+    """ISO 8601 times are compared on one clock (they were each read from their own first sample)."""
+    from cwlidar_sim.campaign.twin import twin_periods
+
+    n, fs = 1920, 32.0
+    u, v, w = _smooth(n, 4)
+    for name, day in (("a.csv", "2024-03-01"), ("b.csv", "2024-03-02")):
+        t = np.datetime64(f"{day}T12:00:00") + (np.arange(n) * 31_250_000).astype("timedelta64[ns]")
+        _csv(tmp_path / name, [str(x) for x in t], u, v, w)
+    text = SCENE.format(path="a.csv").replace('rotation = "none" }]',
+                                              'rotation = "none" }, { path = "b.csv", rotation = "none" }]')
+    with pytest.raises(ValueError, match=r"records start at different times \['1709294400.000000000', "
+                                         r"'1709380800.000000000'\] s"):
+        twin_periods(loads_scene(text, base_dir=str(tmp_path)))

@@ -207,3 +207,15 @@ def test_fields_with_blanks_and_missing_words_read_as_float_reads_them(tmp_path)
     np.testing.assert_array_equal(b.values["u"][keep], a.values["u"][keep])  # bit for bit, row 30 included
     expect = [float(x) for x in rows[30].split(",")[1:]]
     assert [b.values[c][29] for c in "uvw"] == expect
+
+
+def test_a_netcdf3_record_in_knots_reads_as_its_m_s_twin(tmp_path):
+    vals = _wind(300)
+    a = read_record(RecordSpec(_nc(tmp_path / "a.nc", vals), rotation="none"))
+    p = tmp_path / "b.nc"
+    xr.Dataset({c: ("time", vals[c] * 3600 / 1852, {"units": "knots"}) for c in "uvw"},
+               coords={"time": ("time", np.arange(300) / 10.0, {"units": "s"})}).to_netcdf(p, engine="scipy")
+    b = read_record(RecordSpec(str(p), rotation="none"))
+    for c in "uvw":
+        np.testing.assert_allclose(b.values[c], a.values[c], rtol=1e-13, atol=1e-13)
+    assert b.units["u"] == "knots"

@@ -252,3 +252,15 @@ def test_a_netcdf_time_unit_that_does_not_parse_is_named(tmp_path):
     ds.to_netcdf(tmp_path / "b.nc", engine="h5netcdf")
     with pytest.raises(ValueError, match=r"time variable 'time' of .*b.nc': time units 'fortnights' do not parse"):
         read_record(RecordSpec(str(tmp_path / "b.nc"), rotation="none"))
+
+
+def test_a_netcdf3_record_in_knots_reads_as_its_m_s_twin(tmp_path):
+    vals = _wind(300)
+    a = read_record(RecordSpec(_nc(tmp_path / "a.nc", vals), rotation="none"))
+    p = tmp_path / "b.nc"
+    xr.Dataset({c: ("time", vals[c] * 3600 / 1852, {"units": "knots"}) for c in "uvw"},
+               coords={"time": ("time", np.arange(300) / 10.0, {"units": "s"})}).to_netcdf(p, engine="scipy")
+    b = read_record(RecordSpec(str(p), rotation="none"))
+    for c in "uvw":
+        np.testing.assert_allclose(b.values[c], a.values[c], rtol=1e-13, atol=1e-13)
+    assert b.units["u"] == "knots"

@@ -91,7 +91,8 @@ class TurbulenceSpec(Spec):
     fit_to : str, optional
         Path of a sonic record (NetCDF: variables ``u``, ``v``, ``w`` with
         their ``units``, m s-1 when absent, on a ``time`` coordinate; or CSV
-        with columns time, u, v, w in m/s; u along the mean wind) to fit the
+        with columns time, u, v, w in m/s, the time in s or in the unit its
+        header names, ``time_ms``; u along the mean wind) to fit the
         three parameters to (relative paths are taken from the scene file's
         folder), read by the twin's reader
         (:mod:`cwlidar_sim.analysis.record_files`).  Every period's

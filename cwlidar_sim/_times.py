@@ -150,6 +150,27 @@ def _plain_decimal_ns(cells, per: int):
     return np.where(S.startswith(a, b"-"), -ns, ns), int(lf.max())
 
 
+def _not_times(cells, where: str, first: int) -> str:
+    """The message for cells that are not all numbers or all ISO 8601: the first offending cell, a short excerpt."""
+    def number(c):
+        try:
+            return decimal.Decimal(c).is_finite()
+        except decimal.InvalidOperation:
+            return False
+
+    def iso(c):
+        try:
+            return not np.isnat(np.datetime64(c, "ns"))
+        except ValueError:
+            return False
+
+    for i, c in enumerate(cells):
+        if not (number(c) or iso(c)):
+            text = "".join(ch if ch.isprintable() else "?" for ch in c[:32]) + ("..." if len(c) > 32 else "")
+            return f"{where}: holds neither numbers nor ISO 8601 times (sample {first + i}: {text!r})"
+    return f"{where}: mixes numbers and ISO 8601 times; allowed: one or the other"
+
+
 def parse_time_cells(cells, unit: str, where: str, first: int = 0) -> TimeColumn:
     """Text cells (numbers in ``unit``, or ISO 8601 times) -> a :class:`TimeColumn`, exactly.
 
@@ -186,7 +207,7 @@ def parse_time_cells(cells, unit: str, where: str, first: int = 0) -> TimeColumn
     try:
         d = np.array(cells, dtype="datetime64[ns]")
     except ValueError:
-        raise ValueError(f"{where}: holds neither numbers nor ISO 8601 times (first value {cells[0][:40]!r})") from None
+        raise ValueError(_not_times(cells, where, first)) from None
     if np.any(np.isnat(d)):
         i = int(np.nonzero(np.isnat(d))[0][0])
         raise ValueError(f"{where}: time is missing at sample {first + i}")

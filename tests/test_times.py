@@ -72,7 +72,9 @@ def test_a_step_implausible_for_the_unit_names_the_column_and_the_likely_unit():
     (["0", "nan", "0.1"], r"time is missing at sample 1"),
     (["0", "", "0.1"], r"time is missing at sample 1"),
     (["0", "0.1", "0.2", "0.37", "0.4"], r"sample 3 .* 0.30 steps off"),
-    (["0", "soon"], r"neither numbers nor ISO 8601"),
+    (["0", "soon"], r"neither numbers nor ISO 8601 times \(sample 1: 'soon'\)$"),
+    (["0", "0.1", "x" * 100 + "\x07"], r"neither numbers nor ISO 8601 times \(sample 2: 'x{32}\.\.\.'\)$"),
+    (["0", "2023-11-14T22:13:20", "0.2"], r"w: mixes numbers and ISO 8601 times; allowed: one or the other$"),
 ])
 def test_bad_times_are_named(cells, match):
     with pytest.raises(ValueError, match=match):

@@ -237,6 +237,9 @@ def test_csv_times_parsed_in_chunks_name_the_column_s_sample(tmp_path, monkeypat
     assert rec.sample_rate == 20.0 and rec.time0_ns == 1_700_000_000_525_000_000 and rec.n_samples == 400
     with pytest.raises(ValueError, match=r"time column 'time' of .*: time is missing at sample 250$"):
         read_record(RecordSpec(_time_csv(tmp_path / "b.csv", cells[:250] + ["nan"] + cells[251:]), rotation="none"))
+    with pytest.raises(ValueError, match=r"time column 'time' of .* neither numbers nor ISO 8601 times \(sample 250: "
+                                         r"'soon'\)$"):
+        read_record(RecordSpec(_time_csv(tmp_path / "e.csv", cells[:250] + ["soon"] + cells[251:]), rotation="none"))
     iso = [str(np.datetime64("2023-11-14T22:13:20.525") + np.timedelta64(50 * i, "ms")) for i in range(400)]
     rec = read_record(RecordSpec(_time_csv(tmp_path / "c.csv", iso), rotation="none"))
     assert rec.sample_rate == 20.0 and rec.time0_ns == 1_700_000_000_525_000_000

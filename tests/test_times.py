@@ -72,7 +72,9 @@ def test_a_step_implausible_for_the_unit_names_the_column_and_the_likely_unit():
     (["0", "nan", "0.1"], r"time is missing at sample 1"),
     (["0", "", "0.1"], r"time is missing at sample 1"),
     (["0", "0.1", "0.2", "0.37", "0.4"], r"sample 3 .* 0.30 steps off"),
-    (["0", "soon"], r"neither numbers nor ISO 8601"),
+    (["0", "soon"], r"neither numbers nor ISO 8601 times \(sample 1: 'soon'\)$"),
+    (["0", "0.1", "x" * 100 + "\x07"], r"neither numbers nor ISO 8601 times \(sample 2: 'x{32}\.\.\.'\)$"),
+    (["0", "2023-11-14T22:13:20", "0.2"], r"w: mixes numbers and ISO 8601 times; allowed: one or the other$"),
 ])
 def test_bad_times_are_named(cells, match):
     with pytest.raises(ValueError, match=match):
@@ -86,3 +88,58 @@ def test_negative_times_and_iso_times_are_exact():
     iso = T.parse_time_cells(["2023-11-14T22:13:20.525", "2023-11-14T22:13:20.575", "2023-11-14T22:13:20.625"],
                              "s", "w")
     assert iso.iso and iso.ns[0] == 1_700_000_000_525_000_000 and T.infer_grid(iso, "w")[0] == 20.0
+
+
+def _oracle_ns(cell, per):
+    """A cell's ns by decimal arithmetic alone (the definition the fast path must meet)."""
+    from decimal import ROUND_HALF_EVEN, Decimal, localcontext
+
+    with localcontext() as ctx:
+        ctx.prec = 60
+        return int((Decimal(cell) * per).to_integral_value(rounding=ROUND_HALF_EVEN))
+
+
+@pytest.mark.parametrize("unit", ["ns", "us", "ms", "s", "min", "h"])
+def test_every_written_form_of_a_time_gives_its_exact_ns(unit):
+    """Plain decimals (read vectorised), and exponents, rounding, 19 digits (read by decimal): one answer."""
+    rng = np.random.default_rng(len(unit))
+    per = T.unit_ns(unit, "w")
+    cells = []
+    for _ in range(3000):
+        whole = str(int(rng.integers(0, 10 ** int(rng.integers(0, 11)))) % (2**62 // per))  # within int64 ns
+        frac = "".join(map(str, rng.integers(0, 10, int(rng.integers(0, 13)))))
+        c = rng.choice(["", "-", "+"]) + rng.choice(["", "00"]) + whole + ("." + frac if rng.random() < 0.8 else "")
+        cells.append(c)
+    cells += ["-0", "+0.0", ".5", "-.25", "5.", "007.500", "1e3", "-2.5E-1", "-5", "5_0"]
+    if unit == "s":
+        cells += ["9223372036.854775807", "-9223372036.85477580", "1700000000.525"]  # 19 digits: to the last ns
+    k = len(str(per)) - 1 if unit not in ("min", "h") else -1
+    plain = [c for c in cells if "e" not in c.lower() and "_" not in c and len(c.partition(".")[2]) <= k
+             and "922" not in c]
+    assert len(plain) > 500 or k < 0
+    if hasattr(getattr(np, "strings", None), "partition"):  # numpy >= 2.3
+        assert (T._plain_decimal_ns(plain, per) is not None) == (k >= 0)  # these take the vectorised path
+    for block in (cells, plain or cells[:9], cells[:50]):
+        tc = T.parse_time_cells(block, unit, "w")
+        assert tc.ns.tolist() == [_oracle_ns(c, per) for c in block]
+        places = max(len(c.split(".")[1]) if "." in c and "e" not in c.lower() else 0 for c in block)
+        assert tc.quantum_ns == max(1.0, per * 10.0 ** -places)
+    if unit == "s":  # one ns past int64, in 19 digits: refused, not wrapped around
+        with pytest.raises(ValueError, match=r"w: times beyond \+-292 years in ns"):
+            T.parse_time_cells(["9223372036.854775808", "9223372036.854775809"], unit, "w")
+        with pytest.raises(ValueError, match=r"w: holds neither numbers nor ISO 8601 times"):  # a NUL is no digit
+            T.parse_time_cells(["5\x00", "6"], unit, "w")
+
+
+def test_a_plain_column_of_times_costs_no_decimal_per_cell(monkeypatch):
+    cells = [f"{1_700_000_000 + i / 20:.3f}" for i in range(2000)] + ["-0.125", "+3", ".5"]
+    expect = [_oracle_ns(c, 10**9) for c in cells]
+
+    def no_decimal(*a, **k):
+        raise AssertionError("a Decimal per cell for a plain column")
+
+    if not hasattr(getattr(np, "strings", None), "partition"):
+        pytest.skip("numpy < 2.3: every column takes the decimal path")
+    monkeypatch.setattr(T.decimal, "Decimal", no_decimal)
+    assert T.parse_time_cells(cells, "s", "w").ns.tolist() == expect
+    assert T.parse_time_cells([f"{i / 20:.2f}" for i in range(100)], "ms", "w").ns[-1] == 4_950_000

@@ -16,7 +16,7 @@ import numpy as np
 
 from .._validation import check_int, check_real
 
-__all__ = ["MannFit", "fit_mann"]
+__all__ = ["MannFit", "fit_mann", "fit_quality"]
 
 _PARAM_NAMES = ("alpha_eps", "length_scale", "gamma")
 _DEFAULT_BOUNDS = {"length_scale": (0.5, 5000.0), "gamma": (0.0, 8.0)}
@@ -24,6 +24,12 @@ _DEFAULT_BOUNDS = {"length_scale": (0.5, 5000.0), "gamma": (0.0, 8.0)}
 # (checked on one_point_spectra), which gives the initial L.
 _KL_PEAK_33 = 2.0
 _DEFAULT_GAMMA = 3.0
+#: A parameter within this fraction of its bound's span (L on a log scale) is "at the bound": the optimiser
+#: stopped there, the fit is not a minimum and its linearised uncertainties do not hold.
+_AT_BOUND = 1e-3
+#: Largest RMS relative residual of a fit the tensor describes.  A record of the tensor leaves 0.1-0.2 (the
+#: spectra's sampling scatter, tests/analysis/test_records.py); white noise or a spike train leaves more.
+MAX_RESIDUAL_RMS = 0.5
 
 
 @dataclasses.dataclass(frozen=True)
@@ -400,3 +406,43 @@ def fit_mann(k1_k, F11_k, F22_k, F33_k, F13_k, *, one_sided=True, initial=None, 
                    n_points=int(m), success=success, message=message, nfev=int(nfev[0]),
                    nfev_coarse=int(nfev[1]),
                    covariance_method=method)
+
+
+def fit_quality(fit: MannFit, bounds=None) -> dict:
+    """Whether a fit can be trusted: the parameters at a bound, a failed optimiser, a large residual.
+
+    Parameters
+    ----------
+    fit : MannFit
+        From :func:`fit_mann`.
+    bounds : dict, optional
+        The bounds the fit was given (default: :func:`fit_mann`'s).
+
+    Returns
+    -------
+    dict
+        ``{"quality": "ok" or "suspect", "at_bound": [names of the parameters
+        at a bound, e.g. "length_scale=0.5 (lower bound)"], "reasons": [...]}``.
+        A record the tensor cannot describe (white noise, a record in wrong
+        units) drives L or Gamma to a bound: its "fit" is the bound, not a
+        measurement.
+    """
+    if not isinstance(fit, MannFit):
+        raise TypeError(f"fit must be a MannFit, got {type(fit).__name__}")
+    bnd = _parse_bounds(bounds)
+    p = fit.params
+    at = []
+    for name, value, log in (("length_scale", p.length_scale, True), ("gamma", p.gamma, False)):
+        lo, hi = bnd[name]
+        f = (lambda x: math.log(x)) if log else (lambda x: x)
+        span = f(hi) - f(lo)
+        for edge, which in ((lo, "lower"), (hi, "upper")):
+            if abs(f(value) - f(edge)) <= _AT_BOUND * span:
+                at.append(f"{name}={value:.4g} ({which} bound)")
+    reasons = [f"{a}: the optimiser stopped at the bound" for a in at]
+    if not fit.success:
+        reasons.append(f"the optimiser failed ({fit.message})")
+    if not fit.residual_rms <= MAX_RESIDUAL_RMS:
+        reasons.append(f"residual_rms = {fit.residual_rms:.3g} > {MAX_RESIDUAL_RMS} (the tensor does not describe "
+                       f"the spectra)")
+    return {"quality": "suspect" if reasons else "ok", "at_bound": at, "reasons": reasons}

@@ -9,10 +9,20 @@ wrong.  :meth:`Record.line_record` hands the result to
 
 Files
 -----
+The file itself is read by :mod:`cwlidar_sim.analysis.record_files`, also
+the reader of a scene's ``turbulence.fit_to``: it checks that the path is a
+regular, non-empty file within 4 GiB and that the record holds at most
+2**25 samples before reading it, and names the file (never its contents)
+in its errors.  Samples faster than 100 m/s are wrong units or sentinel
+values: a few are gaps, more than ``max_filled_fraction`` an error.
+
 * CSV: a header row of column names, then one row per sample; numbers
   (empty, ``nan`` or ``NA`` fields are missing values).  The time column (if
-  any) holds seconds or ISO 8601 timestamps; without one the spec's
-  ``sample_rate`` gives the times.  Velocities in m/s unless the spec's
+  any: ``time``, or one ``time`` with its unit, ``time_ms``, ``time [ms]``)
+  holds numbers or ISO 8601 timestamps, read as text and kept exact in
+  integer ns (:mod:`cwlidar_sim._times`); its unit is the header's or the
+  spec's ``units['time']`` (they must agree), else seconds; without one the
+  spec's ``sample_rate`` gives the times.  Velocities in m/s unless the spec's
   ``units`` says otherwise (CSV carries no units of its own).
 * NetCDF (netCDF-4 through h5netcdf, netCDF-3 through scipy): variables
   found by the spec's ``columns``, else by CF standard name or name:
@@ -21,14 +31,19 @@ Files
   ``wind_speed`` or ``speed``.  The ``units`` attribute is parsed (m s-1,
   m/s, cm s-1, km h-1, knots, mph, ft s-1 ...); units that do not parse are
   an error; a variable without units is taken as m s-1.  Time: a ``time``
-  coordinate in s, min, h or days (``... since ...`` accepted; only
-  differences are used), or the spec's ``sample_rate``.
+  coordinate in s, ms, us, ns, min, h or days (``... since DATE`` accepted:
+  the numbers are the file's clock, in ns to the floats' resolution), or
+  the spec's ``sample_rate``.
 
 Cleaning (per period)
 ---------------------
 1. Times: strictly increasing (else an error naming the first offending
    sample); samples must sit within a quarter step of the regular grid
-   ``t0 + i / fs``; missing grid times become gaps.
+   ``t0 + i / fs`` (fs inferred from the exact times and snapped to the
+   coarsest decimal within their resolution, or the spec's ``sample_rate``;
+   an undeclared rate outside ``RECORD_RATES`` is an error naming the time
+   unit that would fit); missing grid times become gaps, and a run of them
+   longer than ``max_gap`` is an error before the grid is allocated.
 2. Despiking: a sample is a spike if it departs from the running median
    (window ``despike_window`` s) by more than ``despike_threshold`` robust
    standard deviations, 1.4826 x the median absolute deviation of the
@@ -62,11 +77,12 @@ import dataclasses
 import math
 from fractions import Fraction
 import os
-import re
 
 import numpy as np
 
+from .._times import infer_grid, ns_text
 from .._validation import check_choice, check_keys, check_real, check_tuple
+from .record_files import MAX_SAMPLES, absurd_speeds, parse_speed_units, parse_time_units, read_record_file
 
 __all__ = ["RecordSpec", "Record", "read_record", "read_periods", "parse_speed_units", "parse_time_units",
            "fit_mann_to_record"]
@@ -76,12 +92,6 @@ ROTATIONS = ("double", "planar", "none")
 FLAG_SPIKE = 1
 FLAG_GAP = 2
 _ROLES = {"sonic": ("u", "v", "w"), "cup": ("speed",)}
-_CF_NAMES = {
-    "u": ("eastward_wind", "x_wind", "u"),
-    "v": ("northward_wind", "y_wind", "v"),
-    "w": ("upward_air_velocity", "w"),
-    "speed": ("wind_speed", "speed", "ws"),
-}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -221,197 +231,48 @@ def _role_map(field, value, roles):
 
 
 # ---------------------------------------------------------------------------
-# units
+# reading (the file itself: :mod:`.record_files`, shared with a scene's ``fit_to``)
 # ---------------------------------------------------------------------------
-_LENGTH = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0, "cm": 0.01, "mm": 1e-3,
-           "km": 1e3, "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "mi": 1609.344, "mile": 1609.344,
-           "miles": 1609.344}
-_TIME = {"s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "min": 60.0,
-         "mins": 60.0, "minute": 60.0, "minutes": 60.0, "h": 3600.0, "hr": 3600.0, "hrs": 3600.0,
-         "hour": 3600.0, "hours": 3600.0, "d": 86400.0, "day": 86400.0, "days": 86400.0}
-_SPEED_WORDS = {"knot": 1852.0 / 3600.0, "knots": 1852.0 / 3600.0, "kt": 1852.0 / 3600.0,
-                "kts": 1852.0 / 3600.0, "kn": 1852.0 / 3600.0, "mph": 1609.344 / 3600.0,
-                "kph": 1.0 / 3.6, "kmh": 1.0 / 3.6}
+def _load(spec):
+    """(times (TimeColumn) or None, {role: values [m/s]}, {role: units}); samples beyond MAX_SPEED become NaN (gaps)."""
+    t, vals, units = read_record_file(spec)
+    bad = absurd_speeds(vals, units, spec, spec.max_filled_fraction)
+    if bad.any():
+        vals = {r: np.where(bad, np.nan, v) for r, v in vals.items()}
+    return t, vals, units
 
 
-def parse_speed_units(units: str) -> float:
-    """Factor from a speed unit string to m/s: ``m s-1``, ``m/s``, ``cm s^-1``, ``km h-1``, ``knots``, ``mph`` ...
-
-    Raises ValueError naming the string when it does not parse.
-    """
-    if not isinstance(units, str):
-        raise TypeError(f"units must be a str, got {type(units).__name__}")
-    s = units.strip().lower()
-    if s in _SPEED_WORDS:
-        return _SPEED_WORDS[s]
-    m = (re.fullmatch(r"([a-z]+)\s*(?:/|\s+per\s+)\s*([a-z]+)", s)
-         or re.fullmatch(r"([a-z]+)\s*[\s.*·]\s*([a-z]+)\s*(?:\^|\*\*)?\s*-\s*1", s))
-    if m and m.group(1) in _LENGTH and m.group(2) in _TIME:
-        return _LENGTH[m.group(1)] / _TIME[m.group(2)]
-    raise ValueError(f"units {units!r} do not parse as a speed; allowed: a length over a time such as 'm s-1', "
-                     f"'m/s', 'cm s-1', 'km h-1', or 'knots', 'mph'")
-
-
-def parse_time_units(units: str) -> float:
-    """Factor from a time unit string (``s``, ``seconds since 2020-01-01``, ``min``, ``hours`` ...) to seconds."""
-    if not isinstance(units, str):
-        raise TypeError(f"units must be a str, got {type(units).__name__}")
-    s = units.strip().lower().split(" since ")[0].strip()
-    if s in _TIME:
-        return _TIME[s]
-    raise ValueError(f"time units {units!r} do not parse; allowed: s, min, h, days (optionally '... since DATE')")
-
-
-# ---------------------------------------------------------------------------
-# reading
-# ---------------------------------------------------------------------------
-def _to_float(text):
-    t = text.strip()
-    if t == "" or t.lower() in ("nan", "na", "n/a", "null", "none"):
-        return math.nan
-    return float(t)
-
-
-def _read_csv(spec):
-    """(times [s] or None, {role: values [m/s]}) of a CSV record."""
-    import csv
-
-    roles = _ROLES[spec.kind]
-    with open(spec.path, newline="", encoding="utf-8") as f:
-        rows = list(csv.reader(f))
-    if not rows:
-        raise ValueError(f"{spec.name}: {spec.path!r} is empty")
-    header = [h.strip() for h in rows[0]]
-    names = {r: spec.column(r) or r for r in roles}
-    tcol = spec.column("time")
-    if tcol is None:
-        from .._times import find_time_column
-
-        tcol = find_time_column(header, f"{spec.name}: {spec.path!r}")
-    missing = [n for n in list(names.values()) + ([tcol] if tcol else []) if n not in header]
-    if missing:
-        raise ValueError(f"{spec.name}: {spec.path!r} lacks column(s) {missing}; it has {header}")
-    body = rows[1:]
-    out = {}
-    for r, n in names.items():
-        j = header.index(n)
-        try:
-            vals = np.array([_to_float(row[j]) if j < len(row) else math.nan for row in body])
-        except ValueError as e:
-            raise ValueError(f"{spec.name}: column {n!r} of {spec.path!r} is not numeric ({e})") from None
-        out[r] = vals * parse_speed_units(spec.unit(r) or "m s-1")
-    t = None
-    if tcol:
-        j = header.index(tcol)
-        cells = [row[j].strip() if j < len(row) else "" for row in body]
-        t = _parse_times(cells, spec, tcol)
-    return t, out
-
-
-# --- times (exact, integer ns: see cwlidar_sim._times) -----------------------------------------------------
 #: Plausible rates of a wind record whose rate is not declared [Hz]: a time column in ms read as s
 #: (a 20 Hz sonic at 0.02 Hz) or in min/h read as s (a 20 Hz sonic at 1200 or 72 000 Hz) falls outside.
 RECORD_RATES = (0.1, 1000.0)
 
 
-def _parse_times(cells, spec, tcol):
-    """The time cells of column ``tcol`` -> :class:`cwlidar_sim._times.TimeColumn` (exact ns; unit: header or spec)."""
-    from .._times import column_unit, parse_time_cells
-
-    where = f"{spec.name}: time column {tcol!r} of {spec.path!r}"
-    return parse_time_cells(cells, column_unit(tcol, spec.unit("time"), where), where)
-
-
-def _find_variable(ds, role, spec):
-    name = spec.column(role)
-    if name is not None:
-        if name not in ds.variables:
-            raise ValueError(f"{spec.name}: {spec.path!r} has no variable {name!r} (columns[{role!r}]); "
-                             f"it has {sorted(map(str, ds.variables))}")
-        return name
-    by_std = {str(ds[v].attrs.get("standard_name", "")): str(v) for v in ds.variables}
-    for cand in _CF_NAMES[role]:
-        if cand in by_std:
-            return by_std[cand]
-        if cand in ds.variables:
-            return cand
-    raise ValueError(f"{spec.name}: {spec.path!r} has no variable for {role} (tried standard names and names "
-                     f"{list(_CF_NAMES[role])}; set columns[{role!r}]); it has {sorted(map(str, ds.variables))}")
-
-
-def _read_netcdf(spec):
-    import xarray as xr
-
-    ds = None
-    errors = []
-    for engine in ("h5netcdf", "scipy"):
-        try:
-            ds = xr.open_dataset(spec.path, engine=engine, decode_times=False, decode_cf=False)
-            break
-        except Exception as e:  # noqa: BLE001  (either engine may refuse the format)
-            errors.append(f"{engine}: {e}")
-    if ds is None:
-        raise ValueError(f"{spec.name}: cannot read {spec.path!r} as NetCDF ({'; '.join(errors)})")
-    with ds:
-        out = {}
-        for role in _ROLES[spec.kind]:
-            v = _find_variable(ds, role, spec)
-            da = ds[v]
-            if da.ndim != 1:
-                raise ValueError(f"{spec.name}: variable {v!r} of {spec.path!r} has dims {da.dims}; allowed: one")
-            units = da.attrs.get("units") or spec.unit(role) or "m s-1"
-            a = np.asarray(da.values, dtype=np.float64)
-            fill = da.attrs.get("_FillValue", da.attrs.get("missing_value"))
-            if fill is not None:
-                a = np.where(a == float(np.asarray(fill).ravel()[0]), np.nan, a)
-            try:
-                out[role] = a * parse_speed_units(str(units))
-            except ValueError as e:
-                raise ValueError(f"{spec.name}: variable {v!r} of {spec.path!r}: {e}") from None
-        t = None
-        tname = spec.column("time") or ("time" if "time" in ds.variables else None)
-        if tname is not None:
-            if tname not in ds.variables:
-                raise ValueError(f"{spec.name}: {spec.path!r} has no time variable {tname!r}")
-            tu = str(ds[tname].attrs.get("units", spec.unit("time") or "s"))
-            from .._times import float_times
-
-            t = float_times(ds[tname].values, tu, f"{spec.name}: time variable {tname!r} of {spec.path!r}")
-    return t, out
-
-
-def _load(spec):
-    if not os.path.isfile(spec.path):
-        raise ValueError(f"{spec.name}: no such file {spec.path!r}")
-    ext = os.path.splitext(spec.path)[1].lower()
-    if ext in (".csv", ".txt"):
-        t, vals = _read_csv(spec)
-    elif ext in (".nc", ".nc4", ".cdf", ".netcdf"):
-        t, vals = _read_netcdf(spec)
-    else:
-        raise ValueError(f"{spec.name}: {spec.path!r} has extension {ext!r}; allowed: .csv, .txt (CSV) or .nc, "
-                         f".nc4, .cdf (NetCDF)")
-    n = len(next(iter(vals.values())))
-    if any(len(v) != n for v in vals.values()) or (t is not None and len(t.ns) != n):
-        raise ValueError(f"{spec.name}: columns of {spec.path!r} differ in length")
-    if n < 16:
-        raise ValueError(f"{spec.name}: {spec.path!r} has {n} samples; allowed: >= 16")
-    return t, vals
-
-
 def _regular_grid(t, vals, spec):
-    """Place the samples on t0 + i / fs; missing grid times become NaN.  Returns (fs, t0, {role: values})."""
+    """Place the samples on t0 + i / fs; missing grid times become NaN.  Returns (fs, t0 [s], {role: values}).
+
+    ``t`` is a :class:`cwlidar_sim._times.TimeColumn` (exact ns) or None.
+    """
     if t is None:
         if spec.sample_rate is None:
             raise ValueError(f"{spec.name}: {spec.path!r} has no time column; give sample_rate [Hz] in the spec")
         return spec.sample_rate, 0.0, vals
-    from .._times import infer_grid
-
     where = t.where or f"{spec.name}: time of {spec.path!r}"
     # a declared rate vouches for the times' unit through the 1 % check; else the rate must be a wind record's
     rates = (0.0, 1e4) if spec.sample_rate is not None else RECORD_RATES
     fs, idx = infer_grid(t, where, sample_rate=spec.sample_rate, rate_range=rates, unit=t.unit, what="wind record")
+    # Missing grid times are checked before the grid is allocated: a row far in the future must not
+    # allocate the whole span first.  A run longer than max_gap is an error wherever it lies.
+    step_i = np.diff(idx)
+    max_run = int(math.floor(spec.max_gap * fs + 1e-9))
+    j = int(np.argmax(step_i))
+    if step_i[j] - 1 > max_run:
+        gap = int(step_i[j]) - 1
+        raise ValueError(f"{spec.name}: gap of {gap / fs:.6g} s ({gap} samples) in the time column of {spec.path!r} "
+                         f"after t = {ns_text(t.ns[j])} s is longer than max_gap = {spec.max_gap:.6g} s")
     m = int(idx[-1]) + 1
+    if m > MAX_SAMPLES:
+        raise ValueError(f"{spec.name}: the time column of {spec.path!r} spans {m} samples at {fs:.6g} Hz; allowed: "
+                         f"at most {MAX_SAMPLES} (MAX_SAMPLES)")
     out = {}
     for r, v in vals.items():
         a = np.full(m, np.nan)
@@ -552,6 +413,9 @@ class Record:
         The same, exact, in integer nanoseconds on the file's clock (numbers
         as written, ISO 8601 times since 1970-01-01T00:00); the twin's clock
         is built on it (float seconds near a Unix time of 1.7e9 s step in 2.4e-7 s).
+    units : dict
+        Role -> the speed units the file's values were read in (converted to
+        m/s).
     """
 
     spec: RecordSpec
@@ -564,6 +428,7 @@ class Record:
     rotation: dict
     time0: float = 0.0
     time0_ns: int = 0
+    units: dict = dataclasses.field(default_factory=dict)
 
     @property
     def n_samples(self) -> int:
@@ -617,7 +482,7 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
     """
     if not isinstance(spec, RecordSpec):
         raise TypeError(f"spec must be a RecordSpec, got {type(spec).__name__}")
-    t, raw = _load(spec)
+    t, raw, units = _load(spec)
     fs, t0, grid = _regular_grid(t, raw, spec)
     t0_ns = 0 if t is None else int(t.ns[0])
     n = len(next(iter(grid.values())))
@@ -657,7 +522,7 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
             a.setflags(write=False)
         flags.setflags(write=False)
         out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start,
-                          t0_ns + round(Fraction(k * m * 10**9) / Fraction(fs))))
+                          t0_ns + round(Fraction(k * m * 10**9) / Fraction(fs)), dict(units)))
     return out
 
 

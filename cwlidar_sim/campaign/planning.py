@@ -14,16 +14,19 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import hashlib
 import json
 import math
 import os
+import warnings
 
 import numpy as np
 
+from ..analysis.fitting import fit_quality
+from ..analysis.record_files import file_digest
+from ..analysis.records import RecordSpec, fit_mann_to_record, read_record
 from .scene import Scene
 
-__all__ = ["FieldPlan", "choose_field", "plan_field", "generate_field", "scene_params"]
+__all__ = ["FieldPlan", "choose_field", "plan_field", "generate_field", "scene_params", "MEAN_SPEED_TOLERANCE"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -60,12 +63,30 @@ class FieldPlan:
     wrap: bool
 
 
+#: Largest relative difference between a ``fit_to`` record's mean speed and a period's ``mean_speed``: the
+#: fitted tensor is the turbulence at the record's mean wind (its variances, hence the period's turbulence
+#: intensity, are the record's), so a period in another wind is refused rather than silently combined.
+MEAN_SPEED_TOLERANCE = 0.3
+
+
 def scene_params(scene: Scene):
     """Mann parameters of a scene: given, or fitted to its sonic record.
 
-    A record's fit is kept for the process, keyed by the record's contents
-    (a digest of its bytes, not its path or time) and the analysis settings,
+    The record (``turbulence.fit_to``) is read by the twin's reader
+    (:func:`cwlidar_sim.analysis.records.read_record`: units converted,
+    sizes checked before reading, short gaps filled and counted), with u
+    along the mean wind (no rotation, no despiking).  A record's fit is kept
+    for the process, keyed by the record's contents (a SHA-256 of its bytes,
+    read in 1 MiB chunks, not its path or time) and the analysis settings,
     so the tasks of a campaign fitting one record fit it once.
+
+    A fit at a parameter's bound, by a failed optimiser or with a large
+    residual (:func:`cwlidar_sim.analysis.fitting.fit_quality`) is warned
+    about and marked in the summary (``quality``, ``at_bound``,
+    ``quality_reasons``, carried by the results' ``turbulence_fit``
+    attribute).  A period whose ``mean_speed`` differs from the record's
+    mean by more than :data:`MEAN_SPEED_TOLERANCE` is an error (not for a
+    twin's scene, whose periods take the conditioning records' mean).
 
     Returns
     -------
@@ -76,16 +97,24 @@ def scene_params(scene: Scene):
     if p is not None:
         return p, None
     path = scene.resolve(scene.turbulence.fit_to)
-    if not os.path.isfile(path):
-        raise ValueError(f"turbulence.fit_to: no such file {path!r}")
-    with open(path, "rb") as fh:
-        digest = hashlib.sha256(fh.read()).hexdigest()
+    digest = file_digest(path, "turbulence.fit_to")
     key = (os.path.abspath(path), digest, json.dumps(scene.analysis.as_dict(), sort_keys=True))
     if key not in _FIT_CACHE:
         if len(_FIT_CACHE) > 16:
             _FIT_CACHE.clear()
         _FIT_CACHE[key] = _fit_record(path, scene)
     params, info = _FIT_CACHE[key]
+    U = info["mean_speed"]
+    if not scene.turbulence.condition_on:
+        for per in scene.periods:
+            if abs(per.mean_speed - U) > MEAN_SPEED_TOLERANCE * U:
+                raise ValueError(f"turbulence.fit_to: the record {path!r} has mean speed {U:.4g} m/s but period "
+                                 f"{per.name!r} has mean_speed = {per.mean_speed:g} m/s; allowed: within "
+                                 f"{100 * MEAN_SPEED_TOLERANCE:g} % of the record's (the fitted tensor is the "
+                                 f"turbulence at the record's mean wind)")
+    if info["quality"] != "ok":
+        warnings.warn(f"turbulence.fit_to: the fit to {path!r} is suspect: {'; '.join(info['quality_reasons'])}; "
+                      f"the results carry quality = 'suspect' in their turbulence_fit attribute", stacklevel=2)
     return params, copy.deepcopy(info)
 
 
@@ -93,39 +122,20 @@ _FIT_CACHE: dict = {}
 
 
 def _fit_record(path, scene):
-    import xarray as xr
-
-    if not os.path.isfile(path):
-        raise ValueError(f"turbulence.fit_to: no such file {path!r}")
-
-    from ..analysis import component_spectra, fit_mann, log_bins
-
-    try:
-        rec = xr.open_dataset(path, engine="h5netcdf")
-    except (OSError, ValueError) as e:
-        raise ValueError(f"turbulence.fit_to: cannot read {path!r} as NetCDF: {e}") from None
-    with rec:
-        missing = [c for c in ("u", "v", "w") if c not in rec]
-        if missing or "time" not in rec.coords:
-            raise ValueError(f"turbulence.fit_to: {path!r} needs variables u, v, w on a 'time' coordinate [s]; "
-                             f"missing: {missing or ['time']}")
-        t = np.asarray(rec["time"].values, dtype=np.float64)
-        u, v, w = (np.asarray(rec[c].values, dtype=np.float64) for c in ("u", "v", "w"))
-    dt = np.diff(t)
-    if t.size < 64 or not np.allclose(dt, dt[0], rtol=1e-6):
-        raise ValueError(f"turbulence.fit_to: {path!r} needs >= 64 uniformly spaced samples")
-    fs = 1.0 / dt[0]
-    U = float(np.nanmean(u))
-    if not U > 0.5:
-        raise ValueError(f"turbulence.fit_to: mean u of {path!r} is {U:.3g} m/s; the fit needs u along a "
-                         f"mean wind > 0.5 m/s (Taylor's hypothesis)")
+    """(MannParameters, summary) of the fit to the record at ``path`` with the scene's analysis settings."""
+    spec = RecordSpec(path, kind="sonic", rotation="none", despike_threshold=0.0, min_mean_speed=0.5,
+                      name="turbulence.fit_to")
+    rec = read_record(spec)
+    if rec.n_samples < 64:
+        raise ValueError(f"turbulence.fit_to: {path!r} has {rec.n_samples} samples; allowed: >= 64")
     a = scene.analysis
-    seg = min(a.segment_duration, t.size / fs)
-    k_edges = log_bins(max(a.k_min, 2 * math.pi / (seg * U)), min(a.k_max, math.pi * fs / U), a.per_decade)
-    k, F11, F22, F33, F13, nk = component_spectra(u, v, w, fs=fs, U=U, k_edges=k_edges, segment_duration=seg)
-    fit = fit_mann(k, F11, F22, F33, F13, n_k=nk)
-    return fit.params, {"path": os.path.abspath(path), "mean_speed": U, "std": dict(fit.std),
-                        "residual_rms": float(fit.residual_rms)}
+    fit = fit_mann_to_record(rec, k_min=a.k_min, k_max=a.k_max, per_decade=a.per_decade,
+                             segment_duration=a.segment_duration)
+    q = fit_quality(fit)
+    return fit.params, {"path": os.path.abspath(path), "mean_speed": rec.mean_speed, "std": dict(fit.std),
+                        "residual_rms": float(fit.residual_rms), "units": dict(rec.units),
+                        "n_samples": rec.n_samples, "n_filled": rec.n_filled, "quality": q["quality"],
+                        "at_bound": q["at_bound"], "quality_reasons": q["reasons"]}
 
 
 def choose_field(scene: Scene, period) -> tuple[str, str]:

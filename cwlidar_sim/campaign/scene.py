@@ -92,10 +92,17 @@ class TurbulenceSpec(Spec):
     gamma : float, optional
         Anisotropy Gamma [-]; >= 0.
     fit_to : str, optional
-        Path of a NetCDF sonic record (variables ``u``, ``v``, ``w`` [m/s] on
-        a dimension ``time`` with a coordinate in seconds; u along the mean
-        wind) to fit the three parameters to (relative paths are taken from
-        the scene file's folder).  Exclusive with the three parameters.
+        Path of a sonic record (NetCDF: variables ``u``, ``v``, ``w`` with
+        their ``units``, m s-1 when absent, on a ``time`` coordinate; or CSV
+        with columns time, u, v, w in m/s, the time in s or in the unit its
+        header names, ``time_ms``; u along the mean wind) to fit the
+        three parameters to (relative paths are taken from the scene file's
+        folder), read by the twin's reader
+        (:mod:`cwlidar_sim.analysis.record_files`).  Every period's
+        ``mean_speed`` must lie within 30 % of the record's mean; a fit on
+        a bound is warned about and flagged (see
+        :func:`cwlidar_sim.campaign.planning.scene_params`).  Exclusive with
+        the three parameters.
     condition_on : tuple of RecordSpec
         Measured records the field is conditioned on (the virtual twin,
         :mod:`cwlidar_sim.campaign.twin`): tables of

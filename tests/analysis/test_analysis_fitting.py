@@ -140,3 +140,38 @@ def test_coarse_search_finished_on_the_fine_quadrature_is_the_fine_optimum(seed,
     for name in ("alpha_eps", "length_scale", "gamma"):
         assert getattr(two_stage.params, name) == pytest.approx(getattr(fine.params, name), rel=3e-6), name
         assert two_stage.std[name] == pytest.approx(fine.std[name], rel=1e-3), name
+
+
+# ---------------------------------------------------------------------------
+# fit_quality: a fit on a bound, failed or far from the spectra is "suspect"
+# ---------------------------------------------------------------------------
+def _fit(L, g, success=True, rms=0.15):
+    from cwlidar_sim.analysis.fitting import MannFit
+    from cwlidar_sim.turbulence import MannParameters
+
+    return MannFit(MannParameters(0.05, L, g), {}, np.eye(3), rms, 40, success, "ok")
+
+
+def test_fit_quality_names_the_parameters_on_a_bound():
+    from cwlidar_sim.analysis.fitting import fit_quality
+
+    assert fit_quality(_fit(20.0, 3.9)) == {"quality": "ok", "at_bound": [], "reasons": []}
+    q = fit_quality(_fit(0.5, 0.0))  # white noise's fit
+    assert q["quality"] == "suspect"
+    assert q["at_bound"] == ["length_scale=0.5 (lower bound)", "gamma=0 (lower bound)"]
+    assert fit_quality(_fit(5000.0, 8.0))["at_bound"] == ["length_scale=5000 (upper bound)", "gamma=8 (upper bound)"]
+    # near but not on a bound (1 % of the log span away) is a fit
+    assert fit_quality(_fit(0.5 * (1e4 ** 0.01), 0.1))["at_bound"] == []
+    assert fit_quality(_fit(30.0, 2.0), bounds={"length_scale": (1.0, 30.0)})["at_bound"] == [
+        "length_scale=30 (upper bound)"]
+
+
+def test_fit_quality_flags_a_failed_fit_and_a_large_residual():
+    from cwlidar_sim.analysis.fitting import MAX_RESIDUAL_RMS, fit_quality
+
+    assert "the optimiser failed" in fit_quality(_fit(20.0, 3.9, success=False))["reasons"][0]
+    assert fit_quality(_fit(20.0, 3.9, rms=MAX_RESIDUAL_RMS))["quality"] == "ok"
+    assert "residual_rms = 0.8" in fit_quality(_fit(20.0, 3.9, rms=0.8))["reasons"][0]
+    assert fit_quality(_fit(20.0, 3.9, rms=float("nan")))["quality"] == "suspect"
+    with pytest.raises(TypeError, match="MannFit"):
+        fit_quality({"length_scale": 1.0})

@@ -15,11 +15,12 @@ import math
 import numpy as np
 
 from .._validation import check_int, check_real
+from ..turbulence.parameters import GAMMA_MAX, LENGTH_SCALE_MAX
 
 __all__ = ["MannFit", "fit_mann", "fit_quality"]
 
 _PARAM_NAMES = ("alpha_eps", "length_scale", "gamma")
-_DEFAULT_BOUNDS = {"length_scale": (0.5, 5000.0), "gamma": (0.0, 8.0)}
+_DEFAULT_BOUNDS = {"length_scale": (0.5, LENGTH_SCALE_MAX), "gamma": (0.0, GAMMA_MAX)}
 # Every component's k1 F_33 peaks at k1 L = 1.8-2.2 for Gamma in 0..5
 # (checked on one_point_spectra), which gives the initial L.
 _KL_PEAK_33 = 2.0
@@ -105,11 +106,12 @@ def _parse_bounds(bounds):
         raise ValueError(f"unknown key(s) in bounds: {unknown}; allowed: ['gamma', 'length_scale'] "
                          f"(alpha_eps is solved in closed form and needs no bounds)")
     if "length_scale" in bounds:
-        out["length_scale"] = _check_pair("length_scale", bounds["length_scale"], 1e-6, 1e7)
+        # the tensor's own range (MannParameters refuses a fit outside it only after the fit has run)
+        out["length_scale"] = _check_pair("length_scale", bounds["length_scale"], 1e-6, LENGTH_SCALE_MAX)
         if out["length_scale"][0] <= 0:
             raise ValueError(f"bounds['length_scale'] = {bounds['length_scale']!r}; allowed: 0 < low < high")
     if "gamma" in bounds:
-        out["gamma"] = _check_pair("gamma", bounds["gamma"], 0.0, 1e3)
+        out["gamma"] = _check_pair("gamma", bounds["gamma"], 0.0, GAMMA_MAX)
     return out
 
 

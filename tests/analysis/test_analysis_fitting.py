@@ -1,6 +1,7 @@
 """Least-squares fit of the Mann tensor parameters to one-point spectra."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -175,3 +176,14 @@ def test_fit_quality_flags_a_failed_fit_and_a_large_residual():
     assert fit_quality(_fit(20.0, 3.9, rms=float("nan")))["quality"] == "suspect"
     with pytest.raises(TypeError, match="MannFit"):
         fit_quality({"length_scale": 1.0})
+
+
+@pytest.mark.parametrize("bounds, field", [({"gamma": (0.0, 20.0)}, "bounds['gamma'][1]"),
+                                           ({"length_scale": (1.0, 1e5)}, "bounds['length_scale'][1]")])
+def test_fit_bounds_stay_inside_the_tensor_s_range(bounds, field):
+    """A fit bound beyond what MannParameters accepts (Gamma <= 8, L <= 5000 m) is refused before the fit,
+    not after it (where the fitted tensor could not even be built)."""
+    k = np.logspace(-2, 0, 20)
+    F = np.ones(k.size)
+    with pytest.raises(ValueError, match=re.escape(field)):
+        fit_mann(k, F, F, F, F, bounds=bounds)

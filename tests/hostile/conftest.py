@@ -23,6 +23,7 @@ import dataclasses
 import json
 import os
 import resource
+import signal
 import subprocess
 import sys
 import time
@@ -68,12 +69,14 @@ def _spawn(argv, *, cwd=None, env=None, timeout=300.0, stdin_text=None) -> Child
     if env:
         full_env.update(env)
     t0 = time.perf_counter()
+    # a session of its own: on a time-out the whole group goes (the wrapper and the CLI it runs, which
+    # holds the pipes; killing the wrapper alone would leave communicate() waiting on them)
     proc = subprocess.Popen(argv, cwd=cwd, env=full_env, preexec_fn=_limit, stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         out, err = proc.communicate(stdin_text, timeout=timeout)
     except subprocess.TimeoutExpired:
-        proc.kill()
+        os.killpg(proc.pid, signal.SIGKILL)
         out, err = proc.communicate()
         raise AssertionError(f"{argv[2:]} hung for more than {timeout} s\n{err[-2000:]}") from None
     return Child(proc.returncode, out, err, float("nan"), time.perf_counter() - t0)

@@ -1,5 +1,7 @@
 """The corpus harness itself: the memory cap bites, the peak is measured, errors are judged."""
 
+import sys
+
 from conftest import MEM_LIMIT_BYTES, assert_one_line_error, run_cli, run_python
 
 
@@ -21,3 +23,20 @@ def test_a_named_one_line_error_is_recognised(tmp_path):
     child = run_cli(["box", "--alpha-eps", "1", "--length-scale", "-20", "--gamma", "3",
                      "--shape", "16", "4", "4", "--spacing", "1", "1", "1", "--seed", "1", "--out", "x.nc"], cwd=tmp)
     assert_one_line_error(child, "length")
+
+
+def test_a_hanging_case_fails_and_leaves_no_process():
+    """A case that hangs is killed with its whole process group after the time-out (the harness itself
+    must never hang on the pipes of a grandchild)."""
+    import os
+    import time
+
+    import pytest
+
+    from conftest import _run_measured
+
+    t0 = time.perf_counter()
+    with pytest.raises(AssertionError, match="hung"):
+        _run_measured([sys.executable, "-c", "import time, os; print(os.getpid(), flush=True); time.sleep(600)"],
+                      timeout=3)
+    assert time.perf_counter() - t0 < 60

@@ -111,32 +111,42 @@ def read_results(path):
         raise ValueError(f"cannot read results file {os.fspath(path)!r}: {e}") from None
 
 
-def content_digest(ds) -> str:
-    """SHA-256 (hex) of a Dataset's variables: names, dimensions and values.
-
-    HDF5 keeps no checksum of the data, so a bit flipped in a stored
-    period's numbers reads back without an error; the digest, stored with
-    the period (``content_sha256``) and checked when it is reused, turns
-    that silent change into a recomputation.  Values are hashed in a
-    canonical form (floats as float64, integers as int64, strings as UTF-8
-    text), so the digest of a Dataset equals that of the file written from it
-    and read back.
-    """
+def _hash_values(h, a) -> None:
+    """Feed an array's values to ``h`` in a canonical form (see :func:`content_digest`)."""
     import numpy as np
 
+    a = np.asarray(a)
+    h.update(f"{a.shape}|{a.dtype.kind}|".encode())
+    if a.dtype.kind in "OUS":
+        h.update("\x1f".join(map(str, a.ravel())).encode("utf-8", "surrogatepass"))
+    elif a.dtype.kind in "fc":
+        h.update(np.ascontiguousarray(a, dtype=np.complex128 if a.dtype.kind == "c" else np.float64).tobytes())
+    elif a.dtype.kind in "Mm":
+        h.update(np.ascontiguousarray(a.view(np.int64)).tobytes())
+    else:
+        h.update(np.ascontiguousarray(a, dtype=np.int64).tobytes())
+
+
+def content_digest(ds) -> str:
+    """SHA-256 (hex) of a Dataset's contents: its variables (names, dimensions, values) and attributes.
+
+    HDF5 keeps no checksum of the data, so a bit flipped in a stored
+    period's numbers (or in an attribute's text) reads back without an
+    error; the digest, stored with the period (``content_sha256``, left out
+    of what it hashes) and checked when the period is reused, turns that
+    silent change into a recomputation.  Values are hashed in a canonical
+    form (floats as float64, integers as int64, strings as UTF-8 text), so
+    the digest of a Dataset equals that of the file written from it and read
+    back.
+    """
     h = hashlib.sha256()
     for name in sorted(map(str, ds.variables)):
         var = ds.variables[name]
-        a = np.asarray(var.values)
-        h.update(f"{name}|{var.dims}|{a.shape}|{a.dtype.kind}|".encode())
-        if a.dtype.kind in "OUS":
-            h.update("\x1f".join(map(str, a.ravel())).encode("utf-8", "surrogatepass"))
-        elif a.dtype.kind in "fc":
-            h.update(np.ascontiguousarray(a, dtype=np.complex128 if a.dtype.kind == "c" else np.float64).tobytes())
-        elif a.dtype.kind in "Mm":
-            h.update(np.ascontiguousarray(a.view(np.int64)).tobytes())
-        else:
-            h.update(np.ascontiguousarray(a, dtype=np.int64).tobytes())
+        h.update(f"v|{name}|{var.dims}|".encode())
+        _hash_values(h, var.values)
+    for key in sorted(k for k in map(str, ds.attrs) if k != "content_sha256"):
+        h.update(f"a|{key}|".encode())
+        _hash_values(h, ds.attrs[key])
     return h.hexdigest()
 
 
@@ -195,7 +205,8 @@ class PeriodStore:
             process wrote it meanwhile): never combined into the results.
         """
         os.makedirs(self.folder, exist_ok=True)
-        ds = ds.assign_attrs(scene_key=self.keys[index], content_sha256=content_digest(_for_netcdf(ds)))
+        ds = ds.assign_attrs(scene_key=self.keys[index])
+        ds = ds.assign_attrs(content_sha256=content_digest(_for_netcdf(ds)))
         p = self.path(index)
         write_results(ds, p)
         back = read_results(p)

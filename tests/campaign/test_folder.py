@@ -175,14 +175,22 @@ def _data_offset(path, ds):
     raise AssertionError(f"the bytes of {name} were not found in {path}")
 
 
-@pytest.mark.parametrize("where", ["metadata", "numbers"])
+def _attribute_offset(path):
+    """Where a letter of the stored ``scene`` attribute (the scene's TOML as JSON) lies in the file."""
+    at = path.read_bytes().find(b'"name": "one"')
+    assert at >= 0
+    return at + 10
+
+
+@pytest.mark.parametrize("where", ["metadata", "numbers", "attribute"])
 def test_a_damaged_period_file_is_computed_again_with_a_warning(tmp_path, monkeypatch, where):
     """A flipped bit in the file's metadata makes it unreadable; one in its numbers reads back without an
     error (HDF5 keeps no checksum) and is caught by the digest stored with the period."""
     whole = run_scene(scene(), tmp_path, progress=False)
     p = tmp_path / "one.periods" / "000_P.nc"
     data = bytearray(p.read_bytes())
-    at = 100 if where == "metadata" else _data_offset(p, read_results(p))
+    at = {"metadata": lambda: 100, "numbers": lambda: _data_offset(p, read_results(p)),
+          "attribute": lambda: _attribute_offset(p)}[where]()
     data[at] ^= 0x10
     p.write_bytes(bytes(data))
     calls = counting(monkeypatch)

@@ -14,33 +14,10 @@ import argparse
 import json
 import os
 import sys
-import textwrap
 
+from ._cli_help import _DASK_TRUST, _add_dask_options, _command, _Formatter
+from ._bundled import bundled_files as _bundled_files, bundled_or_path as _bundled_or_path
 from ._interrupt import EXIT_SIGTERM, RESUMABLE, Terminated, sigterm_raises, terminated_message
-
-
-class _Formatter(argparse.RawDescriptionHelpFormatter):
-    """Descriptions pre-wrapped by :func:`_command`, examples kept as written, one line per command."""
-
-    def __init__(self, prog):
-        super().__init__(prog, max_help_position=28)
-
-    def add_argument(self, action):
-        super().add_argument(action)
-        if isinstance(action, argparse._SubParsersAction):
-            # argparse measures the commands one indent shallower than it prints them, which would
-            # push the help of the longest name (campaign-report) onto a line of its own
-            self._action_max_length = max(self._action_max_length,
-                                          max((len(a.dest) for a in action._get_subactions()), default=0)
-                                          + self._current_indent + self._indent_increment)
-
-
-def _command(sub, name, help, description, examples):
-    """A subcommand whose ``--help`` ends with worked examples (``examples``: lines of shell)."""
-    width = 78
-    text = "\n\n".join(textwrap.fill(par, width) for par in description.split("\n\n"))
-    epilog = "examples:\n" + "\n".join("  " + line for line in examples)
-    return sub.add_parser(name, help=help, description=text, epilog=epilog, formatter_class=_Formatter)
 
 
 def _add_box(sub):
@@ -202,24 +179,6 @@ def _cmd_doppler(args) -> int:
         if rep.get("warning"):
             print(f"warning: {rep['warning']}")
     return 0
-
-
-#: Said wherever a command takes a Dask scheduler: what a scheduler can do to the machine that uses it.
-_DASK_TRUST = ("Only use a Dask scheduler you trust, on a network you trust: it has no authentication by "
-               "default, its workers run whatever they are sent, and results come back by pickle, which can run "
-               "code when read.")
-
-
-def _add_dask_options(p, dest, what):
-    """``--dask`` and ``--scheduler`` (the same option, both spellings on every command) and ``--worker-timeout``."""
-    names = ("--dask", "--scheduler") if dest == "dask" else ("--scheduler", "--dask")
-    p.add_argument(*names, dest=dest, default=None, metavar="ADDRESS",
-                   help=f"run {what} on this Dask scheduler (e.g. tcp://host:8786; a trusted one only, see "
-                        f"above); default: locally")
-    p.add_argument("--worker-timeout", type=float, default=None, metavar="SECONDS",
-                   help="with a scheduler: longest wait for its first worker before the run, and longest time "
-                        "without any worker during it (default 60); then a one-line error, the finished work "
-                        "kept")
 
 
 def _add_campaign(sub):
@@ -592,38 +551,6 @@ def _cmd_twin(args) -> int:
 
 # Files shipped with the package, found without importing cwlidar_sim.campaign (listing stays instant):
 # scenes (``run NAME``, ``reproduce``) and campaign examples (``campaign NAME``).
-_BUNDLED_DIRS = (("scene", ("campaign", "scenes")), ("campaign", ("campaign", "examples")))
-
-
-def _bundled_files() -> dict:
-    """``{name: (kind, file)}`` of the bundled TOML files, ``file`` an importlib.resources Traversable."""
-    from importlib import resources
-
-    root = resources.files(__package__)
-    out = {}
-    for kind, parts in _BUNDLED_DIRS:
-        folder = root.joinpath(*parts)
-        if folder.is_dir():
-            for f in sorted(folder.iterdir(), key=lambda f: f.name):
-                if f.name.endswith(".toml"):
-                    out[f.name[:-len(".toml")]] = (kind, f)
-    return out
-
-
-def _bundled_or_path(arg: str, kind: str) -> str:
-    """``arg`` if it is a file; else the path of the bundled ``kind`` of that name; else a clear error."""
-    if os.path.exists(arg):
-        return arg
-    found = _bundled_files()
-    if found.get(arg, (None,))[0] == kind:
-        return str(found[arg][1])
-    if os.sep in arg or arg.endswith(".toml"):
-        return arg  # a path: the loader names it
-    names = sorted(n for n, (k, _) in found.items() if k == kind)
-    raise ValueError(f"no {kind} file {arg!r} and no bundled {kind} of that name; bundled: {', '.join(names)} "
-                     f"('cwlidar-sim scenes' lists them)")
-
-
 def _add_scenes(sub):
     p = _command(sub, "scenes", "list the bundled scenes and examples; write one out",
                  "List the scenes (for 'run' and 'reproduce') and the campaign examples (for 'campaign') that "

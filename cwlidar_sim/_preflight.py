@@ -65,7 +65,7 @@ def check_scheduler(address: str, timeout: float = 3.0) -> None:
     to Dask; an ``inproc://`` address must be one of this very process (an
     in-process cluster; from the command line there is none); any other
     protocol is refused by name.  Whether the scheduler has workers is
-    :func:`cwlidar_sim._dask.connect_scheduler`'s question.
+    ``cwlidar_sim._dask.connect_scheduler``'s question.
     """
     import socket
     from urllib.parse import urlsplit

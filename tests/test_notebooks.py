@@ -70,13 +70,13 @@ def test_notebook_runs_in_quick_mode(path, tmp_path, monkeypatch):
               if "image/png" in o.get("data", {})]
     assert len(images) >= 5
     if "a2012" in path.name:
-        _check_a2012(nb, tmp_path / "out" / "a2012.nc")
+        _check_a2012(nb, tmp_path / "out" / "a2012" / "a2012.nc")
     if "cs_" in path.name:
-        _check_cs(nb, tmp_path / "out" / "cs.nc")
+        _check_cs(nb, tmp_path / "out" / "cs" / "cs.nc")
     if path.name == "twin.ipynb":
         _check_twin(nb)
     if "nacelle" in path.name:
-        _check_nacelle(nb, tmp_path / "out" / "nacelle.nc")
+        _check_nacelle(nb, tmp_path / "out" / "nacelle" / "nacelle.nc")
 
 
 def _check_twin(nb):

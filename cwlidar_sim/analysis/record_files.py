@@ -1,7 +1,7 @@
 """Reading a wind record's file: the one reader of the twin's records and of a scene's ``fit_to``.
 
 :func:`read_record_file` turns a CSV or NetCDF file into exact times (a
-:class:`cwlidar_sim._times.TimeColumn`: integer ns parsed from a CSV's
+``cwlidar_sim._times.TimeColumn``: integer ns parsed from a CSV's
 digits, read as text, or from NetCDF floats; the unit from the column
 header or the spec) and velocities [m/s];
 :mod:`cwlidar_sim.analysis.records` cleans them.  Every check that bounds
@@ -18,7 +18,7 @@ the work comes before the work:
 
 Error messages never echo an arbitrary file's bytes: a CSV's column names
 are named only when its first line is a header of short names
-(:func:`_header_text`), values only as a short, quoted excerpt of a field
+(``_header_text``), values only as a short, quoted excerpt of a field
 the reader expected to be numeric; a file that is not NetCDF is said not to
 be, without the libraries' messages (which quote its first bytes).
 """
@@ -99,7 +99,7 @@ def parse_speed_units(units: str) -> float:
 def parse_time_units(units: str) -> float:
     """Factor from a time unit string (``s``, ``ms``, ``seconds since 2020-01-01``, ``min``, ``hours`` ...) to seconds.
 
-    The table is :mod:`cwlidar_sim._times`' (the one the readers use, exact in ns).
+    The table is ``cwlidar_sim._times``' (the one the readers use, exact in ns).
     """
     if not isinstance(units, str):
         raise TypeError(f"units must be a str, got {type(units).__name__}")
@@ -180,7 +180,7 @@ def _chunks(spec, names, header, plain, tcol=None):
 
     The plain chunks are parsed by a correctly rounded converter, so a field
     reads exactly as ``float`` reads it.  The time column ``tcol`` is text
-    in both (its digits are parsed exactly by :mod:`cwlidar_sim._times`).
+    in both (its digits are parsed exactly by ``cwlidar_sim._times``).
     """
     import pandas as pd
 
@@ -246,7 +246,7 @@ def _is_float(c):
 def _columns(spec, wanted, header, tcol, plain):
     """{name: [arrays per chunk]} and the row count, refused as soon as the rows pass MAX_SAMPLES.
 
-    The time column's parts are :class:`cwlidar_sim._times.TimeColumn` s (exact ns), parsed chunk by chunk so
+    The time column's parts are ``cwlidar_sim._times.TimeColumn`` s (exact ns), parsed chunk by chunk so
     that the text of at most one chunk is held at a time.
     """
     parts = {n: [] for n in wanted}
@@ -298,7 +298,7 @@ def _read_csv(spec):
 
 
 def _join_times(parts, spec, tcol):
-    """One :class:`cwlidar_sim._times.TimeColumn` of the chunks' (the finest resolution of any chunk)."""
+    """One ``cwlidar_sim._times.TimeColumn`` of the chunks' (the finest resolution of any chunk)."""
     if len({p.iso for p in parts}) > 1:
         raise ValueError(f"{spec.name}: time column {tcol!r} of {spec.path!r} mixes numbers and ISO 8601 times")
     p0 = parts[0]

@@ -20,7 +20,7 @@ values: a few are gaps, more than ``max_filled_fraction`` an error.
   (empty, ``nan`` or ``NA`` fields are missing values).  The time column (if
   any: ``time``, or one ``time`` with its unit, ``time_ms``, ``time [ms]``)
   holds numbers or ISO 8601 timestamps, read as text and kept exact in
-  integer ns (:mod:`cwlidar_sim._times`); its unit is the header's or the
+  integer ns (``cwlidar_sim._times``); its unit is the header's or the
   spec's ``units['time']`` (they must agree), else seconds; without one the
   spec's ``sample_rate`` gives the times.  Velocities in m/s unless the spec's
   ``units`` says otherwise (CSV carries no units of its own).
@@ -250,7 +250,7 @@ RECORD_RATES = (0.1, 1000.0)
 def _regular_grid(t, vals, spec):
     """Place the samples on t0 + i / fs; missing grid times become NaN.  Returns (fs, t0 [s], {role: values}).
 
-    ``t`` is a :class:`cwlidar_sim._times.TimeColumn` (exact ns) or None.
+    ``t`` is a ``cwlidar_sim._times.TimeColumn`` (exact ns) or None.
     """
     if t is None:
         if spec.sample_rate is None:

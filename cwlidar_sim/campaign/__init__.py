@@ -35,6 +35,8 @@ from .scene import Scene, load_scene, loads_scene
 from .staring import fit_probe_length_results
 from .store import PreflightError, ResultsWriteError, read_results, write_results
 
-__all__ = ["Scene", "ConicalScene", "NacelleScene", "load_scene", "loads_scene", "run_scene", "read_results", "choose_field",
+from .._dask import WorkersLostError
+
+__all__ = ["WorkersLostError", "Scene", "ConicalScene", "NacelleScene", "load_scene", "loads_scene", "run_scene", "read_results", "choose_field",
            "plan_field", "bundled_scene", "PreflightError", "ResultsWriteError", "write_results",
            "fit_probe_length_results", "simulate_conical_period", "simulate_conical_cycle"]

@@ -246,6 +246,10 @@ def claim(folder, name: str, kind: str, *, overwrite: bool = False, log=None) ->
         same = not files
         theirs = f"another run ({', '.join(files[:3])}{', ...' if len(files) > 3 else ''})"
         results = None
+    if old is not None and not same and not any(
+            os.path.exists(os.path.join(folder, f)) for f in [*files, *([results] if results else [])]):
+        # the old owner left nothing on disk (its run failed before its first unit): nothing to protect
+        old, same, files, remove_after, results = None, True, [], [], None
     if not same and not overwrite:
         raise PreflightError(f"results folder {folder!r} holds the results of {theirs}, not of the {me}; "
                              f"fix: choose another --out (e.g. {os.path.join(folder, name)}), or pass --overwrite "

@@ -30,7 +30,7 @@ Geometry and clock
   n samples at fs.  A record is read as periodic: its first and last seconds
   meet.
 * Times are kept exact, in integer nanoseconds on the records' clock
-  (:mod:`cwlidar_sim._times`): a 20 Hz record timed in Unix seconds is 20 Hz,
+  (``cwlidar_sim._times``): a 20 Hz record timed in Unix seconds is 20 Hz,
   not 20.0000191.  The twin's clock starts half a sample before the
   reference sonic record's first sample (without one: at the whole second
   at or before the first sample), plus k T for period k; the file keeps that

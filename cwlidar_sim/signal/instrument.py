@@ -84,7 +84,7 @@ WINDOWS = ("rect", "hann")
 THRESHOLD_KINDS = ("sigma", "snr", "peak_fraction")
 RAISE_READINGS = ("level", "excess")
 
-__all__ = ["Instrument", "PROTOTYPE_2003", "CS_SERIES", "PRESETS", "preset", "WINDOWS", "THRESHOLD_KINDS"]
+__all__ = ["FOCUS_MIN", "Instrument", "PROTOTYPE_2003", "CS_SERIES", "PRESETS", "preset", "WINDOWS", "THRESHOLD_KINDS"]
 
 
 @dataclasses.dataclass(frozen=True)

@@ -235,7 +235,7 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
     (dx, dy, dz) [m] from elsewhere (e.g. ``box.attrs``).  Each file is first
     written to a temporary file beside it (``.NAME.XXXXXXXX.tmp.bin``) and the
     three are renamed over the targets only when all three are complete
-    (:func:`cwlidar_sim._atomic.atomic_paths`): a failure leaves the old files.
+    (``cwlidar_sim._atomic.atomic_paths``): a failure leaves the old files.
     """
     reverse_x = check_bool("reverse_x", reverse_x)
     reverse_x, reverse_y = _convention_flips(convention, reverse_x)

@@ -27,6 +27,8 @@ from .._validation import check_keys, check_real
 # von Karman energy spectrum integrates to alpha_eps * L**(2/3) times this.
 _VK_INTEGRAL = 0.5 * math.gamma(2.5) * math.gamma(1.0 / 3.0) / math.gamma(17.0 / 6.0)
 
+__all__ = ["MannParameters", "GAMMA_MAX", "LENGTH_SCALE_MAX"]
+
 #: Largest anisotropy Gamma accepted [-] (module notes: the range the Mann model was fitted for).
 GAMMA_MAX = 8.0
 #: Largest length scale L accepted [m] (module notes).

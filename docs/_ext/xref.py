@@ -61,15 +61,23 @@ def _documented_by_id(env) -> dict:
 
 
 def _defining_modules(source: str | None) -> list[str]:
-    """Modules where the docstring holding a reference was written (``...:docstring of X``):
-    X's own module and, for a method, its class's module."""
+    """Modules where the docstring holding a reference was written (``...:docstring of X``): X's own
+    module, or, for what has none (a property), the module of the nearest enclosing object that has one."""
     if not source or "docstring of " not in source:
         return []
-    obj = _import(source.rsplit("docstring of ", 1)[1].split(":")[0].strip())
-    if obj is _MISSING:
-        return []
-    mods = [getattr(obj, "__name__", "")] if isinstance(obj, type(importlib)) else []
-    mods.append(getattr(obj, "__module__", None) or "")
+    dotted = source.rsplit("docstring of ", 1)[1].split(":")[0].strip()
+    mods = []
+    while dotted:
+        obj = _import(dotted)
+        if obj is not _MISSING:
+            if isinstance(obj, type(importlib)):
+                mods.append(obj.__name__)
+            mod = getattr(obj, "__module__", None)
+            if isinstance(mod, str):
+                mods.append(mod)
+            if mods:
+                break
+        dotted = dotted.rpartition(".")[0]
     return [m for m in mods if m.startswith(PACKAGE)]
 
 

@@ -373,3 +373,14 @@ def test_a_crafted_manifest_never_removes_a_file_outside_the_folder(tmp_path):
                                 "figures": ["../victim.png"], "remove_after": ["../victim.nc"]})
     run_scene(scene("one"), out, progress=False)
     assert all(v.read_text() == "keep me" for v in victims)
+
+
+def test_a_run_that_left_nothing_does_not_hold_the_folder(tmp_path):
+    """A run refused after it claimed the folder (a bad record, say) wrote only the folder's manifest:
+    another scene may use the folder without --overwrite, as nothing of the first would be lost."""
+    folder.write_manifest(str(tmp_path), {"name": "ghost", "kind": "staring", "digest": None, "figures": [],
+                                          "results": None, "remove_after": []})
+    run_scene(scene("one"), tmp_path, progress=False)
+    assert folder.read_manifest(str(tmp_path))["name"] == "one"
+    with pytest.raises(PreflightError, match="holds the results of staring scene 'one'"):
+        run_scene(scene("two"), tmp_path, progress=False)  # 'one' left results: protected

@@ -12,12 +12,30 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 
 from ._cli_help import _DASK_TRUST, _add_dask_options, _command, _Formatter
 from ._bundled import bundled_files as _bundled_files, bundled_or_path as _bundled_or_path
 from ._interrupt import EXIT_SIGTERM, RESUMABLE, Terminated, sigterm_raises, terminated_message
+
+
+def _finite(obj):
+    """``obj`` with every non-finite float as None (JSON has no NaN or infinity)."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def _json(obj) -> str:
+    """What a command prints for ``--json`` or as its summary: strict JSON (a NaN is null)."""
+    return json.dumps(_finite(obj), indent=2, allow_nan=False,
+                      default=lambda o: _finite(o.item()) if hasattr(o, "item") else str(o))  # numpy scalars
 
 
 def _add_box(sub):
@@ -75,6 +93,9 @@ def _cmd_box(args) -> int:
         targets.append(("--plot", args.plot))
     for label, target in targets:
         check_output_file(target, label=label)
+    if args.format == "netcdf" and not args.out.lower().endswith((".nc", ".nc4", ".netcdf")):
+        raise ValueError(f"--out {args.out!r}: a NetCDF box is written to a .nc file (e.g. "
+                         f"{os.path.splitext(args.out)[0]}.nc); for HAWC2's three .bin files add --format hawc2")
     box = generate_box(
         params, tuple(args.shape), tuple(args.spacing), args.seed,
         correction=args.correction, hf_compensation=args.hf_compensation,
@@ -83,10 +104,13 @@ def _cmd_box(args) -> int:
     )
     if args.format == "netcdf":
         write_netcdf(box, args.out)
+        written = [args.out]
     else:
         write_hawc2(box, args.out)
+        written = [str(p) for p in hawc2_paths(args.out)]
+    print(f"wrote a {'x'.join(map(str, args.shape))} box ({args.format}): {', '.join(written)}", file=sys.stderr)
     if args.stats:
-        print(json.dumps(box_report(box), indent=2))
+        print(_json(box_report(box)))
     if args.plot:
         plot_box_spectra(box, args.plot)
     return 0
@@ -152,7 +176,11 @@ def _cmd_doppler(args) -> int:
         if key not in types:
             raise ValueError(f"unknown instrument field {key!r}; allowed: {sorted(types)}")
         t = types[key]
-        changes[key] = int(val) if t in (int, "int") else float(val) if t in (float, "float") else val
+        try:
+            changes[key] = int(val) if t in (int, "int") else float(val) if t in (float, "float") else val
+        except ValueError:
+            raise ValueError(f"--set {key}={val!r}: {key} takes {'an integer' if t in (int, 'int') else 'a number'}"
+                             ) from None
     if args.threshold is not None:
         changes["threshold_value"] = args.threshold
     if args.threshold_kind is not None:
@@ -169,15 +197,16 @@ def _cmd_doppler(args) -> int:
                                                                            args.cloud))))
     rep = uniform_report(est, info, speed=args.speed, cnr_db=args.cnr, tier=args.tier, instrument=inst)
     if args.json:
-        print(json.dumps(rep, indent=2))
+        print(_json(rep))
     else:
         mean = "nan" if rep["mean"] is None else f"{rep['mean']:.4f}"
         std = "nan" if rep["std"] is None else f"{rep['std']:.4f}"
         print(f"{args.tier} {rep['estimator']}: mean {mean} m/s, std {std} m/s, "
               f"availability {rep['availability']:.3f} (usable: finite, not NEAR_ZERO/NEAR_NYQUIST; "
               f"finite {rep['valid_fraction']:.3f}), flags {rep['flags']}")
-        if rep.get("warning"):
-            print(f"warning: {rep['warning']}")
+        for what in ("note", "warning"):
+            if rep.get(what):
+                print(f"{what}: {rep[what]}")
     return 0
 
 
@@ -304,7 +333,7 @@ def _run_and_report(scene, args, figures):
         summary["availability"] = {str(p): round(float(a), 4) for p, a in zip(ds.period.values, ds.availability.values)}
     if figures:
         summary["figures"] = figs
-    print(json.dumps(summary, indent=2))
+    print(_json(summary))
     return 0
 
 
@@ -339,7 +368,7 @@ def _cmd_report(args) -> int:
             out.extend(make_figures(ds, sub))
         except (KeyError, AttributeError) as e:  # a variable or attribute missing from an older or edited file
             raise lacking(f, ds, e, "the figures") from None
-    print(json.dumps({"figures": out}, indent=2))
+    print(_json({"figures": out}))
     return 0
 
 
@@ -397,7 +426,7 @@ def _cmd_campaign(args) -> int:
         plan = plan_cluster(len(rows), max(r["est_memory_gb"] for r in rows) * 1e9, args.workers)
         total = sum(r["est_seconds"] for r in rows)
         if args.json:
-            print(json.dumps({"tasks": rows, "cluster": plan, "est_seconds_total": total}, indent=2))
+            print(_json({"tasks": rows, "cluster": plan, "est_seconds_total": total}))
             return 0
         print(f"{'task_id':16}  {'est s':>7}  {'mem GB':>6}  label")
         for r in rows:
@@ -429,7 +458,7 @@ def _cmd_campaign(args) -> int:
         if "connect" in str(e).lower() or isinstance(e, TimeoutError):
             raise PreflightError(f"dask scheduler {args.scheduler} did not answer ({e}); fix: check the address") from None
         raise
-    print(json.dumps(summary, indent=2))
+    print(_json(summary))
     return 1 if summary["failed"] else 0
 
 
@@ -443,7 +472,7 @@ def _cmd_campaign_report(args) -> int:
     path = os.path.join(args.dir, "campaign.nc")
     write_results(merged, path)
     figs = sweep_figures(merged, os.path.join(args.dir, "figures"))
-    print(json.dumps({"merged": path, "dims": dict(merged.sizes), "figures": figs}, indent=2))
+    print(_json({"merged": path, "dims": dict(merged.sizes), "figures": figs}))
     return 0
 
 
@@ -488,7 +517,7 @@ def _cmd_probe_length(args) -> int:
     out.pop("zR_grid")
     out.pop("chi2_grid")
     out["results"] = os.path.abspath(path)
-    print(json.dumps(out, indent=2))
+    print(_json(out))
     return 0
 
 
@@ -545,7 +574,7 @@ def _cmd_twin(args) -> int:
     finally:
         if client is not None:
             client.close()
-    print(json.dumps({"periods": files}, indent=2))
+    print(_json({"periods": files}))
     return 0
 
 
@@ -603,7 +632,7 @@ def _cmd_scenes(args) -> int:
         d = tomllib.loads(f.read_text(encoding="utf-8"))
         rows.append({"name": name, "kind": kind, "description": d.get("description", ""), "file": str(f)})
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(_json(rows))
         return 0
     width = max(len(r["name"]) for r in rows)
     for r in rows:

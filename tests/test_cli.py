@@ -71,3 +71,14 @@ def test_twin_checks_the_disk_before_reading_records(tmp_path, capsys, monkeypat
     assert cli.main(["twin", str(scene), "--out", str(tmp_path / "tw"), "--twins", "4"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "not enough disk space" in err[0] and "tw" in err[0], err
+
+
+def test_box_names_what_it_wrote_and_refuses_a_netcdf_file_not_named_nc(tmp_path, capsys):
+    args = ["box", "--alpha-eps", "1", "--length-scale", "20", "--gamma", "3", "--shape", "16", "4", "4",
+            "--spacing", "1", "1", "1", "--seed", "1", "--no-progress"]
+    assert cli.main([*args, "--out", str(tmp_path / "b3.txt")]) == 2
+    err = capsys.readouterr().err
+    assert "a NetCDF box is written to a .nc file" in err and "b3.nc" in err
+    assert not (tmp_path / "b3.txt").exists()
+    assert cli.main([*args, "--out", str(tmp_path / "b3.nc")]) == 0
+    assert f"wrote a 16x4x4 box (netcdf): {tmp_path / 'b3.nc'}" in capsys.readouterr().err

@@ -57,3 +57,34 @@ def test_low_cnr_and_threshold_options(capsys):
 def test_errors(capsys, argv, match):
     rc, out = _run(capsys, "--speed", "5", "--cnr", "0", *argv)
     assert rc == 2 and match in out.err
+
+
+def test_a_negative_speed_says_the_homodyne_sign_is_lost(capsys):
+    """--speed -5 through the spectral tier reads +5 (the instrument sees |V|): the report says so, in JSON and
+    in text, instead of returning a number of the other sign without a word."""
+    rc, out = _run(capsys, "--speed", "-5", "--cnr", "-10", "--n", "20", "--seed", "1", "--json")
+    rep = json.loads(out.out)
+    assert rc == 0 and rep["mean"] == pytest.approx(5.0, abs=0.1)
+    assert "sign is lost" in rep["note"]
+    rc, out = _run(capsys, "--speed", "-5", "--cnr", "-10", "--n", "20", "--seed", "1")
+    assert rc == 0 and "note: speed -5 m/s: a homodyne cw lidar measures |V|" in out.out
+
+
+def test_a_field_value_of_the_wrong_type_names_the_field(capsys):
+    rc, out = _run(capsys, "--speed", "5", "--cnr", "-10", "--set", "focus=abc")
+    assert rc == 2
+    assert out.err.strip() == "cwlidar-sim doppler: error: --set focus='abc': focus takes a number"
+
+
+def test_json_on_stdout_is_strict_json_without_nan():
+    """Every command prints its JSON through cli._json: a NaN or an infinity (Python's or numpy's, nested
+    anywhere) is null, so the output parses with a strict JSON parser (json.dumps alone writes NaN)."""
+    import numpy as np
+
+    from cwlidar_sim.cli import _json
+
+    obj = {"mean": float("nan"), "rows": [1.0, float("inf"), {"x": np.float32("nan")}], "n": np.int64(3),
+           "ok": np.float64(2.5)}
+    text = _json(obj)
+    back = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in the JSON"))
+    assert back == {"mean": None, "rows": [1.0, None, {"x": None}], "n": 3, "ok": 2.5}

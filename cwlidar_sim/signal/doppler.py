@@ -167,6 +167,10 @@ def uniform_report(est: DopplerEstimates, info: dict, *, speed, cnr_db, tier, in
     }
     if "note" in info:
         rep["note"] = info["note"]
+    if tier != "los" and float(speed) < 0:
+        # a homodyne cw lidar sees |V|: the estimates cannot carry the sign the user gave
+        rep["note"] = (f"speed {float(speed):g} m/s: a homodyne cw lidar measures |V| (positive away from the "
+                       f"lidar here), so the estimates read {abs(float(speed)):g} m/s; the sign is lost")
     if tier != "los" and abs(float(speed)) > instrument.nyquist_speed:
         # the instrument cannot see it (no flag can be set from the spectrum): the simulation says so
         rep["warning"] = (f"|speed| {abs(float(speed)):g} m/s is beyond Nyquist ({instrument.nyquist_speed:.4g} m/s): "

@@ -77,12 +77,11 @@ def empty_cluster():
         yield cluster
 
 
-def test_a_scheduler_without_workers_is_refused_in_bounded_time(empty_cluster):
-    t0 = time.perf_counter()
+def test_a_scheduler_without_workers_is_refused_in_bounded_time(empty_cluster, alarm):
+    # the alarm fails the test if the wait does not end: bounded, without timing the refusal
     with pytest.raises(PreflightError, match="has no worker: none arrived in 1 s") as e:
         connect_scheduler(empty_cluster.scheduler_address, worker_timeout=1.0)
     assert empty_cluster.scheduler_address in str(e.value)
-    assert time.perf_counter() - t0 < 15
 
 
 def test_a_scheduler_with_a_worker_is_connected(empty_cluster):
@@ -130,13 +129,11 @@ def test_losing_the_last_worker_stops_the_wait(alarm):
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         futures = [client.submit(_slow, i, pure=False) for i in range(2)]
         threading.Timer(0.5, cluster.scale, (0,)).start()
-        t0 = time.perf_counter()
-        try:
+        try:  # the alarm fixture fails the test if the wait never ends
             with pytest.raises(WorkersLostError, match="no worker for 1 s with 2 task"):
                 list(completed(client, futures, worker_timeout=1.0, poll=0.2))
         finally:
             RELEASE.set()
-        assert time.perf_counter() - t0 < 20
 
 
 def test_a_run_whose_workers_die_stops_and_resumes(tmp_path, monkeypatch, alarm):

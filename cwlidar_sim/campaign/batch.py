@@ -225,7 +225,7 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
         connect_scheduler(scheduler, worker_timeout=worker_timeout).close()
     with folder.locked(out_dir):
         folder.clean_temporaries(out_dir, say)
-        manifest = folder.claim(out_dir, spec.name, "campaign", overwrite=overwrite, log=say)
+        manifest = folder.claim(out_dir, spec.name, folder.CAMPAIGN, overwrite=overwrite, log=say)
         summary = _run_campaign(spec, out_dir, tasks, t0, say, workers=workers, scheduler=scheduler, client=client,
                                 local=local, memory_limit=memory_limit, progress=progress, on_task=on_task,
                                 on_unit=on_unit, worker_timeout=worker_timeout)

@@ -39,7 +39,7 @@ import unicodedata
 
 from .._preflight import PreflightError, check_writable
 
-__all__ = ["NAME_MAX", "LOCK_NAME", "MANIFEST_NAME", "check_file_names", "locked", "clean_temporaries",
+__all__ = ["CAMPAIGN", "NAME_MAX", "LOCK_NAME", "MANIFEST_NAME", "check_file_names", "locked", "clean_temporaries",
            "read_manifest", "write_manifest", "claim", "settle", "finish", "record_figures",
            "CAMPAIGN_FILES"]
 
@@ -48,6 +48,8 @@ NAME_MAX = 255
 LOCK_NAME = ".cwlidar-sim.lock"
 MANIFEST_NAME = "cwlidar-run.json"
 #: Files and folders of a campaign's run (:mod:`cwlidar_sim.campaign.batch`), removed by ``overwrite``.
+#: The owner kind of a campaign's folder (a scene's folder is owned by its scene kind).
+CAMPAIGN = "campaign"
 CAMPAIGN_FILES = ("tasks", "index.json", "campaign.json", "summary.json", "campaign.nc", "figures")
 
 _held: dict = {}  # real path of a locked folder -> [open lock file, depth] (this process)
@@ -183,10 +185,10 @@ def _is_results_file(path) -> bool:
 def _legacy_owner(folder, name: str, kind: str) -> list:
     """Files of another run in a folder without a manifest (written before manifests existed)."""
     found = []
-    if kind != "campaign" and os.path.isfile(os.path.join(folder, "campaign.json")):
+    if kind != CAMPAIGN and os.path.isfile(os.path.join(folder, "campaign.json")):
         found += [f for f in CAMPAIGN_FILES if os.path.exists(os.path.join(folder, f))]
     for d in glob.glob(os.path.join(folder, "*.periods")):
-        if os.path.basename(d) != f"{name}.periods" or kind == "campaign":
+        if os.path.basename(d) != f"{name}.periods" or kind == CAMPAIGN:
             found.append(os.path.basename(d))
     for f in glob.glob(os.path.join(folder, "*.nc")):
         base = os.path.basename(f)
@@ -214,6 +216,11 @@ def _remove(folder, rel, log) -> None:
         log(f"removed {path} (--overwrite: a file of the old run)")
 
 
+def _owner(name, kind) -> str:
+    """How a message names a folder's owner: ``campaign 'x'`` or ``staring scene 'y'``."""
+    return f"{CAMPAIGN if kind == CAMPAIGN else f'{kind} scene'} {name!r}"
+
+
 def claim(folder, name: str, kind: str, *, overwrite: bool = False, log=None) -> dict:
     """Take ``folder`` for the run of ``name`` (a scene of ``kind``, or kind 'campaign'); call under the lock.
 
@@ -232,12 +239,12 @@ def claim(folder, name: str, kind: str, *, overwrite: bool = False, log=None) ->
     """
     folder = os.fspath(folder)
     old = read_manifest(folder)
-    me = f"{'campaign' if kind == 'campaign' else kind + ' scene'} {name!r}"
+    me, campaign = _owner(name, kind), kind == CAMPAIGN
     remove_after = []
     if old is not None:
         same = old.get("name") == name and old.get("kind") == kind
-        theirs = f"{'campaign' if old.get('kind') == 'campaign' else str(old.get('kind')) + ' scene'} {old.get('name')!r}"
-        files = ([f for f in CAMPAIGN_FILES] if old.get("kind") == "campaign"
+        theirs = _owner(old.get("name"), old.get("kind"))
+        files = (list(CAMPAIGN_FILES) if old.get("kind") == CAMPAIGN
                  else [f"{old.get('name')}.periods", *old.get("figures", [])])
         remove_after = [f for f in old.get("remove_after", []) if f != f"{name}.nc"]
         results = old.get("results")
@@ -257,9 +264,9 @@ def claim(folder, name: str, kind: str, *, overwrite: bool = False, log=None) ->
     new = {"name": name, "kind": kind, "digest": old.get("digest") if old and same else None,
            "figures": list(old.get("figures", [])) if old and same else [], "results": results if same else None}
     if overwrite:
-        if old is not None and old.get("results") and old.get("kind") != "campaign":
+        if old is not None and old.get("results") and old.get("kind") != CAMPAIGN:
             files.append(old["results"])
-        if kind != "campaign":  # the same scene's periods too: overwrite computes afresh
+        if not campaign:  # the same scene's periods too: overwrite computes afresh
             files.append(f"{name}.periods")
         for rel in dict.fromkeys(files):
             if rel.endswith(".nc") and rel != "campaign.nc":
@@ -267,7 +274,7 @@ def claim(folder, name: str, kind: str, *, overwrite: bool = False, log=None) ->
             else:
                 _remove(folder, rel, log)
         new.update(digest=None, figures=[], results=None)
-    new["remove_after"] = sorted({f for f in remove_after if f != (f"{name}.nc" if kind != "campaign" else None)})
+    new["remove_after"] = sorted({f for f in remove_after if f != (None if campaign else f"{name}.nc")})
     write_manifest(folder, new)
     return new
 

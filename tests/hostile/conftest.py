@@ -37,6 +37,23 @@ import pytest
 MEM_LIMIT_BYTES = 8 * 2**30
 
 OUTCOMES = ("error", "warned", "right")
+
+#: A one-period staring scene fitted to a record (``{path}``, mean speed ``{U}``): the records cases' scene.
+FIT_TO_SCENE = """
+name = "h"
+seed = 3
+duration = 60.0
+[turbulence]
+fit_to = "{path}"
+[lidar]
+tier = "los"
+[analysis]
+segment_duration = 30.0
+fit = false
+[[period]]
+name = "a"
+mean_speed = {U}
+"""
 _CASES: list[dict] = []
 
 

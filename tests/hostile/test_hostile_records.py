@@ -11,25 +11,11 @@ import os
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import assert_one_line_error, run_cli, run_python
+from conftest import FIT_TO_SCENE, assert_one_line_error, run_cli, run_python
 
 U, FS, N = 8.0, 10.0, 2**13
 
-SCENE = """
-name = "h"
-seed = 3
-duration = 60.0
-[turbulence]
-fit_to = "{path}"
-[lidar]
-tier = "los"
-[analysis]
-segment_duration = 30.0
-fit = false
-[[period]]
-name = "a"
-mean_speed = {U}
-"""
+SCENE = FIT_TO_SCENE
 
 TWIN = """
 name = "tw"

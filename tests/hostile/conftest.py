@@ -26,7 +26,6 @@ import resource
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -59,13 +58,12 @@ _CASES: list[dict] = []
 
 @dataclasses.dataclass
 class Child:
-    """What a corpus child did: exit status, its output, its peak resident memory [MB], wall time [s]."""
+    """What a corpus child did: exit status, its output, its peak resident memory [MB]."""
 
     rc: int
     stdout: str
     stderr: str
     peak_mb: float
-    wall_s: float
 
     @property
     def last_line(self) -> str:
@@ -85,7 +83,6 @@ def _spawn(argv, *, cwd=None, env=None, timeout=300.0, stdin_text=None) -> Child
     full_env.setdefault("OMP_NUM_THREADS", "1")
     if env:
         full_env.update(env)
-    t0 = time.perf_counter()
     # a session of its own: on a time-out the whole group goes (the wrapper and the CLI it runs, which
     # holds the pipes; killing the wrapper alone would leave communicate() waiting on them)
     proc = subprocess.Popen(argv, cwd=cwd, env=full_env, preexec_fn=_limit, stdin=subprocess.PIPE,
@@ -96,7 +93,7 @@ def _spawn(argv, *, cwd=None, env=None, timeout=300.0, stdin_text=None) -> Child
         os.killpg(proc.pid, signal.SIGKILL)
         out, err = proc.communicate()
         raise AssertionError(f"{argv[2:]} hung for more than {timeout} s\n{err[-2000:]}") from None
-    return Child(proc.returncode, out, err, float("nan"), time.perf_counter() - t0)
+    return Child(proc.returncode, out, err, float("nan"))
 
 
 def _run_measured(argv, *, cwd=None, env=None, timeout=300.0, stdin_text=None) -> Child:

@@ -191,9 +191,8 @@ def test_a_scheduler_without_workers_is_refused_not_waited_on(tmp_path, corpus, 
     (tmp_path / "c.toml").write_text('name = "c"\nbase = "s.toml"\n[[sweep]]\n"lidar.cnr_db" = [-10.0]\n')
     target = "s.toml" if command == "run" else "c.toml"
     child = run_cli([command, target, "--out", "o", "--dask", workerless_scheduler, "--worker-timeout", "2"],
-                    cwd=tmp_path, timeout=90)
+                    cwd=tmp_path, timeout=60)  # waiting on the scheduler for good fails as "hung"
     assert_one_line_error(child, workerless_scheduler, "has no worker", "2 s")
-    assert child.wall_s < 60
     assert not (tmp_path / "o" / "h.periods").exists() and not (tmp_path / "o" / "tasks").exists()
     corpus.record("error", child)
 

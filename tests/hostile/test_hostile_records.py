@@ -74,9 +74,9 @@ def scene(tmp_path, record, mean_speed=U):
     return p
 
 
-def run_fit_to(tmp_path, record, mean_speed=U):
+def run_fit_to(tmp_path, record, mean_speed=U, timeout=120):
     return run_cli(["run", scene(tmp_path, record, mean_speed), "--out", tmp_path / "o", "--no-progress"],
-                   cwd=tmp_path, timeout=120)
+                   cwd=tmp_path, timeout=timeout)
 
 
 FIT = """
@@ -183,9 +183,9 @@ def test_a_20_gb_sparse_fit_to_file_is_refused_before_it_is_read_or_hashed(tmp_p
     p = tmp_path / "r.nc"
     with open(p, "wb") as f:
         f.truncate(20 * 10**9)
-    child = run_fit_to(tmp_path, "r.nc")
+    child = run_fit_to(tmp_path, "r.nc", timeout=60)  # a read or hash of 20 GB would not end in time: "hung"
     assert_one_line_error(child, "fit_to", "18.6 GiB", "at most 4 GiB")
-    assert child.peak_mb < 1500 and child.wall_s < 60, (child.peak_mb, child.wall_s)
+    assert child.peak_mb < 1500, child.peak_mb
     corpus.record("error", child)
 
 
@@ -241,10 +241,9 @@ def test_a_fit_to_path_that_is_not_a_regular_file_is_refused_by_kind(tmp_path, c
         p.touch()
     else:
         os.symlink("/dev/zero", p)  # reading it would never end
-    child = run_fit_to(tmp_path, "r.nc")
+    child = run_fit_to(tmp_path, "r.nc", timeout=60)  # a blocked or endless read fails as "hung"
     assert_one_line_error(child, "fit_to", "r.nc", {"fifo": "a FIFO", "directory": "a directory",
                                                     "empty": "is empty", "device": "a device"}[what])
-    assert child.wall_s < 60
     corpus.record("error", child)
 
 

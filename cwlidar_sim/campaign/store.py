@@ -80,12 +80,6 @@ def scene_digest(scene, params) -> str:
     return hashlib.sha256(json.dumps(keys).encode()).hexdigest()[:32]
 
 
-def _atomic_write(ds, path) -> None:
-    """Write ``ds`` to ``path`` atomically (:func:`cwlidar_sim._atomic.write_netcdf_atomic`: a temporary
-    file beside it, fsync, rename; a full disk is a :class:`ResultsWriteError` and leaves the old file)."""
-    write_netcdf_atomic(ds, path)
-
-
 def _for_netcdf(ds):
     """A copy with object (string) arrays as fixed str, which NetCDF stores as strings."""
     ds = ds.copy()
@@ -96,8 +90,12 @@ def _for_netcdf(ds):
 
 
 def write_results(ds, path) -> None:
-    """Write a results Dataset to NetCDF (h5netcdf) atomically; object arrays are stored as strings."""
-    _atomic_write(_for_netcdf(ds), path)
+    """Write a results Dataset to NetCDF (h5netcdf) atomically; object arrays are stored as strings.
+
+    Through ``cwlidar_sim._atomic.write_netcdf_atomic``: a temporary file beside ``path``, fsync,
+    rename; a full disk is a :class:`ResultsWriteError` and leaves the old file.
+    """
+    write_netcdf_atomic(_for_netcdf(ds), path)
 
 
 def read_results(path):

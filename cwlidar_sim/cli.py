@@ -201,7 +201,8 @@ def _cmd_doppler(args) -> int:
     else:
         mean = "nan" if rep["mean"] is None else f"{rep['mean']:.4f}"
         std = "nan" if rep["std"] is None else f"{rep['std']:.4f}"
-        print(f"{args.tier} {rep['estimator']}: mean {mean} m/s, std {std} m/s, "
+        sign = "signed, + away from the lidar" if args.tier == "los" else "|V|, homodyne"
+        print(f"{args.tier} {rep['estimator']}: mean {mean} m/s ({sign}), std {std} m/s, "
               f"availability {rep['availability']:.3f} (usable: finite, not NEAR_ZERO/NEAR_NYQUIST; "
               f"finite {rep['valid_fraction']:.3f}), flags {rep['flags']}")
         for what in ("note", "warning"):
@@ -285,6 +286,7 @@ def _run_and_report(scene, args, figures):
     from . import _config
     from .campaign import run_scene
     from .campaign import folder
+    from .campaign._labels import wind_from_toward
     from .campaign.figures import make_figures
     from .campaign.runner import _sensor
     from .campaign.store import preflight
@@ -324,6 +326,7 @@ def _run_and_report(scene, args, figures):
         summary["std_ratio"] = {f"{float(z):g} m": [round(float(x), 3) for x in row]
                                 for z, row in zip(ds.height.values, ds.std_ratio.values)}
         summary["scan_s"] = [float(s) for s in ds.scan_s.values]
+        summary["wind_from_deg"] = {p.name: wind_from_toward(p.toward_deg) for p in scene.periods}
     elif scene.kind == "nacelle":
         from .campaign.nacelle import summary as nacelle_summary
 
@@ -526,9 +529,9 @@ def _add_twin(sub):
                  "Read the records the scene names in [turbulence] condition_on (or --records, one file per "
                  "record, in order), cut them into the scene's periods, and for each period fly the scene's lidar "
                  "and sonic through N fields conditioned on the records (Hoffman-Ribak). Writes DIR/<scene>_twin_"
-                 "P<k>.nc per period: the twins' 10 Hz series, their 10-min mean and std, T1/T2 and the coherence "
+                 "P<k>.nc per period: the twins' 10 Hz series, their mean and std, T1/T2 and the coherence "
                  "against the record, with the spread across the twins beside the record's own statistics (conical "
-                 "scenes: the scanning lidar, cup and sonic in N conditioned boxes; per period every twin's 10-min "
+                 "scenes: the scanning lidar, cup and sonic in N conditioned boxes; per period every twin's "
                  "lidar mean and std, std ratio, TP, ... with their spread). Bad records are refused before "
                  "anything is computed; a rerun skips the finished periods whose inputs are unchanged; --dask runs "
                  "every (period, twin) on a cluster with the same result.\n\n" + _DASK_TRUST,

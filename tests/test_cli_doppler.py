@@ -70,6 +70,23 @@ def test_a_negative_speed_says_the_homodyne_sign_is_lost(capsys):
     assert rc == 0 and "note: speed -5 m/s: a homodyne cw lidar measures |V|" in out.out
 
 
+def test_the_report_says_which_sign_it_gives(capsys):
+    """--speed is positive away from the lidar; tier los returns it signed, the others its magnitude: the JSON's
+    sign_convention and the text line say which, and the numbers agree with what they say."""
+    rc, out = _run(capsys, "--speed", "-6.5", "--cnr", "-10", "--tier", "los", "--n", "5", "--json")
+    rep = json.loads(out.out)
+    assert rc == 0 and rep["mean"] == -6.5
+    assert rep["sign_convention"].startswith("speed: positive away from the lidar")
+    assert "signed" in rep["sign_convention"]
+    rc, out = _run(capsys, "--speed", "-5", "--cnr", "-10", "--n", "20", "--seed", "1", "--json")
+    rep = json.loads(out.out)
+    assert rep["mean"] == pytest.approx(5.0, abs=0.1) and "|speed|" in rep["sign_convention"]
+    rc, out = _run(capsys, "--speed", "-6.5", "--cnr", "-10", "--tier", "los", "--n", "5")
+    assert "mean -6.5000 m/s (signed, + away from the lidar)" in out.out
+    rc, out = _run(capsys, "--speed", "-5", "--cnr", "-10", "--n", "20", "--seed", "1")
+    assert "m/s (|V|, homodyne)" in out.out
+
+
 def test_a_field_value_of_the_wrong_type_names_the_field(capsys):
     rc, out = _run(capsys, "--speed", "5", "--cnr", "-10", "--set", "focus=abc")
     assert rc == 2

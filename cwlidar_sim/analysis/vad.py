@@ -399,7 +399,7 @@ def sonic_radial_variance(vel_ec, azimuth_e, half_angle_deg: float = 30.0, *, sc
 
 
 def period_statistics(fit: VadFit, *, min_used_fraction: float = 0.65) -> dict:
-    """10-minute statistics of a period's scans, and CS's selection.
+    """Statistics of a period's scans (CS: 10 minutes), and CS's selection.
 
     Returns
     -------

@@ -22,7 +22,7 @@ def clock_attrs(tp) -> dict:
 
 
 def record_statistics(ds, tp):
-    """The records' own 10-minute statistics (mean speed, std of u or the cup's speed, filled samples)."""
+    """The records' own statistics over the period (mean speed, std of u or the cup's speed, filled samples)."""
     for i, rec in enumerate(tp.records):
         key = "speed" if rec.spec.kind == "cup" else "u"
         ds[f"record{i}_mean_speed"] = ((), rec.mean_speed, {"units": "m s-1", "long_name": f"{rec.spec.name}: mean {key}"})

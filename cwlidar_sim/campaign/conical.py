@@ -2,7 +2,7 @@
 
 A conical scene (:mod:`cwlidar_sim.campaign.conical_scene`) runs every
 ``[[period]]`` at every height of ``scan.heights``: one *unit* is (period,
-height), a 10-minute record of one Mann box, the scanning lidar dwelling at
+height), a record of one Mann box (CS: 10 minutes), the scanning lidar dwelling at
 that height, a cup and a sonic on the scan axis
 (:func:`cwlidar_sim.campaign.conical_period.simulate_conical_period`); with
 ``scan.cycle = true`` one unit is a period, the lidar cycling through the
@@ -38,7 +38,7 @@ Example
     [[period]]
     name = "p0"
     mean_speed = 10.0
-    wind_direction_deg = 225.0     # toward which the wind blows, in the lidar's frame
+    wind_from_deg = 45.0           # meteorological (from, clockwise from north); or wind_direction_deg (toward)
 """
 
 from __future__ import annotations
@@ -50,16 +50,17 @@ import numpy as np
 
 from . import conical_period
 from .conical_period import cycle_reference_height, default_spacing
+from ._labels import WIND_DIRECTION_CONVENTION, duration_phrase, periods_phrase, wind_from_toward
 from .conical_scene import ConicalPeriodSpec, ConicalScene, ScanSpec, SurfaceTurbulenceSpec
 from .spec import RESULTS_VERSION
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "run_unit", "unit_dataset",
            "summarise", "estimate_unit", "estimate_bytes"]
 
-#: Scalars of one unit (period x height), with units and meaning.
+#: Scalars of one unit (period x height), with units and meaning ('{span}': the period's length, '10-min', '120-s').
 UNIT_VARS = {
-    "cup_mean": ("m s-1", "cup 10-min mean horizontal speed"),
-    "cup_std": ("m s-1", "cup 10-min standard deviation"),
+    "cup_mean": ("m s-1", "cup {span} mean horizontal speed"),
+    "cup_std": ("m s-1", "cup {span} standard deviation"),
     "sonic_std": ("m s-1", "sonic horizontal-speed standard deviation"),
     "sonic_radial_variance": ("m2 s-2", "sonic-equivalent radial variance (point sonic projected on the rotating beam)"),
     "availability": ("1", "fraction of usable line-of-sight estimates: finite, with no failure, NEAR_ZERO or "
@@ -68,7 +69,7 @@ UNIT_VARS = {
     "second_peak_fraction": ("1", "fraction of estimates flagged SECOND_PEAK (e.g. a cloud return)"),
     "cloud_fraction": ("1", "the cloud's share of the received power (0: clear air)"),
     "sonic_direction": ("degree", "sonic mean direction the wind blows toward, in the lidar's frame "
-                                  "(from its azimuth 0 toward +y), in [-180, 180)"),
+                                  "(from its azimuth 0, east, toward +y, north), in [-180, 180)"),
 }
 #: Per-unit coordinates of the cup and the sonic: (axis of ``in_situ_position``, units, long name).
 POSITION_VARS = {
@@ -77,11 +78,11 @@ POSITION_VARS = {
 }
 #: Per-scan-length results of one unit.
 SCAN_VARS = {
-    "lidar_mean": ("m s-1", "lidar 10-min mean horizontal speed (VAD fits)"),
-    "lidar_std": ("m s-1", "lidar 10-min standard deviation of the VAD horizontal speed"),
+    "lidar_mean": ("m s-1", "lidar {span} mean horizontal speed (VAD fits)"),
+    "lidar_std": ("m s-1", "lidar {span} standard deviation of the VAD horizontal speed"),
     "lidar_direction": ("degree", "mean VAD direction the wind blows toward, in the lidar's frame "
-                                  "(from its azimuth 0 toward +y), in [-180, 180)"),
-    "std_ratio": ("1", "lidar / cup 10-min standard deviation"),
+                                  "(from its azimuth 0, east, toward +y, north), in [-180, 180)"),
+    "std_ratio": ("1", "lidar / cup {span} standard deviation"),
     "mean_speed_bias": ("1", "lidar mean / cup mean - 1"),
     "tp": ("1", "mean turbulence parameter TP (CS Eq. 8)"),
     "radial_variance": ("m2 s-2", "mean (TP U)^2"),
@@ -185,7 +186,7 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
     tier, sub_dwells = lidar.pop("tier"), lidar.pop("sub_dwells")
     kw = dict(speed=p.mean_speed, duration=scene.period_duration(p), scan_revs=s.scan_revs, tier=tier,
               sub_dwells=sub_dwells, spacing=spacing, lateral_doubling=s.lateral_doubling, params=tensor,
-              reference=s.reference, wind_direction_deg=p.wind_direction_deg, variants=scene.lidar.variant_list,
+              reference=s.reference, wind_direction_deg=p.toward_deg, variants=scene.lidar.variant_list,
               condition=condition, box_options=box_options)
     if s.cycle:
         revs, refocus = lidar.pop("revs_per_height"), lidar.pop("refocus_time")
@@ -215,21 +216,23 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
     revs = list(scene.scan.scan_revs)
     scan_s = [n * scene.scan.revolution_time for n in revs]
     dv = {}
+    span = duration_phrase(scene.period_duration(p))
     for key, (units, long) in UNIT_VARS.items():
-        dv[key] = (("period",), np.array([float(r[key]) for r in rows]), {"units": units, "long_name": long})
+        dv[key] = (("period",), np.array([float(r[key]) for r in rows]),
+                   {"units": units, "long_name": long.format(span=span)})
     for key, (axis, units, long) in POSITION_VARS.items():
         dv[key] = (("period",), np.array([float(r["in_situ_position"][axis]) for r in rows]),
                    {"units": units, "long_name": long})
     for key, (units, long) in SCAN_VARS.items():
         src = _FROM_SIM.get(key, key)
         vals = [[float(r["scans"][n].get(src, np.nan)) for n in revs] for r in rows]
-        dv[key] = (("period", "scan_s"), np.array(vals), {"units": units, "long_name": long})
+        dv[key] = (("period", "scan_s"), np.array(vals), {"units": units, "long_name": long.format(span=span)})
     names = [v["name"] for v in scene.lidar.variants]
     for key, (units, long) in (VARIANT_VARS.items() if names else ()):
         src = _FROM_SIM.get(key, key)
         vals = [[[float(r["variants"][v][n].get(src, np.nan)) for n in revs] for v in names] for r in rows]
         dv[f"{key}_variant"] = (("period", "variant", "scan_s"), np.array(vals),
-                                {"units": units, "long_name": f"{long}, processing variant"})
+                                {"units": units, "long_name": f"{long.format(span=span)}, processing variant"})
     dv["mean_speed"] = (("period",), np.array([float(p.mean_speed)] * len(rows)), {"units": "m s-1"})
     dv["u_star"] = (("period",), np.array([np.nan if r.get("u_star") is None else float(r["u_star"]) for r in rows]),
                     {"units": "m s-1", "long_name": "friction velocity of the surface layer"})
@@ -254,6 +257,7 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
         "title": f"cwlidar_sim conical campaign {scene.name}",
         "results_version": RESULTS_VERSION,
         "sensor": "conical",
+        "wind_direction_convention": WIND_DIRECTION_CONVENTION,
         "lidar_tier": scene.lidar.tier,
         "scene": json.dumps(scene.as_dict()),
         "cwlidar_sim_version": __version__,
@@ -282,10 +286,25 @@ def summarise(ds):
     ``radial_variance_ratio_model``: CS's Kaimal spectrum; ``..._mann``: the
     simulation's Mann spectra); per height ``availability`` (line-of-sight
     estimates), ``zero_crossing_loss``, ``n_periods``; ``n_selected``.
+    ``lidar_wind_from_unit`` and ``sonic_wind_from_unit`` are the units'
+    directions in the meteorological convention (attribute
+    ``wind_direction_convention``).  The long names give the periods'
+    length ('10-min', '120-s'; 'period' where the periods differ).
     """
     import xarray as xr
 
+    span = periods_phrase(ds)
+    ds = ds.copy()
+    for key, (_, long) in (UNIT_VARS | SCAN_VARS).items():
+        for name, suffix in ((key, ""), (f"{key}_variant", ", processing variant")):
+            if name in ds and "{span}" in long:  # every unit's own length, or 'period' where they differ
+                ds[name].attrs["long_name"] = long.format(span=span) + suffix
     units = ds.rename({v: f"{v}_unit" for v in ds.data_vars})
+    for who, what in (("lidar", "mean VAD direction"), ("sonic", "sonic mean direction")):
+        toward = ds[f"{who}_direction"]
+        units[f"{who}_wind_from_unit"] = toward.copy(data=wind_from_toward(toward.values)).assign_attrs(
+            units="degree", long_name=f"{what} the wind comes from, meteorological: clockwise from north (the "
+                                      f"lidar's +y), in [0, 360); {who}_direction_unit in that convention")
     heights = np.unique(ds.unit_height.values)
     out = {}
 

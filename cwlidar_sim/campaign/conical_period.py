@@ -1,4 +1,4 @@
-"""One 10-minute period of CS's experiment: field, conical lidar, cup, sonic, VAD fits and CS's model.
+"""One period of CS's experiment (CS: 10 minutes): field, conical lidar, cup, sonic, VAD fits and CS's model.
 
 :func:`simulate_conical_period` is the unit of work of the CS reproduction
 (one height, one seed; the 1 s and 3 s scans come from the same record, as
@@ -47,7 +47,7 @@ Set-up (choices, each stated)
   delay, a cross-wind one lowers the coherence of the largest scales a little.
 * The cup: :class:`cwlidar_sim.sensors.cup.Cup` at 10 Hz, distance constant 2.3 m.
 * Direction reference: ``'previous'`` (default): the first scan by the
-  sonic's (vane's) 10-minute mean direction, later scans by the previous
+  sonic's (vane's) mean direction over the period, later scans by the previous
   resolved scan; ``'vane'``: each scan by the sonic's direction over it.
   The ``ambiguity_rate`` is the fraction of fitted scans whose resolved
   direction is more than 90 deg from the sonic's direction over the scan.

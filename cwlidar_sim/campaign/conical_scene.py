@@ -34,13 +34,21 @@ own ``seed`` spawns one stream per height and pass).
 
 Wind direction
 --------------
-A period's ``wind_direction_deg`` is the direction the mean wind blows
-*toward* in the lidar's frame, from the lidar's azimuth 0 (its +x axis)
-toward its +y axis (counter-clockwise seen from above, the scan's azimuth
-convention), any finite value.  The field's x axis always lies along the
-mean wind (Taylor advection); the scan is turned instead, so the lidar's
-azimuth 0 lies at ``-wind_direction_deg`` in the field, and the VAD's
-directions are reported in the lidar's frame.
+The lidar's frame is east-north-up: x (the scan's azimuth 0) east, y
+(azimuth 90 deg) north, z up.  A period gives its mean wind's direction one
+of two ways, any finite value:
+
+* ``wind_from_deg``: meteorological, where the wind comes *from*, clockwise
+  from north (270: a westerly, blowing along +x);
+* ``wind_direction_deg``: where the wind blows *toward*, from the lidar's
+  azimuth 0 (+x) toward +y (counter-clockwise seen from above, the scan's
+  azimuth convention); ``toward = (270 - from) mod 360``.
+
+The field's x axis always lies along the mean wind (Taylor advection); the
+scan is turned instead, so the lidar's azimuth 0 lies at ``-toward`` in the
+field.  The results give the VAD's and the sonic's directions both ways
+(``*_direction``: toward, ``*_wind_from``: meteorological; the attribute
+``wind_direction_convention``).
 
 Example
 -------
@@ -78,6 +86,7 @@ import numpy as np
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
 from ..turbulence.limits import MAX_TURBULENCE_INTENSITY, check_frozen_turbulence
+from ._labels import wind_from_toward
 from .conical_period import default_spacing
 from .lidar_spec import ConicalLidarSpec
 from .spec import Spec, check_condition_on, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
@@ -292,41 +301,58 @@ class ConicalPeriodSpec(Spec):
     mean_speed : float
         Mean horizontal wind speed at the measurement height [m/s]; in [1, 30]
         (in cycle mode: at every height, the box's one advection speed).
-    wind_direction_deg : float
+    wind_direction_deg : float, optional
         Direction the mean wind blows toward in the lidar's frame [deg], from
         the lidar's azimuth 0 toward +y (the scan's azimuth convention); any
-        finite value (module notes).
+        finite value (module notes).  Default 0 (a westerly) unless
+        ``wind_from_deg`` is given; not both.
     duration : float, optional
         Length [s]; default the scene's ``duration``; in [10, 3600].
     seed : int, optional
         Seed of this period's units; default derived from the scene seed.
+    wind_from_deg : float, optional
+        Meteorological direction of the mean wind [deg]: where it comes
+        from, clockwise from north (the lidar's +y axis); any finite value.
     """
 
     name: str
     mean_speed: float
-    wind_direction_deg: float = 0.0
+    wind_direction_deg: float | None = None
     duration: float | None = None
     seed: int | None = None
+    wind_from_deg: float | None = None
 
     _required = ("name", "mean_speed")
 
     def __post_init__(self):
         check_str("period.name", self.name)
         set_field(self, "mean_speed", check_real(f"period[{self.name}].mean_speed", self.mean_speed, lo=1.0, hi=30.0))
-        set_field(self, "wind_direction_deg",
-                  check_real(f"period[{self.name}].wind_direction_deg", self.wind_direction_deg))
+        if self.wind_from_deg is None:
+            set_field(self, "wind_direction_deg", 0.0 if self.wind_direction_deg is None else
+                      check_real(f"period[{self.name}].wind_direction_deg", self.wind_direction_deg))
+        elif self.wind_direction_deg is not None:
+            raise ValueError(f"period[{self.name}] gives both wind_direction_deg={self.wind_direction_deg!r} (toward, "
+                             f"in the lidar's frame) and wind_from_deg={self.wind_from_deg!r} (meteorological: from, "
+                             f"clockwise from north); allowed: one of them")
+        else:
+            set_field(self, "wind_from_deg", check_real(f"period[{self.name}].wind_from_deg", self.wind_from_deg))
         if self.duration is not None:
             set_field(self, "duration", check_real(f"period[{self.name}].duration", self.duration, lo=10.0, hi=3600.0))
         if self.seed is not None:
             set_field(self, "seed", check_seed(f"period[{self.name}].seed", self.seed))
+
+    @property
+    def toward_deg(self) -> float:
+        """Direction the mean wind blows toward in the lidar's frame [deg] (``wind_direction_deg``, or from ``wind_from_deg``)."""
+        return self.wind_direction_deg if self.wind_from_deg is None else wind_from_toward(self.wind_from_deg)
 
     @classmethod
     def from_dict(cls, d: dict) -> "ConicalPeriodSpec":
         name = d.get("name") if isinstance(d, dict) else None
         if isinstance(d, dict) and "misalignment_deg" in d:
             raise ValueError(f"period {name!r}: misalignment_deg is the staring beam's angle to the wind; a conical "
-                             f"period takes wind_direction_deg (the direction the wind blows toward in the lidar's "
-                             f"frame [deg], any value)")
+                             f"period takes wind_from_deg (meteorological: from, clockwise from north [deg]) or "
+                             f"wind_direction_deg (the direction the wind blows toward in the lidar's frame [deg])")
         if isinstance(d, dict) and "start" in d:
             raise ValueError(f"period {name!r}: start is for staring scenes (background pauses)")
         return super().from_dict(d)

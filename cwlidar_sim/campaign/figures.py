@@ -2,7 +2,9 @@
 
 Every function takes the results Dataset of :func:`cwlidar_sim.campaign.run_scene`
 (or :func:`cwlidar_sim.campaign.read_results`) and returns a matplotlib
-Figure; :func:`make_figures` writes them all as PNG.
+Figure; :func:`make_figures` writes them all as PNG.  The misaligned-beam
+theory (A2012 Eqs. 12-14) is drawn for a misaligned period only, and
+``misalignment_5deg.png`` is written only for a scene with one.
 """
 
 from __future__ import annotations
@@ -10,11 +12,13 @@ from __future__ import annotations
 import json
 import math
 import os
+import textwrap
 
 import numpy as np
 
 from .._atomic import atomic_path
 
+from ._labels import segment_phrase
 from .figures_cs import make_cs_figures
 
 __all__ = [
@@ -55,6 +59,20 @@ def _margins(fig, *, left=0.8, right=0.15, bottom=0.55, top=0.4, wspace=None, hs
                         wspace=wspace, hspace=hspace)
 
 
+def _suptitle(fig, text, fontsize=12.0):
+    """A figure title wrapped to the figure's width (a long one is not cut at both edges); returns its lines."""
+    w = fig.get_size_inches()[0]
+    per_line = max(20, int(w * 72.0 / (0.62 * fontsize)))  # ~0.55 em a character, with some room
+    lines = textwrap.wrap(text, per_line)
+    fig.suptitle("\n".join(lines), fontsize=fontsize)
+    return len(lines)
+
+
+def _misaligned(ds, i) -> bool:
+    """Whether period ``i``'s beam is turned from the wind (the misaligned theory differs from the aligned)."""
+    return float(ds.misalignment[i]) != 0.0
+
+
 def _label(ds, i):
     return (f"period {ds.period.values[i]}: U = {float(ds.mean_speed[i]):.1f} m/s, "
             f"misalignment {float(ds.misalignment[i]):+.1f}°")
@@ -84,8 +102,8 @@ def plot_spectra(ds):
     for ax in axes.flat[P:]:
         ax.set_visible(False)
     axes.flat[0].legend(fontsize=8)
-    fig.suptitle("Spectra of the radial speed, 10-min segments averaged over each period")
-    _margins(fig, top=0.7, wspace=0.08, hspace=0.35)
+    n = _suptitle(fig, f"Spectra of the radial speed, {segment_phrase(ds)} averaged over each period")
+    _margins(fig, top=0.5 + 0.22 * n, wspace=0.08, hspace=0.35)
     return fig
 
 
@@ -93,7 +111,7 @@ def _theory(ax, ds, i=None):
     k = ds.k.values
     zR = ds.attrs["rayleigh_length"]
     ax.loglog(k, ds.transfer_theory, "k-", lw=1.5, label=f"exp(-2 k zR), zR = {zR:.2f} m")
-    if i is not None:
+    if i is not None and _misaligned(ds, i):
         ax.loglog(k, ds.transfer_theory_cross[i], "k:", lw=1, label="Eqs. 12, 14 (misaligned)")
 
 
@@ -142,7 +160,8 @@ def plot_methods(ds, i=None):
     ax.errorbar(k, ds.transfer_cross[i], yerr=ds.transfer_cross_sigma[i], fmt="s", ms=3, label="method 2 (cross)")
     ax.loglog(k, ds.transfer_ratio_ideal[i], "-", color="C2", lw=1, label="method 1, noise-free tier 1")
     _theory(ax, ds, i)
-    ax.loglog(k, ds.transfer_theory_ratio[i], "-.", color="0.4", lw=1, label="Eqs. 12, 13 (misaligned)")
+    if _misaligned(ds, i):
+        ax.loglog(k, ds.transfer_theory_ratio[i], "-.", color="0.4", lw=1, label="Eqs. 12, 13 (misaligned)")
     _estimator_theory(ax, ds, ds.attrs.get("lidar_estimator", ""), color="C1", lw=1.5, ls="--")
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -259,8 +278,9 @@ def make_figures(ds, out_dir) -> list:
         "transfer_ratio": lambda: plot_transfer(ds, "ratio"),
         "transfer_cross": lambda: plot_transfer(ds, "cross"),
         "methods": lambda: plot_methods(ds),
-        "misalignment_5deg": lambda: plot_misalignment(ds, 5.0),
     }
+    if any(_misaligned(ds, i) for i in range(ds.sizes["period"])):
+        figs["misalignment_5deg"] = lambda: plot_misalignment(ds, 5.0)
     _, thr, est = _variant_groups(ds)
     if thr:
         figs["thresholds"] = lambda: plot_variants(ds, "threshold")

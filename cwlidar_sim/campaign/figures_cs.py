@@ -1,13 +1,17 @@
 """Figures of a conical (CS) campaign's results, simulation beside CS's filter model.
 
 After CS's figures: Fig. 6 (the regression of the lidar's 10-min standard
-deviation on the cup's, 3 s scans at 40 m), Figs. 8-9 (their ratio against
+deviation on the cup's, 3 s scans at 40 m; the axes name the scene's own
+period length), Figs. 8-9 (their ratio against
 height, 3 s and 1 s scans) and Figs. 11-12 (the ratio of the radial variance
 from the turbulence parameter to the sonic's against height, 3 s and 1 s).
 CS shows no mean-speed comparison: :func:`plot_mean_speed` is the simulation's
 own check.  Every
 function takes the results Dataset of a conical scene
 (:func:`cwlidar_sim.campaign.conical.summarise`) and returns a Figure.
+A profile against height with one height (or one finite value) is drawn as
+markers alone, and one with none is left out of the plot and its legend: a
+legend entry always names something drawn.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import os
 import numpy as np
 
 from .._atomic import atomic_path
+from ._labels import periods_phrase
 
 __all__ = ["plot_std_ratio", "plot_std_scatter", "plot_mean_speed", "plot_radial_variance", "make_cs_figures"]
 
@@ -31,17 +36,34 @@ def _scan_label(ds, j):
     return f"{float(ds.scan_s[j]):g} s scans"
 
 
-def plot_std_ratio(ds, var="std_ratio", ylabel="lidar / cup 10-min standard deviation"):
+def _profile(ax, x, z, *, ls, marker, xerr=None, **kw):
+    """A profile ``x`` against height ``z``: a line through two finite points or more, else markers alone; none: nothing."""
+    x = np.asarray(x, dtype=np.float64)
+    ok = np.isfinite(x)
+    if not ok.any():
+        return
+    if ok.sum() < 2:
+        ls, marker = "none", marker or "d"
+    if xerr is not None:
+        ax.errorbar(x, z, xerr=xerr, ls=ls, marker=marker or "none", **kw)
+    else:
+        ax.plot(x, z, ls=ls, marker=marker or "none", **kw)
+
+
+def plot_std_ratio(ds, var="std_ratio", ylabel=None):
     """Ratio against height (CS Figs. 8-9): simulation (mean over selected periods +- s.e.), CS's model (Kaimal) and Mann."""
     plt = _plt()
+    ylabel = f"lidar / cup {periods_phrase(ds)} standard deviation" if ylabel is None else ylabel
     fig, ax = plt.subplots(figsize=(6, 4.5))
     z = ds.height.values
     for j in range(ds.sizes["scan_s"]):
         c = f"C{j}"
-        ax.errorbar(ds[var][:, j], z, xerr=ds[f"{var}_sigma"][:, j], fmt="o-", color=c, capsize=3,
-                    label=f"simulation, {_scan_label(ds, j)}")
-        ax.plot(ds[f"{var}_model"][:, j], z, "s--", color=c, mfc="none", label=f"CS model (Kaimal), {_scan_label(ds, j)}")
-        ax.plot(ds[f"{var}_model_mann"][:, j], z, ":", color=c, label=f"CS model (Mann spectra), {_scan_label(ds, j)}")
+        _profile(ax, ds[var][:, j], z, xerr=ds[f"{var}_sigma"][:, j], ls="-", marker="o", color=c, capsize=3,
+                 label=f"simulation, {_scan_label(ds, j)}")
+        _profile(ax, ds[f"{var}_model"][:, j], z, ls="--", marker="s", color=c, mfc="none",
+                 label=f"CS model (Kaimal), {_scan_label(ds, j)}")
+        _profile(ax, ds[f"{var}_model_mann"][:, j], z, ls=":", marker=None, color=c,
+                 label=f"CS model (Mann spectra), {_scan_label(ds, j)}")
     ax.set_xlabel(ylabel)
     ax.set_ylabel("height [m]")
     ax.grid(alpha=0.3)
@@ -51,7 +73,7 @@ def plot_std_ratio(ds, var="std_ratio", ylabel="lidar / cup 10-min standard devi
 
 
 def plot_std_scatter(ds):
-    """Each period: lidar against cup 10-min standard deviation, per height and scan (as CS Fig. 6, which shows 40 m, 3 s)."""
+    """Each period: lidar against cup standard deviation over the period, per height and scan (as CS Fig. 6: 40 m, 3 s)."""
     plt = _plt()
     nj = ds.sizes["scan_s"]
     fig, axes = plt.subplots(1, nj, figsize=(5 * nj, 4.5), squeeze=False)
@@ -62,8 +84,8 @@ def plot_std_scatter(ds):
         top = float(np.nanmax(ds.cup_std_unit.values)) * 1.1
         ax.plot([0, top], [0, top], "k-", lw=0.8)
         ax.plot([0, top], [0, 0.8 * top], "k:", lw=0.8, label="ratio 0.8")
-        ax.set_xlabel("cup standard deviation [m/s]")
-        ax.set_ylabel("lidar standard deviation [m/s]")
+        ax.set_xlabel(f"cup {periods_phrase(ds)} standard deviation [m/s]")
+        ax.set_ylabel(f"lidar {periods_phrase(ds)} standard deviation [m/s]")
         ax.set_title(_scan_label(ds, j), fontsize=9)
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
@@ -72,7 +94,7 @@ def plot_std_scatter(ds):
 
 
 def plot_mean_speed(ds):
-    """Each period: lidar against cup 10-min mean speed, with the mean bias per height (not in CS)."""
+    """Each period: lidar against cup mean speed over the period, with the mean bias per height (not in CS)."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5, 4.5))
     for i, z in enumerate(ds.height.values):
@@ -82,8 +104,8 @@ def plot_mean_speed(ds):
                 label=f"{z:g} m (bias {b:+.2f} %)")
     lo, hi = float(np.nanmin(ds.cup_mean_unit)) * 0.95, float(np.nanmax(ds.cup_mean_unit)) * 1.05
     ax.plot([lo, hi], [lo, hi], "k-", lw=0.8)
-    ax.set_xlabel("cup mean speed [m/s]")
-    ax.set_ylabel(f"lidar mean speed, {_scan_label(ds, 0)} [m/s]")
+    ax.set_xlabel(f"cup {periods_phrase(ds)} mean speed [m/s]")
+    ax.set_ylabel(f"lidar {periods_phrase(ds)} mean speed, {_scan_label(ds, 0)} [m/s]")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     fig.tight_layout()
@@ -109,10 +131,12 @@ def plot_radial_variance(ds):
     z = ds.height.values
     for j in range(ds.sizes["scan_s"]):
         c = f"C{j}"
-        ax.errorbar(ds.radial_variance_ratio[:, j], z, xerr=ds.radial_variance_ratio_sigma[:, j], fmt="o-", color=c,
-                    capsize=3, label=f"simulation, {_scan_label(ds, j)}")
-        ax.plot(ds.radial_variance_ratio_model[:, j], z, "s--", color=c, mfc="none", label="CS model (Kaimal)")
-        ax.plot(ds.radial_variance_ratio_model_mann[:, j], z, ":", color=c, label="CS model (Mann)")
+        _profile(ax, ds.radial_variance_ratio[:, j], z, xerr=ds.radial_variance_ratio_sigma[:, j], ls="-",
+                 marker="o", color=c, capsize=3, label=f"simulation, {_scan_label(ds, j)}")
+        _profile(ax, ds.radial_variance_ratio_model[:, j], z, ls="--", marker="s", color=c, mfc="none",
+                 label=f"CS model (Kaimal), {_scan_label(ds, j)}")
+        _profile(ax, ds.radial_variance_ratio_model_mann[:, j], z, ls=":", marker=None, color=c,
+                 label=f"CS model (Mann), {_scan_label(ds, j)}")
     ax.set_xlabel("radial variance ratio (TP U)^2 / sonic")
     ax.set_ylabel("height [m]")
     ax.legend(fontsize=7)

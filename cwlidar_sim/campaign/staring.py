@@ -8,13 +8,14 @@ Pipeline of one period
    length covers ``U * duration`` plus the sensors' extent along x, so no
    turbulence is seen twice.
 2. Sonic at 32 Hz (total wind, Taylor advection), projected on the beam as
-   the speed toward the lidar, resampled to 10 Hz by A2012 Eqs. 5-7.  Its
+   the speed toward the lidar (the results' sign, each series' ``sign_convention``
+   attribute), resampled to 10 Hz by A2012 Eqs. 5-7.  Its
    sampling starts 1/64 s after the lidar's so that both 10 Hz series are
    centred on ``0.05 + 0.1 j`` s.
 3. Staring lidar at 50 Hz through the chosen tier, block-averaged by 5 to
    10 Hz; estimates inside a background pause are NaN and flagged PAUSED.
-4. Spectra of 10-min segments averaged over the period and log-smoothed on a
-   common wavenumber grid (``k = 2 pi f / U``), both transfer functions
+4. Spectra of ``analysis.segment_duration`` segments (A2012: 10 min)
+   averaged over the period and log-smoothed on a common wavenumber grid (``k = 2 pi f / U``), both transfer functions
    (A2012 Eqs. 8 and 11), the theory exp(-2 k zR) and the misaligned theory
    of A2012 Eqs. 12-14 with the Mann parameters fitted to the sonic.
 5. :func:`period_dataset`: the period as a one-period xarray.Dataset.
@@ -30,6 +31,7 @@ import numpy as np
 
 from ..signal.processing import usable_fraction, usable_speeds
 from ..turbulence.limits import check_frozen_turbulence
+from ._labels import HOMODYNE, TOWARD_LIDAR, duration_phrase
 from .planning import generate_field, plan_field
 from .scene import Scene
 from .spec import RESULTS_VERSION
@@ -310,7 +312,8 @@ def period_dataset(scene: Scene, params, r: dict):
         "cross_spectrum_imag": (PK, pk(np.imag(tf.chi_k)),
                                 {"units": spec_units, "long_name": "Im of the lidar x sonic cross-spectrum"}),
         "n_segments": (("period",), pk(tf.n_segments, np.int64),
-                       {"units": "1", "long_name": "10-min segments used in the lidar-sonic spectra"}),
+                       {"units": "1", "long_name": f"{duration_phrase(scene.analysis.segment_duration)} segments "
+                                                   "used in the lidar-sonic spectra"}),
         "n_segments_rejected": (("period",), pk(tf.n_rejected, np.int64),
                                 {"units": "1", "long_name": "segments dropped for gaps (e.g. background pause)"}),
         "n_k": (PK, pk(tf.n_k), {"units": "1", "long_name": "raw periodogram values averaged into each bin"}),
@@ -335,16 +338,20 @@ def period_dataset(scene: Scene, params, r: dict):
         "sonic_velocity": (("period", "time_32hz", "component"), pk(r["sonic_velocity"], np.float32),
                            {"units": "m s-1", "long_name": "sonic wind (U + u, v, w) at 32 Hz"}),
         "sonic_10hz": (("period", "time_10hz"), pk(r["sonic_10hz"]),
-                       {"units": "m s-1", "long_name": "sonic speed toward the lidar, A2012 Eqs. 5-7 to 10 Hz"}),
+                       {"units": "m s-1", "long_name": "sonic speed toward the lidar, A2012 Eqs. 5-7 to 10 Hz",
+                        "sign_convention": TOWARD_LIDAR}),
         "lidar_speed": (("period", "time_50hz"), pk(r["lidar_speed"], np.float32),
-                        {"units": "m s-1", "long_name": "lidar speed estimate at 50 Hz (NaN: failed, see lidar_flags)"}),
+                        {"units": "m s-1", "long_name": "lidar speed estimate at 50 Hz (NaN: failed, see lidar_flags)",
+                         "sign_convention": HOMODYNE}),
         "lidar_flags": (("period", "time_50hz"), pk(r["lidar_flags"], np.uint8),
                         {"long_name": "quality flags (bit field)", "flag_masks": [int(f.value) for f in Flag],
                          "flag_meanings": " ".join(flags)}),
         "lidar_ideal": (("period", "time_50hz"), pk(r["lidar_ideal"], np.float32),
-                        {"units": "m s-1", "long_name": "tier-1 weighted line-of-sight speed toward the lidar (A2012 Eq. 2)"}),
+                        {"units": "m s-1", "long_name": "tier-1 weighted line-of-sight speed toward the lidar (A2012 Eq. 2)",
+                         "sign_convention": TOWARD_LIDAR}),
         "lidar_10hz": (("period", "time_10hz"), pk(r["lidar_10hz"]),
-                       {"units": "m s-1", "long_name": "lidar speed, 50 Hz block-averaged by 5 over valid estimates"}),
+                       {"units": "m s-1", "long_name": "lidar speed, 50 Hz block-averaged by 5 over valid estimates",
+                        "sign_convention": HOMODYNE}),
         "lidar_10hz_valid": (("period", "time_10hz"), pk(r["lidar_10hz_valid"], np.int16),
                              {"units": "1", "long_name": "valid 50 Hz estimates in each 10 Hz block"}),
     }
@@ -383,7 +390,8 @@ def period_dataset(scene: Scene, params, r: dict):
                                       {"units": "1", "long_name": "availability of each processing variant (as "
                                                                 "availability)"})
         dv["lidar_10hz_variant"] = (("variant", "period", "time_10hz"), np.stack([pk(v["lidar_10hz"]) for v in var]),
-                                    {"units": "m s-1"})
+                                    {"units": "m s-1", "long_name": "lidar_10hz of each processing variant",
+                                     "sign_convention": HOMODYNE})
     if scene.analysis.fit:
         f = r["fit"]
         for name, units in (("alpha_eps", "m4/3 s-2"), ("length_scale", "m"), ("gamma", "1")):

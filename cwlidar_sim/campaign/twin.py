@@ -12,7 +12,7 @@ code (:func:`cwlidar_sim.campaign.staring.run_period`); nothing of the
 signal chain is new.
 
 Per period (``DIR/<scene>_twin_<period>.nc``): the twins' 10 Hz lidar and
-sonic series, their 10-minute statistics (mean, standard deviation) and the
+sonic series, their statistics over the period (mean, standard deviation) and the
 transfer functions T1, T2 and the coherence of each twin's lidar against the
 *record's* radial speed (A2012 Eqs. 8, 11), with the mean and spread of each
 across the twins beside the record's own statistics.  Files are written
@@ -48,9 +48,9 @@ Geometry and clock
 Conical scenes
 --------------
 A conical scene's records are positioned relative to the lidar (the cone's
-apex) in the lidar's frame (x toward azimuth 0, y toward 90 deg, z up) and
-turned into the field's frame by the period template's
-``wind_direction_deg``.  Each box of a period (dwell: one per height;
+apex) in the lidar's frame (x toward azimuth 0, east; y toward 90 deg,
+north; z up) and turned into the field's frame by the period template's
+wind direction (``wind_direction_deg`` or ``wind_from_deg``).  Each box of a period (dwell: one per height;
 cycle: one) is conditioned on the records inside it
 (:func:`conical_unit_records`; a box holding none is an error before
 anything is computed), *before* its lateral half is kept (the kept half of
@@ -89,6 +89,7 @@ import numpy as np
 
 from .._dask import DEFAULT_WORKER_TIMEOUT, completed
 from .._times import ns_text
+from ._labels import HOMODYNE, TOWARD_LIDAR, duration_phrase
 from ._twin_common import _TWIN_TAG, TWIN_VERSION, clock_attrs, record_statistics
 from .conical_scene import ConicalScene
 from .scene import PeriodSpec, Scene
@@ -417,9 +418,11 @@ def _dataset(scene, tp, rows, rec10, k_edges):
     coords = {"twin": ("twin", np.arange(N)),
               "time_10hz": ("time_10hz", 0.05 + 0.1 * np.arange(n10),
                             {"units": "s", "long_name": "time in the period, from time_origin (every series)"})}
-    dv = {"lidar_10hz": (TT, lid.astype(np.float32), {"units": "m s-1", "long_name": "each twin's lidar speed, 10 Hz"}),
+    dv = {"lidar_10hz": (TT, lid.astype(np.float32), {"units": "m s-1", "long_name": "each twin's lidar speed, 10 Hz",
+                                                      "sign_convention": HOMODYNE}),
           "sonic_10hz": (TT, son.astype(np.float32),
-                         {"units": "m s-1", "long_name": "each twin's sonic speed toward the lidar, 10 Hz"}),
+                         {"units": "m s-1", "long_name": "each twin's sonic speed toward the lidar, 10 Hz",
+                          "sign_convention": TOWARD_LIDAR}),
           "seed": (("twin",), np.array([r["seed"] for r in rows], np.int64), {"units": "1", "long_name": "twin seed"})}
 
     def spread(name, x, units, what):
@@ -435,8 +438,9 @@ def _dataset(scene, tp, rows, rec10, k_edges):
         dv[name + "_twin_std"] = (dims, s, {"units": units, "long_name": f"{what}, std across the twins (ddof 1)"})
 
     m, s = _stats(lid)
-    spread("lidar_mean", m, "m s-1", "10-min mean of the lidar speed")
-    spread("lidar_std", s, "m s-1", "10-min std of the lidar speed")
+    span = duration_phrase(tp.duration)
+    spread("lidar_mean", m, "m s-1", f"{span} mean of the lidar speed")
+    spread("lidar_std", s, "m s-1", f"{span} std of the lidar speed")
     if rec10 is not None:
         coords["k"] = ("k", rows[0]["k"], {"units": "rad m-1", "long_name": "wavenumber 2 pi f / U (bin centre)"})
         spread("transfer_ratio", np.stack([r["T1"] for r in rows]), "1", "T1 = F_lidar / F_record (A2012 Eq. 8)")
@@ -446,9 +450,10 @@ def _dataset(scene, tp, rows, rec10, k_edges):
                "squared coherence of the lidar with the record")
         rm, rs = _stats(rec10)
         dv["record_10hz"] = (("time_10hz",), rec10, {"units": "m s-1",
-                                                     "long_name": "the reference record's speed toward the lidar, 10 Hz"})
-        dv["record_mean"] = ((), rm, {"units": "m s-1", "long_name": "10-min mean of record_10hz"})
-        dv["record_std"] = ((), rs, {"units": "m s-1", "long_name": "10-min std of record_10hz"})
+                                                     "long_name": "the reference record's speed toward the lidar, 10 Hz",
+                                                     "sign_convention": TOWARD_LIDAR})
+        dv["record_mean"] = ((), rm, {"units": "m s-1", "long_name": f"{span} mean of record_10hz"})
+        dv["record_std"] = ((), rs, {"units": "m s-1", "long_name": f"{span} std of record_10hz"})
     attrs = {"scene": scene.name, "period": f"P{tp.index:03d}", "period_index": tp.index, "n_twins": N,
              "convection_speed": tp.U, "duration": tp.duration, **clock_attrs(tp),
              "records": json.dumps([r.spec.name for r in tp.records]),

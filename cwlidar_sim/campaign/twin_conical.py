@@ -50,7 +50,7 @@ def conical_unit_records(scene: ConicalScene, tp, h: int):
     unit = 0 if s.cycle else h
     tensor = scene.turbulence.params(_tensor_height(scene.replace(periods=scene.periods[:1]), unit), tp.U)[0]
     y_n, z_n = conical_box_yz(lidar, tensor, spacing=spacing, lateral_doubling=s.lateral_doubling)
-    theta = scene.periods[0].wind_direction_deg
+    theta = scene.periods[0].toward_deg
     used, field_pos = [], []
     for i, spec in enumerate(scene.turbulence.condition_on):
         x, y, z = _rotate_from_lidar(spec.position, theta)
@@ -88,7 +88,7 @@ def conical_twin_scene(scene: ConicalScene, tp, h: int, twin: int, U: float) -> 
     seq = np.random.SeedSequence(scene.seed, spawn_key=(_TWIN_TAG, tp.index, int(h), int(twin)))
     seed = int(seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
     p = ConicalPeriodSpec(name=f"P{tp.index:03d}", mean_speed=U, wind_direction_deg=tmpl.wind_direction_deg,
-                          duration=tp.duration, seed=seed)
+                          wind_from_deg=tmpl.wind_from_deg, duration=tp.duration, seed=seed)
     s = scene.scan
     scan = s if s.cycle else dataclasses.replace(s, heights=(s.heights[h],))
     return scene.replace(periods=(p,), duration=tp.duration, scan=scan)

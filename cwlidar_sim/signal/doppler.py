@@ -9,6 +9,15 @@ cell moves at V, so
 * tiers ``spectral`` and ``signal`` return ``|V|`` as the lidar would, with
   the instrument's binning, noise, speckle, threshold and estimator.
 
+Sign: ``speed`` is the line-of-sight speed ``n . u`` of the package, ``n``
+the beam's unit vector pointing away from the lidar, so V > 0 moves *away*
+from the lidar (the convention of :mod:`cwlidar_sim.beam` and
+:mod:`cwlidar_sim.sensors`).  Tiers ``spectral`` and ``signal`` have no sign
+to give; the report's ``sign_convention`` says which reading a run returns.
+(A staring campaign's results report the speed *toward* the lidar instead,
+positive for a lidar looking into the wind: their ``sign_convention``
+attributes say so.)
+
 The speckle correlation time is the transit time across the beam waist,
 ``tau_c = w0 / v_perp`` (:meth:`Instrument.speckle_time`), ``v_perp`` the
 transverse speed of the aerosols (turbulence across the beam; 0 freezes the
@@ -153,6 +162,9 @@ def uniform_report(est: DopplerEstimates, info: dict, *, speed, cnr_db, tier, in
         "tier": tier,
         "speed": float(speed),
         "expected": truth,
+        "sign_convention": ("speed: positive away from the lidar (n . u, n the beam's unit vector pointing away); "
+                            + ("mean, expected: signed, as speed" if tier == "los" else
+                               "mean, expected: |speed|, a homodyne lidar reads no sign")),
         "cnr_db": float(cnr_db),
         "estimator": est.estimator,
         **s,

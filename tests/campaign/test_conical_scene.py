@@ -106,6 +106,8 @@ def test_cli_runs_a_conical_scene_file(tmp_path, capsys):
     assert main(["run", str(f), "--out", str(out), "--no-progress", "--figures"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["results"].endswith("cone.nc") and summary["scan_s"] == [1.0, 3.0]
+    # the scene's wind (default: toward the lidar's +x, east) in the meteorological convention: a westerly
+    assert summary["wind_from_deg"] == {"a": 270.0}
     assert {p.rsplit("/", 1)[-1] for p in summary["figures"]} == {
         "cs_std_ratio.png", "cs_std_scatter.png", "cs_mean_speed.png", "cs_radial_variance.png"}
     ds = read_results(out / "cone.nc")

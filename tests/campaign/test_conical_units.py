@@ -39,9 +39,10 @@ def scene(periods, scan="", heights="[20.0]", revs="[1]", duration=10.0):
     return loads_scene(TEXT.format(scan=scan, periods=periods, heights=heights, revs=revs, duration=duration))
 
 
-def period(name, speed=8.0, direction=None):
+def period(name, speed=8.0, direction=None, wind_from=None):
     return f'[[period]]\nname = "{name}"\nmean_speed = {speed}\n' + (
-        "" if direction is None else f"wind_direction_deg = {direction}\n")
+        "" if direction is None else f"wind_direction_deg = {direction}\n") + (
+        "" if wind_from is None else f"wind_from_deg = {wind_from}\n")
 
 
 def dirichlet(n_sub, dwell_rad):
@@ -129,6 +130,45 @@ def test_a_uniform_wind_from_every_side_gives_one_speed_and_its_direction(sheare
     np.testing.assert_allclose(wrap(ds.sonic_direction_unit.values - np.array(dirs)), 0.0, atol=1e-9)
     assert np.all(ds.ambiguity_rate_unit.values == 0.0)
     assert np.all(ds.lidar_direction_unit.values >= -180.0) and np.all(ds.lidar_direction_unit.values < 180.0)
+
+
+#: Meteorological directions (from, clockwise from north) and where each wind blows, counter-clockwise from the
+#: lidar's x axis (east; y is north): a westerly blows east (0), a northerly south (270), an easterly west (180),
+#: a south-westerly north-east (45), from 10 deg (east of north) toward 190 deg clockwise from north (260).
+FROM_TOWARD = [(270.0, 0.0), (0.0, 270.0), (90.0, 180.0), (225.0, 45.0), (10.0, 260.0)]
+
+
+def test_a_period_takes_the_meteorological_direction_or_the_direction_toward_not_both():
+    sc = scene(period("a", wind_from=270.0) + period("b", direction=30.0) + period("c"))
+    a, b, c = sc.periods
+    assert (a.wind_from_deg, a.wind_direction_deg, a.toward_deg) == (270.0, None, 0.0)
+    assert (b.wind_from_deg, b.toward_deg) == (None, 30.0) and c.toward_deg == 0.0
+    back = type(sc).from_dict(sc.as_dict())
+    assert back == sc and "wind_direction_deg" not in sc.as_dict()["period"][0]
+    with pytest.raises(ValueError, match=r"period\[a\] gives both wind_direction_deg=0.0 .* and wind_from_deg=270.0 "
+                                         r".*allowed: one of them"):
+        scene(period("a", direction=0.0, wind_from=270.0))
+    with pytest.raises(ValueError, match=r"wind_from_deg=nan is not finite"):
+        scene(period("a", wind_from="nan"))
+
+
+def test_a_wind_from_a_meteorological_direction_is_the_same_wind_and_reads_back(sheared, no_model):
+    """wind_from_deg gives the same bits as the wind_direction_deg of the same wind; the results give the VAD's and
+    the sonic's directions both ways, the 'from' ones in [0, 360)."""
+    met = run_scene(scene("".join(period(f"d{i}", wind_from=f) for i, (f, _) in enumerate(FROM_TOWARD))), None,
+                    progress=False)
+    old = run_scene(scene("".join(period(f"d{i}", direction=t) for i, (_, t) in enumerate(FROM_TOWARD))), None,
+                    progress=False)
+    assert set(met.data_vars) == set(old.data_vars)
+    for name in met.data_vars:
+        np.testing.assert_array_equal(met[name].values, old[name].values, err_msg=name)
+    wrap = lambda d: (np.asarray(d) + 180.0) % 360.0 - 180.0  # noqa: E731
+    froms = np.array([f for f, _ in FROM_TOWARD])
+    np.testing.assert_allclose(wrap(met.lidar_wind_from_unit.values[:, 0] - froms), 0.0, atol=1e-9)
+    np.testing.assert_allclose(wrap(met.sonic_wind_from_unit.values - froms), 0.0, atol=1e-9)
+    assert np.all((met.lidar_wind_from_unit.values >= 0.0) & (met.lidar_wind_from_unit.values < 360.0))
+    assert "clockwise from north" in met.lidar_wind_from_unit.attrs["long_name"]
+    assert "from = (270 - toward) mod 360" in met.attrs["wind_direction_convention"]
 
 
 # ---------------------------------------------------------------------------

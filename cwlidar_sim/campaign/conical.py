@@ -257,7 +257,6 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
         "title": f"cwlidar_sim conical campaign {scene.name}",
         "results_version": RESULTS_VERSION,
         "sensor": "conical",
-        "wind_direction_convention": WIND_DIRECTION_CONVENTION,
         "lidar_tier": scene.lidar.tier,
         "scene": json.dumps(scene.as_dict()),
         "cwlidar_sim_version": __version__,
@@ -351,5 +350,6 @@ def summarise(ds):
     out["n_periods"] = (("height",), n.astype(np.int64), {"units": "1", "long_name": "periods simulated"})
     res = xr.merge([units, xr.Dataset(out, coords={"height": ("height", heights, {"units": "m"})})],
                    combine_attrs="override")
-    res.attrs = dict(ds.attrs)
+    # here, not in the units' files: a unit stored before the attribute existed still joins the others
+    res.attrs = dict(ds.attrs) | {"wind_direction_convention": WIND_DIRECTION_CONVENTION}
     return res

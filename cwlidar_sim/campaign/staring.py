@@ -391,7 +391,7 @@ def period_dataset(scene: Scene, params, r: dict):
                                  {"units": units, "long_name": f"Mann {name} fitted to the sonic spectra"})
             dv[f"fit_{name}_std"] = (("period",), pk(f.std[name] if f else np.nan),
                                      {"units": units, "long_name": f"1-sigma uncertainty of fit_{name}"})
-    from .. import __version__
+    from .._version import __version__
 
     attrs = {
         "title": f"cwlidar_sim campaign {scene.name}",

@@ -415,7 +415,10 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
     U : float
         Mean wind along +x [m/s] (Taylor advection and the mean of u).
     seed : int or numpy.random.Generator, optional
-        Randomness of tiers 'spectral' and 'signal'; ignored by tier 'los'.
+        Randomness of tiers 'spectral' and 'signal' (background, speckle,
+        noise): required by them (a ValueError without one: a record is never
+        drawn from fresh entropy, the same seed gives the same bits); not used
+        by tier 'los', whose record is the field's.
     start : float
         Start time [s].
     wrap : bool

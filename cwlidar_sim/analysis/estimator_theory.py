@@ -65,6 +65,7 @@ import time
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_choice, check_int, check_real, check_seed
 
 __all__ = ["EstimatorTransfer", "THEORY_ESTIMATORS", "estimator_transfer", "fit_zr_eff", "DEFAULT_BAND", "THEORY_SEED",
@@ -106,6 +107,8 @@ class EstimatorTransfer:
         Settings (U, dx, cells, sub-cell spread, correlation time, lines,
         points, seed) and the wall time [s].
     """
+
+    __repr__ = summary_repr
 
     estimators: tuple
     k_k: np.ndarray
@@ -432,6 +435,8 @@ class ProbeLengthFit:
     nominal_zR, nominal_a0 : float
         Of the instrument given.
     """
+
+    __repr__ = summary_repr
 
     estimator: str
     zR: float

@@ -30,6 +30,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_choice, check_int, check_real
 
 __all__ = [
@@ -180,6 +181,8 @@ class SegmentSpectra:
     n_per : int
         Samples per segment.
     """
+
+    __repr__ = summary_repr
 
     f_f: np.ndarray
     psd_xf: np.ndarray
@@ -387,6 +390,8 @@ class TransferEstimate:
     U : float
         Mean speed used for Taylor's hypothesis [m/s].
     """
+
+    __repr__ = summary_repr
 
     k_k: np.ndarray
     k_edges: np.ndarray

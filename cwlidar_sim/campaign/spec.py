@@ -89,7 +89,7 @@ class Spec:
 
 
 def set_path(tree: dict, key: str, value) -> None:
-    """Set ``tree[a][b]... = value`` for the dotted ``key`` 'a.b...' (numbers index lists).
+    """Set the value at a dotted ``key`` of a scene's tree: 'a.b.c' is ``tree["a"]["b"]["c"]`` (numbers index lists).
 
     The key addresses a scene's TOML tree (:meth:`SceneSpec.as_dict`):
     ``lidar.cnr_db``, ``lidar.instrument.focus``, ``period.0.mean_speed`` for

@@ -77,6 +77,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import DRAW_BLOCK, SIGNAL_MAX_ESTIMATES, TIERS, FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
@@ -377,6 +378,8 @@ class ConicalRecord:
     variants : dict
         Variant name -> ``(speed_e, flags_e)`` (processing variants of the same spectra).
     """
+
+    __repr__ = summary_repr
 
     time_e: np.ndarray
     azimuth_e: np.ndarray

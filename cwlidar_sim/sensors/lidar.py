@@ -48,6 +48,7 @@ import dataclasses
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..beam.sampling import _prepare_beam, direction_from_angles
 from ..signal.chain import (
@@ -164,6 +165,8 @@ class LidarRecord:
         ``flag_counts``, ``variant_availability``, with a cloud
         ``cloud_weight`` and ``cloud_fraction``.
     """
+
+    __repr__ = summary_repr
 
     time_e: np.ndarray
     vlos_e: np.ndarray

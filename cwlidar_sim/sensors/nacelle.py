@@ -86,6 +86,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
@@ -361,6 +362,8 @@ class NacelleRecord:
         ``motion_correction``); add it to a variant's ``-speed`` or to ``vlos_e``
         to correct them alike.
     """
+
+    __repr__ = summary_repr
 
     time_e: np.ndarray
     azimuth_e: np.ndarray

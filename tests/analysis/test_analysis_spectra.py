@@ -311,3 +311,15 @@ def test_bad_input():
         component_spectra(x, x, x, fs=1.0, U=1.0, k_edges=[1.0], segment_duration=10.0)
     with pytest.raises(ValueError, match="equal lengths"):
         component_spectra(x, x, x[:-1], fs=1.0, U=1.0, k_edges=[0.1, 1.0], segment_duration=10.0)
+
+
+def test_the_two_methods_carry_the_results_files_names():
+    """One name per quantity: method 1 is transfer_ratio, method 2 transfer_cross, in the API as in a results file."""
+    import dataclasses
+
+    from cwlidar_sim.analysis import EstimatorTransfer, TransferEstimate
+
+    names = {f.name for f in dataclasses.fields(TransferEstimate)}
+    assert {"transfer_ratio_k", "transfer_cross_k", "transfer_ratio_sigma_k", "transfer_cross_sigma_k"} <= names
+    assert {"transfer_cross_ek", "transfer_cross_sigma_ek"} <= {f.name for f in dataclasses.fields(EstimatorTransfer)}
+    assert not any(n.startswith(("T1", "T2", "sigma_T")) for n in names)

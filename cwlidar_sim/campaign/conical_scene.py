@@ -336,6 +336,9 @@ class ConicalPeriodSpec(Spec):
 class ConicalScene(SceneSpec):
     """A conical campaign: the scan, the turbulence with height, the periods.
 
+    A copy with keys changed: :meth:`~cwlidar_sim.campaign.spec.SceneSpec.with_values`
+    (dotted keys of the file, ``{"lidar.cnr_db": -15.0}``) or :meth:`replace` (fields).
+
     Parameters
     ----------
     name : str

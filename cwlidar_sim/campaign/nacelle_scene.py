@@ -351,6 +351,9 @@ class NacellePlatformSpec(Spec):
 class NacelleScene(SceneSpec):
     """A nacelle-lidar campaign (module notes).
 
+    A copy with keys changed: :meth:`~cwlidar_sim.campaign.spec.SceneSpec.with_values`
+    (dotted keys of the file, ``{"lidar.cnr_db": -15.0}``) or :meth:`replace` (fields).
+
     Parameters
     ----------
     name : str

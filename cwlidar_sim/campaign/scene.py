@@ -352,6 +352,9 @@ _TABLES = {
 class Scene(SceneSpec):
     """A virtual campaign: turbulence, instruments, field, analysis and periods.
 
+    A copy with keys changed: :meth:`~cwlidar_sim.campaign.spec.SceneSpec.with_values`
+    (dotted keys of the file, ``{"lidar.cnr_db": -15.0}``) or :meth:`replace` (fields).
+
     Parameters
     ----------
     name : str

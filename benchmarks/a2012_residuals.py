@@ -84,8 +84,8 @@ def aperture(a):
             r = estimator_transfer(ins, p, U, estimators=("median",), k_edges=edges, n_lines=a.lines)
             ref = np.exp(-2 * k * zR)
             row = {"case": name if name != "T" else f"T = {T:g}", "truncation": T,
-                   "T2_over_exp_028": float(r.T2_ek[0][i28] / ref[i28]),
-                   "T2_over_exp_056": float(r.T2_ek[0][i56] / ref[i56]),
+                   "T2_over_exp_028": float(r.transfer_cross_ek[0][i28] / ref[i28]),
+                   "T2_over_exp_056": float(r.transfer_cross_ek[0][i56] / ref[i56]),
                    "zR_eff": float(r.zR_eff_e[0]), "wall_s": time.perf_counter() - t0}
             rows.append(row)
             print(json.dumps(row), flush=True)

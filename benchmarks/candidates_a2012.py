@@ -104,8 +104,9 @@ def main(argv=None):
         inst = base.replace(**inst_over)
         lines = max(1, a.lines // 2) if "modulation" in kw else a.lines
         t = estimator_transfer(inst, p, 8.1, estimators=("median",), k_edges=edges, n_lines=lines, **kw)
-        r = {"candidate": name, "T2_0.28": float(t.T2_ek[0, i28] * fac[0]), "T2_0.56": float(t.T2_ek[0, i56] * fac[1]),
-             "sigma_0.28": float(t.sigma_T2_ek[0, i28] * fac[0]), "sigma_0.56": float(t.sigma_T2_ek[0, i56] * fac[1]),
+        r = {"candidate": name, "T2_0.28": float(t.transfer_cross_ek[0, i28] * fac[0]),
+             "T2_0.56": float(t.transfer_cross_ek[0, i56] * fac[1]),
+             "sigma_0.28": float(t.transfer_cross_sigma_ek[0, i28] * fac[0]), "sigma_0.56": float(t.transfer_cross_sigma_ek[0, i56] * fac[1]),
              "factor_0.28": float(fac[0]), "factor_0.56": float(fac[1]), "zR_instrument": inst.rayleigh_length,
              "zR_eff": float(t.zR_eff_e[0])}
         r["ratio_0.28"] = r["T2_0.28"] / math.exp(-2 * k[i28] * zR)

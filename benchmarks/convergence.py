@@ -264,7 +264,7 @@ def staring_row(seed, duration, group, settings):
     tf = transfer_functions(vr10, vs10, fs=10.0, U=U, k_edges=log_bins(1e-3, 5.0, 10), segment_duration=600.0,
                             window="hann")
     return {"cost_s": cost, "shape": list(shape), "spacing": list(spacing), "k": tf.k_k.tolist(),
-            "t2": tf.T2_k.tolist(), "estimator_noise": float(np.std(diff[ok])),
+            "t2": tf.transfer_cross_k.tolist(), "estimator_noise": float(np.std(diff[ok])),
             "estimator_bias": float(np.mean(diff[ok])), "availability": float(np.mean(ok))}
 
 

@@ -82,7 +82,7 @@ def staring(duration, seeds, tiers):
                                         window="hann")
                 rows.append({"seed": seed, "tier": tier, "label": label, "tail": tail, "span": span,
                              "growth": growth, "n_cells": rec.info["n_cells"], "cost_s": cost,
-                             "k": tf.k_k.tolist(), "t2": tf.T2_k.tolist()})
+                             "k": tf.k_k.tolist(), "t2": tf.transfer_cross_k.tolist()})
         print(f"staring seed {seed}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     return rows
 

@@ -1,6 +1,25 @@
 """cwlidar_sim: a continuous-wave coherent Doppler wind lidar in synthetic turbulence.
 
-Stages, one subpackage each:
+Five virtual sensors measure one turbulence field: a sonic anemometer, a cup
+anemometer, a staring lidar, a conically scanning (VAD) lidar and a
+turbine's nacelle lidar.  A *scene* (a TOML file, or a bundled one) says which
+sensors, where, in which turbulence and for which periods; running it gives
+an :class:`xarray.Dataset` of records, spectra and transfer functions.
+
+The high-level API, at the top of the package (the quick start in the
+documentation):
+
+:func:`open_scene`
+    A bundled scene by name (``"a2012"``, ``"cs"``, ``"nacelle"``) or a
+    scene file; change it with ``scene.with_values({"lidar.tier": "los"})``
+    (dotted keys of the file, validated like the file).
+:func:`run`
+    Run a scene (here or on a Dask cluster); with ``out``, its results
+    folder, resumable; returns the results.
+:func:`open_results`
+    Read a run's results back (its folder or its file), checked.
+
+Stages, one subpackage each, for everything below that:
 
 ``turbulence``
     Mann (1998) uniform-shear spectral tensor, analytic one-point spectra, and
@@ -13,9 +32,11 @@ Stages, one subpackage each:
     expected Doppler spectra with speckle, the 50 MHz heterodyne signal),
     background, thresholds, estimators and quality flags.
 ``sensors``
-    Virtual sensors: sonic anemometer, staring lidar.
+    The virtual sensors: sonic and cup anemometers, the staring, conical
+    (VAD) and nacelle lidars.
 ``analysis``
-    Spectra, the two transfer-function methods, A2012 theory, tensor fitting.
+    Spectra, the two transfer-function methods, A2012 theory, tensor
+    fitting, VAD and rotor-equivalent wind speed fits.
 ``campaign``
     Scenes in TOML, the runner (local or Dask), NetCDF results, figures.
 
@@ -44,6 +65,22 @@ p   averaging period
 ==  ==========================================================
 """
 
-__version__ = "0.1.0"
+from ._version import __version__
 
-__all__ = ["__version__"]
+__all__ = ["__version__", "open_scene", "run", "open_results"]
+
+#: The high-level API's names; imported from ``campaign`` on first use, so ``import cwlidar_sim``
+#: (and the command line's cold start) loads no numerical library.
+_API = ("open_scene", "run", "open_results")
+
+
+def __getattr__(name):
+    if name in _API:
+        from .campaign import _api
+
+        return getattr(_api, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_API))

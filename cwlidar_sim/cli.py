@@ -653,7 +653,7 @@ def build_parser() -> argparse.ArgumentParser:
                "'python -m cwlidar_sim' is the same program.",
         formatter_class=_Formatter,
     )
-    from . import __version__
+    from ._version import __version__
 
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")

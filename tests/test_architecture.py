@@ -1,9 +1,13 @@
 """The package's imports run one way: no circle, no import against the stage layers, no long module.
 
 Layers, bottom to top: the top-level private modules (``_config``, ``_fft``,
-``_validation``, ``_preflight``) and the package root; ``turbulence`` and
+``_validation``, ``_preflight``, ``_version``); ``turbulence`` and
 ``beam``; ``signal``; ``sensors`` and ``analysis`` side by side (neither
-imports the other); ``campaign``; ``cli``; ``__main__`` (``python -m cwlidar_sim``).  Every import counts, also one
+imports the other); ``campaign``; the package root (``cwlidar_sim/__init__.py``,
+which re-exports the high-level API of ``campaign``, imported on first use);
+``cli``; ``__main__`` (``python -m cwlidar_sim``).  No stage imports the root:
+Python imports it before any submodule, so a stage that took a name from it
+would close a circle through it.  Every import counts, also one
 inside a function: an import hidden in a function to dodge a circle is still
 a circle.  The imports are read with :mod:`ast` from the package's source,
 nothing is imported.
@@ -15,9 +19,12 @@ import pathlib
 import pytest
 
 PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "cwlidar_sim"
+#: The stage of the package root itself (its ``__init__``): the high-level API, above ``campaign``.
+ROOT = "<root>"
 
 #: Rank of each stage; a module may import its own stage and lower ranks only.
-RANK = {"turbulence": 1, "beam": 1, "signal": 2, "sensors": 3, "analysis": 3, "campaign": 4, "cli": 5, "__main__": 6}
+RANK = {"turbulence": 1, "beam": 1, "signal": 2, "sensors": 3, "analysis": 3, "campaign": 4, ROOT: 4.5, "cli": 5,
+        "__main__": 6}
 #: Stages of one rank that must not import each other.
 SIDE_BY_SIDE = {frozenset({"sensors", "analysis"})}
 MAX_LINES = 700
@@ -43,7 +50,9 @@ def import_edges(mods: dict) -> dict:
     ``from a.b import c`` counts as an import of ``a.b.c`` when that is a
     module, else of ``a.b``; a name that is not a module is taken at its
     longest module prefix.  Importing one's own parent packages is implied
-    by Python for every submodule and not counted.
+    by Python for every submodule and not counted, except a name taken from
+    the package root (``from .. import __version__``): the root sits above
+    ``campaign``, so that import runs up the layers.
     """
     package = next(iter(mods)).split(".")[0]
     edges = {m: set() for m in mods}
@@ -64,7 +73,7 @@ def import_edges(mods: dict) -> dict:
             for t in targets:
                 while t and t not in mods:
                     t = t.rpartition(".")[0]
-                if t and t != name and t.split(".")[0] == package and not name.startswith(t + "."):
+                if t and t != name and t.split(".")[0] == package and (t == package or not name.startswith(t + ".")):
                     edges[name].add(t)
     return edges
 
@@ -101,11 +110,13 @@ def circles(edges: dict) -> list:
 
 
 def stage(module: str):
-    """(stage name, rank): top-level private modules and the package root are the bottom (rank 0)."""
+    """(stage name, rank): top-level private modules are the bottom (rank 0), the package root above campaign."""
     parts = module.split(".")
-    if len(parts) > 1 and parts[1] in RANK:
+    if len(parts) == 1:
+        return ROOT, RANK[ROOT]
+    if parts[1] in RANK:
         return parts[1], RANK[parts[1]]
-    if len(parts) == 1 or parts[1].startswith("_"):
+    if parts[1].startswith("_"):
         return "", 0
     if parts[1] not in RANK:
         raise AssertionError(f"{module}: not in a known stage {sorted(RANK)}; add it to the layers")
@@ -168,6 +179,8 @@ def test_the_checks_find_a_circle_an_upward_import_and_a_hidden_one(tmp_path):
                               ["cwlidar_sim.campaign.a", "cwlidar_sim.campaign.b"]]
     assert upward(edges) == ["cwlidar_sim.analysis.vad -> cwlidar_sim.sensors.lidar",
                              "cwlidar_sim.sensors.lidar -> cwlidar_sim.analysis.vad"]
+    (pkg / "campaign" / "b.py").write_text("from .a import g\nfrom .. import __version__\n")
+    assert "cwlidar_sim.campaign.b -> cwlidar_sim" in upward(import_edges(modules(pkg)))
     (pkg / "signal" / "chain.py").write_text("import cwlidar_sim.campaign.a\n")
     assert upward(import_edges(modules(pkg)))[0] == "cwlidar_sim.analysis.vad -> cwlidar_sim.sensors.lidar"
     assert "cwlidar_sim.signal.chain -> cwlidar_sim.campaign.a" in upward(import_edges(modules(pkg)))

@@ -186,7 +186,7 @@ MUTATIONS = [
       "speed across the beam taken as (v, w) whatever the beam's direction"),
     # --- analysis -----------------------------------------------------------------------------
     M("method2-abs-chi", "analysis transfer functions", "cwlidar_sim/analysis/spectra.py",
-      "T2_k = chi_k.real**2 / Fs_k**2", "T2_k = np.abs(chi_k) ** 2 / Fs_k**2",
+      "cross_k = chi_k.real**2 / Fs_k**2", "cross_k = np.abs(chi_k) ** 2 / Fs_k**2",
       ("tests/analysis/test_analysis_spectra.py",),
       "method 2 with |chi|^2 instead of Re(chi)^2 (blind to timing)"),
     M("sigma-T2-sqrt2", "analysis transfer functions", "cwlidar_sim/analysis/spectra.py",
@@ -194,7 +194,7 @@ MUTATIONS = [
       ("tests/analysis/test_analysis_spectra.py::test_reported_sigmas_match_the_scatter_over_seeds",),
       "sigma_T2 sqrt(2) too large"),
     M("sigma-T1-half-var", "analysis transfer functions", "cwlidar_sim/analysis/spectra.py",
-      "sig1_k = T1_k * np.sqrt(2.0 *", "sig1_k = T1_k * np.sqrt(1.0 *",
+      "sig1_k = ratio_k * np.sqrt(2.0 *", "sig1_k = ratio_k * np.sqrt(1.0 *",
       ("tests/analysis/test_analysis_spectra.py::test_reported_sigmas_match_the_scatter_over_seeds",),
       "sigma_T1 sqrt(2) too small"),
     M("taylor-wavenumber", "analysis transfer functions", "cwlidar_sim/analysis/spectra.py",

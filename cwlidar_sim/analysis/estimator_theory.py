@@ -65,6 +65,7 @@ import time
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_choice, check_int, check_real, check_seed
 
 __all__ = ["EstimatorTransfer", "THEORY_ESTIMATORS", "estimator_transfer", "fit_zr_eff", "DEFAULT_BAND", "THEORY_SEED",
@@ -88,9 +89,9 @@ class EstimatorTransfer:
     k_k : ndarray, shape (n_k,)
         Bin centres (geometric mean of the edges) [rad/m].
     k_edges : ndarray, shape (n_k + 1,)
-    T2_ek : ndarray, shape (n_estimators, n_k)
+    transfer_cross_ek : ndarray, shape (n_estimators, n_k)
         ``Re(chi)^2 / F_vs^2`` [-]; NaN in bins without a line mode.
-    sigma_T2_ek : ndarray
+    transfer_cross_sigma_ek : ndarray
         Its 1-sigma ensemble uncertainty [-].
     n_modes_k : ndarray of int
         Fourier modes (over all lines) in each bin.
@@ -107,11 +108,13 @@ class EstimatorTransfer:
         points, seed) and the wall time [s].
     """
 
+    __repr__ = summary_repr
+
     estimators: tuple
     k_k: np.ndarray
     k_edges: np.ndarray
-    T2_ek: np.ndarray
-    sigma_T2_ek: np.ndarray
+    transfer_cross_ek: np.ndarray
+    transfer_cross_sigma_ek: np.ndarray
     n_modes_k: np.ndarray
     zR_eff_e: np.ndarray
     zR_eff_sigma_e: np.ndarray
@@ -129,7 +132,7 @@ def _check_band(band):
     return lo, hi
 
 
-def fit_zr_eff(k_k, T2_k, sigma_T2_k=None, band=DEFAULT_BAND):
+def fit_zr_eff(k_k, transfer_cross_k, transfer_cross_sigma_k=None, band=DEFAULT_BAND):
     """Best ``zR_eff`` of ``T2 = exp(-2 k zR_eff)`` over ``band``: ``(zR_eff, sigma, n_bins_used)``.
 
     Weighted least squares on ``log T2`` (weights ``(T2 / sigma_T2)^2``, or
@@ -140,8 +143,8 @@ def fit_zr_eff(k_k, T2_k, sigma_T2_k=None, band=DEFAULT_BAND):
     """
     lo, hi = _check_band(band)
     k = np.asarray(k_k, dtype=np.float64)
-    T = np.asarray(T2_k, dtype=np.float64)
-    s = None if sigma_T2_k is None else np.asarray(sigma_T2_k, dtype=np.float64)
+    T = np.asarray(transfer_cross_k, dtype=np.float64)
+    s = None if transfer_cross_sigma_k is None else np.asarray(transfer_cross_sigma_k, dtype=np.float64)
     ok = (k >= lo) & (k <= hi) & np.isfinite(T) & (T > 0)
     if s is not None:
         ok &= np.isfinite(s) & (s > 0)
@@ -381,7 +384,8 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
             "correlation_time": tau, "n_lines": n_lines, "n_points": n_points, "seed": seed,
             "modulated": modulation is not None, "gain": gain, "line_mean_log_T2": lm, "band_bins": int(inb.sum()),
             "line_sd_predicted": pred, "wall_time": time.perf_counter() - t0}
-    return EstimatorTransfer(estimators=est, k_k=k_k, k_edges=e_k, T2_ek=T2, sigma_T2_ek=sT2, n_modes_k=n_modes,
+    return EstimatorTransfer(estimators=est, k_k=k_k, k_edges=e_k, transfer_cross_ek=T2, transfer_cross_sigma_ek=sT2,
+                             n_modes_k=n_modes,
                              zR_eff_e=z[:, 0], zR_eff_sigma_e=z[:, 1], band=band,
                              rayleigh_length=float(instrument.rayleigh_length),
                              availability_e=1.0 - n_bad / float(n_lines * n_points), info=info)
@@ -432,6 +436,8 @@ class ProbeLengthFit:
         Of the instrument given.
     """
 
+    __repr__ = summary_repr
+
     estimator: str
     zR: float
     zR_sigma: float
@@ -456,11 +462,12 @@ class ProbeLengthFit:
 ZR_FACTORS = (0.5, 0.71, 1.0, 1.41, 2.0, 2.83)
 
 
-def _check_measured(k_k, T2_k, sigma_k, band):
+def _check_measured(k_k, transfer_cross_k, sigma_k, band):
     k = np.asarray(k_k, dtype=np.float64).ravel()
-    T = np.asarray(T2_k, dtype=np.float64).ravel()
+    T = np.asarray(transfer_cross_k, dtype=np.float64).ravel()
     if k.shape != T.shape or k.size == 0:
-        raise ProbeLengthError(f"k and T2 must be 1-D arrays of one length, got {np.shape(k_k)} and {np.shape(T2_k)}")
+        raise ProbeLengthError(f"k_k and transfer_cross_k must be 1-D arrays of one length, got {np.shape(k_k)} and "
+                               f"{np.shape(transfer_cross_k)}")
     s = None
     if sigma_k is not None:
         s = np.asarray(sigma_k, dtype=np.float64).ravel()
@@ -498,8 +505,9 @@ def radius_of_rayleigh_length(zR: float, zR_sigma: float, *, wavelength: float, 
     return a0, 0.5 * a0 * zR_sigma / zR
 
 
-def fit_probe_length(k_k, T2_k, sigma_T2_k=None, *, instrument, params, U, estimator="median", band=DEFAULT_BAND,
-                     zR_factors=ZR_FACTORS, n_lines=4, n_points=4096, seed=THEORY_SEED, **theory_kw) -> ProbeLengthFit:
+def fit_probe_length(k_k, transfer_cross_k, transfer_cross_sigma_k=None, *, instrument, params, U, estimator="median",
+                     band=DEFAULT_BAND, zR_factors=ZR_FACTORS, n_lines=4, n_points=4096, seed=THEORY_SEED,
+                     **theory_kw) -> ProbeLengthFit:
     """The probe length (zR and the telescope radius a0 it implies) of measured method-2 values.
 
     The estimator theory (:func:`estimator_transfer`, seeded on its own) is
@@ -516,10 +524,10 @@ def fit_probe_length(k_k, T2_k, sigma_T2_k=None, *, instrument, params, U, estim
 
     Parameters
     ----------
-    k_k, T2_k : array_like
+    k_k, transfer_cross_k : array_like
         Bin centres [rad/m] and method-2 values ``Re(chi)^2 / F_vs^2`` [-]
         (NaN bins are skipped; negative values are an error).
-    sigma_T2_k : array_like, optional
+    transfer_cross_sigma_k : array_like, optional
         1-sigma uncertainties of T2.
     instrument : Instrument
         The lidar (focus, wavelength, nominal a0, resolution, threshold).
@@ -552,7 +560,7 @@ def fit_probe_length(k_k, T2_k, sigma_T2_k=None, *, instrument, params, U, estim
     if not isinstance(instrument, Instrument):
         raise TypeError(f"instrument must be an Instrument, got {type(instrument).__name__}")
     band = _check_band(band)
-    k, T, s, inb = _check_measured(k_k, T2_k, sigma_T2_k, band)
+    k, T, s, inb = _check_measured(k_k, transfer_cross_k, transfer_cross_sigma_k, band)
     fac = np.asarray(sorted(float(check_real("zR_factors", f, lo=0.0, lo_open=True)) for f in zR_factors))
     if fac.size < 3:
         raise ValueError(f"zR_factors needs at least 3 values, got {list(zR_factors)}")
@@ -573,8 +581,8 @@ def fit_probe_length(k_k, T2_k, sigma_T2_k=None, *, instrument, params, U, estim
         inst = instrument.replace(telescope_radius=math.sqrt(instrument.wavelength * instrument.focus**2 / (math.pi * z)))
         t = estimator_transfer(inst, params, U, estimators=(estimator,), k_edges=edges, n_lines=n_lines,
                                n_points=n_points, seed=seed, band=band, **theory_kw)
-        th.append(t.T2_ek[0])
-        sth.append(t.sigma_T2_ek[0])
+        th.append(t.transfer_cross_ek[0])
+        sth.append(t.transfer_cross_sigma_ek[0])
         infos.append(t.info)
     th, sth = np.array(th), np.array(sth)
     use = np.all(np.isfinite(th) & (th > 0), axis=0)

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_int, check_real
 from ..turbulence.parameters import GAMMA_MAX, LENGTH_SCALE_MAX
 
@@ -67,6 +68,8 @@ class MannFit:
         "chi-square" (sandwich with the sampling covariance implied by
         ``n_k``).
     """
+
+    __repr__ = summary_repr
 
     params: object
     std: dict

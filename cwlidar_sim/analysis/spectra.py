@@ -30,6 +30,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_choice, check_int, check_real
 
 __all__ = [
@@ -180,6 +181,8 @@ class SegmentSpectra:
     n_per : int
         Samples per segment.
     """
+
+    __repr__ = summary_repr
 
     f_f: np.ndarray
     psd_xf: np.ndarray
@@ -366,17 +369,19 @@ class TransferEstimate:
     chi_k : ndarray, complex
         Cross-spectrum ``E[V_r V_s^*]`` (lidar times conjugated sonic),
         same units and binning.
-    T1_k : ndarray
-        Method 1, ``F_r / F_s`` (A2012 Eq. 8).
-    T2_k : ndarray
-        Method 2, ``Re(chi)^2 / F_s^2`` (A2012 Eq. 11).
+    transfer_ratio_k : ndarray
+        A2012's method 1, ``F_r / F_s`` (Eq. 8): a results file's
+        ``transfer_ratio``.
+    transfer_cross_k : ndarray
+        A2012's method 2, ``Re(chi)^2 / F_s^2`` (Eq. 11): a results file's
+        ``transfer_cross``.
     coherence_k : ndarray
         Magnitude-squared coherence ``|chi|^2 / (F_r F_s)`` of the bin means.
     n_k : ndarray of int
         Raw periodogram values averaged into each bin (segments x
         frequencies in the bin); 0 for an empty bin (whose values are NaN).
-    sigma_T1_k, sigma_T2_k : ndarray
-        Approximate 1-sigma sampling uncertainty of T1 and T2 (see
+    transfer_ratio_sigma_k, transfer_cross_sigma_k : ndarray
+        Approximate 1-sigma sampling uncertainty of the two (see
         :func:`transfer_functions`).
     n_segments, n_rejected : int
         Segments used and segments skipped for gaps.
@@ -386,17 +391,19 @@ class TransferEstimate:
         Mean speed used for Taylor's hypothesis [m/s].
     """
 
+    __repr__ = summary_repr
+
     k_k: np.ndarray
     k_edges: np.ndarray
     F_r_k: np.ndarray
     F_s_k: np.ndarray
     chi_k: np.ndarray
-    T1_k: np.ndarray
-    T2_k: np.ndarray
+    transfer_ratio_k: np.ndarray
+    transfer_cross_k: np.ndarray
     coherence_k: np.ndarray
     n_k: np.ndarray
-    sigma_T1_k: np.ndarray
-    sigma_T2_k: np.ndarray
+    transfer_ratio_sigma_k: np.ndarray
+    transfer_cross_sigma_k: np.ndarray
     n_segments: int
     n_rejected: int
     n_interpolated: int = 0
@@ -489,15 +496,16 @@ def transfer_functions(vr_t, vs_t, *, fs, U, k_edges, segment_duration=600.0, ma
     Fr_k, Fs_k, chi_k = mean_ck[0].real, mean_ck[1].real, mean_ck[2]
     n_k = count_k * seg.n_segments
     with np.errstate(invalid="ignore", divide="ignore"):
-        T1_k = Fr_k / Fs_k
-        T2_k = chi_k.real**2 / Fs_k**2
+        ratio_k = Fr_k / Fs_k
+        cross_k = chi_k.real**2 / Fs_k**2
         c2_k = np.abs(chi_k) ** 2
         coh_k = c2_k / (Fr_k * Fs_k)
         nn_k = np.where(n_k > 0, n_k, np.nan)
-        sig1_k = T1_k * np.sqrt(2.0 * np.clip(1.0 - coh_k, 0.0, None) / nn_k)
+        sig1_k = ratio_k * np.sqrt(2.0 * np.clip(1.0 - coh_k, 0.0, None) / nn_k)
         sig2_k = np.abs(chi_k.real) * np.sqrt(2.0 * np.clip(Fr_k * Fs_k - c2_k, 0.0, None) / nn_k) / Fs_k**2
-    return TransferEstimate(k_k=_centres(e), k_edges=e, F_r_k=Fr_k, F_s_k=Fs_k, chi_k=chi_k, T1_k=T1_k, T2_k=T2_k,
-                            coherence_k=coh_k, n_k=n_k, sigma_T1_k=sig1_k, sigma_T2_k=sig2_k,
+    return TransferEstimate(k_k=_centres(e), k_edges=e, F_r_k=Fr_k, F_s_k=Fs_k, chi_k=chi_k, transfer_ratio_k=ratio_k,
+                            transfer_cross_k=cross_k, coherence_k=coh_k, n_k=n_k, transfer_ratio_sigma_k=sig1_k,
+                            transfer_cross_sigma_k=sig2_k,
                             n_segments=seg.n_segments, n_rejected=seg.n_rejected,
                             n_interpolated=seg.n_interpolated, U=U)
 

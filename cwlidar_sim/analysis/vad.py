@@ -59,6 +59,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_int, check_real
 
 __all__ = [
@@ -117,6 +118,8 @@ class VadFit:
     flags_p : ndarray of uint8
         :class:`VadFlag` bits.
     """
+
+    __repr__ = summary_repr
 
     speed_p: np.ndarray
     direction_p: np.ndarray

@@ -49,6 +49,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_choice, check_int, check_keys, check_real
 
 #: Laser wavelength of the ZephIR prototype [m] (A2012).
@@ -397,6 +398,8 @@ class RangeCells:
     rayleigh_length : float
         z_R of the optics [m] (A2012 Eq. 1).
     """
+
+    __repr__ = summary_repr
 
     s_s: np.ndarray
     weight_s: np.ndarray

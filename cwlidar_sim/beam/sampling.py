@@ -46,6 +46,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._config import apply_numba_threads
 from .._validation import check_bool, check_choice, check_int, check_memory, check_real
 from .optics import BeamOptics, RangeCells, weight_truncated
@@ -122,6 +123,8 @@ class ConicalScan:
     circle_diameter : float
         Diameter of the scanned circle at the measurement height, 2 z tan(half_angle) [m].
     """
+
+    __repr__ = summary_repr
 
     time_t: np.ndarray
     azimuth_t: np.ndarray
@@ -423,6 +426,8 @@ class LosAverage:
     renormalised : bool
         Whether the weights were divided by ``kept_fraction`` (sum to 1).
     """
+
+    __repr__ = summary_repr
 
     vlos_t: np.ndarray
     time_t: np.ndarray

@@ -209,7 +209,7 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
     """
     import xarray as xr
 
-    from .. import __version__
+    from .._version import __version__
 
     rows = [rows] if isinstance(rows, dict) else list(rows)
     p, _ = scene.units()[index]

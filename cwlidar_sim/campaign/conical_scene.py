@@ -89,7 +89,7 @@ from ..turbulence.limits import MAX_TURBULENCE_INTENSITY, check_frozen_turbulenc
 from ._labels import wind_from_toward
 from .conical_period import default_spacing
 from .lidar_spec import ConicalLidarSpec
-from .spec import Spec, check_condition_on, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
+from .spec import SceneSpec, Spec, check_condition_on, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
 
 #: sigma_u / u* of the surface-layer sources, the larger of the two (IEC's 2.4; Mann's fit to Kaimal: 2.24), for the
 #: closed-form turbulence intensity of the frozen-turbulence check.
@@ -359,8 +359,11 @@ class ConicalPeriodSpec(Spec):
 
 
 @dataclasses.dataclass(frozen=True)
-class ConicalScene(Spec):
+class ConicalScene(SceneSpec):
     """A conical campaign: the scan, the turbulence with height, the periods.
+
+    A copy with keys changed: :meth:`~cwlidar_sim.campaign.spec.SceneSpec.with_values`
+    (dotted keys of the file, ``{"lidar.cnr_db": -15.0}``) or :meth:`replace` (fields).
 
     Parameters
     ----------

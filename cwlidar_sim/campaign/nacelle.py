@@ -222,7 +222,7 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
     """Simulate period ``index`` as a Dataset on ``period`` (module notes); ``params`` is ignored."""
     import xarray as xr
 
-    from .. import __version__
+    from .._version import __version__
     from ..analysis.rews import align_preview, coherence_bandwidth, coherence_estimate
 
     t_start = time.perf_counter()

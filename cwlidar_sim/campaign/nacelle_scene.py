@@ -56,7 +56,7 @@ import numpy as np
 from .._validation import check_bool, check_int, check_real, check_seed, check_str
 from ..turbulence.limits import check_frozen_turbulence
 from .lidar_spec import LidarSpecBase
-from .spec import Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
+from .spec import SceneSpec, Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
 
 __all__ = ["NacelleScanSpec", "NacelleTurbulenceSpec", "NacellePeriodSpec", "NacelleLidarSpec",
            "NacellePlatformSpec", "PLATFORM_DOFS", "NacelleScene"]
@@ -348,8 +348,11 @@ class NacellePlatformSpec(Spec):
 
 
 @dataclasses.dataclass(frozen=True)
-class NacelleScene(Spec):
+class NacelleScene(SceneSpec):
     """A nacelle-lidar campaign (module notes).
+
+    A copy with keys changed: :meth:`~cwlidar_sim.campaign.spec.SceneSpec.with_values`
+    (dotted keys of the file, ``{"lidar.cnr_db": -15.0}``) or :meth:`replace` (fields).
 
     Parameters
     ----------

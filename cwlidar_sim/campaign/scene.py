@@ -53,7 +53,7 @@ from .._validation import check_bool, check_choice, check_int, check_real, check
 from ..turbulence.limits import check_frozen_turbulence
 from .conical_scene import ConicalScene
 from .lidar_spec import CHAIN_TIERS, LidarSpecBase
-from .spec import (SCENE_KINDS, Spec, check_condition_on, check_periods, check_scene_keys, check_scene_name,
+from .spec import (SceneSpec, SCENE_KINDS, Spec, check_condition_on, check_periods, check_scene_keys, check_scene_name,
                    parse_toml, periods_from_dict, read_text_file, resolve_path, set_field)
 
 __all__ = [
@@ -349,8 +349,11 @@ _TABLES = {
 
 
 @dataclasses.dataclass(frozen=True)
-class Scene(Spec):
+class Scene(SceneSpec):
     """A virtual campaign: turbulence, instruments, field, analysis and periods.
+
+    A copy with keys changed: :meth:`~cwlidar_sim.campaign.spec.SceneSpec.with_values`
+    (dotted keys of the file, ``{"lidar.cnr_db": -15.0}``) or :meth:`replace` (fields).
 
     Parameters
     ----------

@@ -21,7 +21,7 @@ import os
 
 from .._validation import check_keys, check_real, check_str, did_you_mean
 
-__all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "spec_as_dict", "set_field", "check_scene_name",
+__all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "SceneSpec", "set_path", "select_periods", "spec_as_dict", "set_field", "check_scene_name",
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
            "parse_toml", "open_regular_file", "toml_depth", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "check_distinct_reals",
            "resolve_path"]
@@ -86,6 +86,96 @@ class Spec:
         """Build from a TOML-shaped mapping; unknown keys are rejected by name."""
         check_keys(cls, d, required=cls._required)
         return cls(**d)
+
+
+def set_path(tree: dict, key: str, value) -> None:
+    """Set the value at a dotted ``key`` of a scene's tree: 'a.b.c' is ``tree["a"]["b"]["c"]`` (numbers index lists).
+
+    The key addresses a scene's TOML tree (:meth:`SceneSpec.as_dict`):
+    ``lidar.cnr_db``, ``lidar.instrument.focus``, ``period.0.mean_speed`` for
+    the first period.  A missing table on the way is created (the scene's
+    checks then name a key that does not belong there).
+    """
+    if not isinstance(key, str):
+        raise TypeError(f"scene key {key!r} must be a dotted string like 'lidar.cnr_db'")
+    parts = key.split(".")
+    if not all(parts):
+        raise ValueError(f"scene key {key!r} is not a dotted path like 'lidar.cnr_db'")
+    node = tree
+    for i, part in enumerate(parts[:-1]):
+        nxt = parts[i + 1]
+        if isinstance(node, list):
+            if not part.isdigit() or int(part) >= len(node):
+                raise ValueError(f"scene key {key!r}: {part!r} is not an index of a list of {len(node)}")
+            node = node[int(part)]
+            continue
+        if part not in node or node[part] is None:
+            node[part] = [] if nxt.isdigit() else {}
+        node = node[part]
+        if not isinstance(node, (dict, list)):
+            raise ValueError(f"scene key {key!r}: {'.'.join(parts[:i + 1])!r} is a value, not a table")
+    last = parts[-1]
+    if isinstance(node, list):
+        if not last.isdigit() or int(last) >= len(node):
+            raise ValueError(f"scene key {key!r}: {last!r} is not an index of a list of {len(node)}")
+        node[int(last)] = value
+    else:
+        node[last] = value
+
+
+def select_periods(scene, names, what: str = "periods"):
+    """``scene`` with only the periods named in ``names`` (in the scene's order), validated.
+
+    The periods kept are numbered afresh, so a period without its own
+    ``seed`` draws another realisation than in the whole scene (its seed
+    derives from its position).  An unknown name is a ValueError listing
+    the scene's periods.
+    """
+    if not isinstance(names, (list, tuple)) or not all(isinstance(n, str) for n in names):
+        raise TypeError(f"{what} must be a list of period names, got {names!r}")
+    have = [p.name for p in scene.periods]
+    missing = [n for n in names if n not in have]
+    if missing:
+        raise ValueError(f"{what}: {missing} are not periods of scene {scene.name!r}; allowed: {have}")
+    if not names:
+        raise ValueError(f"{what} is empty; allowed: a list of some of {have}")
+    return scene.replace(periods=tuple(p for p in scene.periods if p.name in names))
+
+
+class SceneSpec(Spec):
+    """Base of the scene kinds (staring, conical, nacelle): a copy with dotted keys changed."""
+
+    def with_values(self, values: dict):
+        """A copy of the scene with the dotted keys of ``values`` set, validated like a scene file.
+
+        Parameters
+        ----------
+        values : dict
+            Dotted key of the scene's TOML tree -> new value, e.g.
+            ``{"lidar.instrument.focus": 80.0, "duration": 1200.0,
+            "period.0.mean_speed": 9.0}`` (the keys of a campaign file's
+            ``[set]`` table, :mod:`cwlidar_sim.campaign.sweep`).
+
+        Returns
+        -------
+        scene
+            A new scene of the same kind; this one is unchanged.
+
+        Raises
+        ------
+        ValueError, TypeError
+            A key the scene does not have, or a value its checks reject,
+            named with the keys given.
+        """
+        if not isinstance(values, dict):
+            raise TypeError(f"values must be a dict of dotted scene keys, got {type(values).__name__}")
+        tree = self.as_dict()
+        for key, value in values.items():
+            set_path(tree, key, value)
+        try:
+            return type(self).from_dict(tree, base_dir=self.base_dir)
+        except (ValueError, TypeError) as e:
+            raise type(e)(f"scene {self.name!r} with {values}: {e}") from None
 
 
 def resolve_path(base_dir: str, path: str) -> str:

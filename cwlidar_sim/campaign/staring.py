@@ -226,8 +226,9 @@ def _empty_transfer(k_edges, U, n10, segment_duration):
     nk = len(k_edges) - 1
     nan = np.full(nk, np.nan)
     e = np.asarray(k_edges)
-    return TransferEstimate(k_k=np.sqrt(e[:-1] * e[1:]), k_edges=e, F_r_k=nan, F_s_k=nan, chi_k=nan + 0j, T1_k=nan,
-                            T2_k=nan, coherence_k=nan, n_k=np.zeros(nk), sigma_T1_k=nan, sigma_T2_k=nan,
+    return TransferEstimate(k_k=np.sqrt(e[:-1] * e[1:]), k_edges=e, F_r_k=nan, F_s_k=nan, chi_k=nan + 0j,
+                            transfer_ratio_k=nan, transfer_cross_k=nan, coherence_k=nan, n_k=np.zeros(nk),
+                            transfer_ratio_sigma_k=nan, transfer_cross_sigma_k=nan,
                             n_segments=0, n_rejected=int(n10 // round(segment_duration * 10.0)), n_interpolated=0,
                             U=U)
 
@@ -282,16 +283,16 @@ def period_dataset(scene: Scene, params, r: dict):
     F_vs, F_vr, chi = misaligned_spectra(k, p, r["theta"], zR)
     PK = ("period", "k")
     dv = {
-        "transfer_ratio": (PK, pk(tf.T1_k), {"units": "1", "long_name": "method 1: F_vr / F_vs (A2012 Eq. 8)"}),
-        "transfer_cross": (PK, pk(tf.T2_k),
+        "transfer_ratio": (PK, pk(tf.transfer_ratio_k), {"units": "1", "long_name": "method 1: F_vr / F_vs (A2012 Eq. 8)"}),
+        "transfer_cross": (PK, pk(tf.transfer_cross_k),
                            {"units": "1", "long_name": "method 2: Re(chi_vr_vs)^2 / F_vs^2 (A2012 Eq. 11)"}),
-        "transfer_ratio_sigma": (PK, pk(tf.sigma_T1_k),
+        "transfer_ratio_sigma": (PK, pk(tf.transfer_ratio_sigma_k),
                                  {"units": "1", "long_name": "1-sigma sampling uncertainty of transfer_ratio"}),
-        "transfer_cross_sigma": (PK, pk(tf.sigma_T2_k),
+        "transfer_cross_sigma": (PK, pk(tf.transfer_cross_sigma_k),
                                  {"units": "1", "long_name": "1-sigma sampling uncertainty of transfer_cross"}),
-        "transfer_ratio_ideal": (PK, pk(tf_ideal.T1_k),
+        "transfer_ratio_ideal": (PK, pk(tf_ideal.transfer_ratio_k),
                                  {"units": "1", "long_name": "method 1 with the noise-free tier-1 line-of-sight average"}),
-        "transfer_cross_ideal": (PK, pk(tf_ideal.T2_k),
+        "transfer_cross_ideal": (PK, pk(tf_ideal.transfer_cross_k),
                                  {"units": "1", "long_name": "method 2 with the noise-free tier-1 line-of-sight average"}),
         "transfer_theory": (("k",), transfer_aligned(k, zR),
                             {"units": "1", "long_name": "exp(-2 k zR) (A2012 Eq. 9), beam along the wind"}),
@@ -362,10 +363,10 @@ def period_dataset(scene: Scene, params, r: dict):
         note = (f"beam along the wind at U = {theory.info['U']:.3g} m/s (mean of the periods), the scene's "
                 f"Mann parameters, {theory.info['n_lines']} seeded lines of {theory.info['n_points']} points of "
                 "the theory's own (cwlidar_sim.analysis.estimator_transfer), not this run's field")
-        dv["transfer_theory_estimator"] = (("estimator", "k"), theory.T2_ek,
+        dv["transfer_theory_estimator"] = (("estimator", "k"), theory.transfer_cross_ek,
                                            {"units": "1", "long_name": "expected method 2 (Re(chi)^2 / F_vs^2) of "
                                             "each Doppler estimator: " + note})
-        dv["transfer_theory_estimator_sigma"] = (("estimator", "k"), theory.sigma_T2_ek,
+        dv["transfer_theory_estimator_sigma"] = (("estimator", "k"), theory.transfer_cross_sigma_ek,
                                                  {"units": "1", "long_name": "1-sigma ensemble uncertainty of "
                                                   "transfer_theory_estimator"})
         dv["probe_length_effective"] = (("estimator",), theory.zR_eff_e,
@@ -382,9 +383,9 @@ def period_dataset(scene: Scene, params, r: dict):
     if vnames:
         var = [r["variants"][n] for n in vnames]
         VPK = ("variant", "period", "k")
-        dv["transfer_ratio_variant"] = (VPK, np.stack([pk(v["tf"].T1_k) for v in var]),
+        dv["transfer_ratio_variant"] = (VPK, np.stack([pk(v["tf"].transfer_ratio_k) for v in var]),
                                         {"units": "1", "long_name": "method 1 for each processing variant"})
-        dv["transfer_cross_variant"] = (VPK, np.stack([pk(v["tf"].T2_k) for v in var]),
+        dv["transfer_cross_variant"] = (VPK, np.stack([pk(v["tf"].transfer_cross_k) for v in var]),
                                         {"units": "1", "long_name": "method 2 for each processing variant"})
         dv["availability_variant"] = (("variant", "period"), np.array([[v["availability"]] for v in var]),
                                       {"units": "1", "long_name": "availability of each processing variant (as "
@@ -399,7 +400,7 @@ def period_dataset(scene: Scene, params, r: dict):
                                  {"units": units, "long_name": f"Mann {name} fitted to the sonic spectra"})
             dv[f"fit_{name}_std"] = (("period",), pk(f.std[name] if f else np.nan),
                                      {"units": units, "long_name": f"1-sigma uncertainty of fit_{name}"})
-    from .. import __version__
+    from .._version import __version__
 
     attrs = {
         "title": f"cwlidar_sim campaign {scene.name}",

@@ -36,7 +36,7 @@ import json
 import os
 import warnings
 
-from .. import __version__
+from .._version import __version__
 from .._atomic import write_netcdf_atomic
 from .._preflight import PreflightError, ResultsWriteError, check_scheduler, preflight
 from .spec import RESULTS_VERSION

@@ -55,7 +55,7 @@ from .auto import resolve
 from .planning import plan_field, scene_params
 from .reproduce import BUNDLED, bundled_scene
 from .scene import Scene, load_scene, scene_from_dict
-from .spec import parse_toml, read_text_file
+from .spec import parse_toml, read_text_file, select_periods, set_path
 from .store import estimate_bytes
 
 __all__ = ["CampaignSpec", "Task", "load_campaign", "loads_campaign", "expand", "estimate_task", "COST_S_PER_SIM_HOUR"]
@@ -104,33 +104,6 @@ def check_keys_plain(where, d, allowed):
     unknown = sorted(set(d) - set(allowed))
     if unknown:
         raise ValueError(f"unknown key(s) in {where}: {unknown}; allowed: {sorted(allowed)}")
-
-
-def set_path(tree: dict, key: str, value) -> None:
-    """Set ``tree[a][b]... = value`` for the dotted ``key`` 'a.b...' (numbers index lists)."""
-    parts = key.split(".")
-    if not all(parts):
-        raise ValueError(f"scene key {key!r} is not a dotted path like 'lidar.cnr_db'")
-    node = tree
-    for i, part in enumerate(parts[:-1]):
-        nxt = parts[i + 1]
-        if isinstance(node, list):
-            if not part.isdigit() or int(part) >= len(node):
-                raise ValueError(f"scene key {key!r}: {part!r} is not an index of a list of {len(node)}")
-            node = node[int(part)]
-            continue
-        if part not in node or node[part] is None:
-            node[part] = [] if nxt.isdigit() else {}
-        node = node[part]
-        if not isinstance(node, (dict, list)):
-            raise ValueError(f"scene key {key!r}: {'.'.join(parts[:i + 1])!r} is a value, not a table")
-    last = parts[-1]
-    if isinstance(node, list):
-        if not last.isdigit() or int(last) >= len(node):
-            raise ValueError(f"scene key {key!r}: {last!r} is not an index of a list of {len(node)}")
-        node[int(last)] = value
-    else:
-        node[last] = value
 
 
 @dataclasses.dataclass(frozen=True)
@@ -256,11 +229,7 @@ class CampaignSpec:
                                  f"nor a scene file ({path!r} does not exist)")
             scene = load_scene(path)
         if self.periods:
-            names = [p.name for p in scene.periods]
-            missing = [p for p in self.periods if p not in names]
-            if missing:
-                raise ValueError(f"periods: {missing} are not periods of the base scene; allowed: {names}")
-            scene = scene.replace(periods=tuple(p for p in scene.periods if p.name in self.periods))
+            scene = select_periods(scene, list(self.periods))
         return scene
 
 

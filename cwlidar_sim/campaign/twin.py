@@ -354,7 +354,7 @@ def _staring_period(scene: Scene, tp: TwinPeriod, rows, params):
                                     segment_duration=a.segment_duration, window=a.window, detrend=a.detrend)
             with np.errstate(invalid="ignore", divide="ignore"):
                 coh = np.abs(tf.chi_k) ** 2 / (tf.F_r_k * tf.F_s_k)
-            row.update(T1=np.asarray(tf.T1_k), T2=np.asarray(tf.T2_k), coh=coh, k=np.asarray(tf.k_k))
+            row.update(T1=np.asarray(tf.transfer_ratio_k), T2=np.asarray(tf.transfer_cross_k), coh=coh, k=np.asarray(tf.k_k))
     out = _dataset(scene, tp, rows, rec10, k_edges)
     if "k" in out.coords:
         g2, g4 = focus_coherence(scene, tp, rows[-1]["plan"], params, k_edges)

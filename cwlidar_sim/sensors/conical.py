@@ -77,6 +77,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import DRAW_BLOCK, SIGNAL_MAX_ESTIMATES, TIERS, FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
@@ -378,6 +379,8 @@ class ConicalRecord:
         Variant name -> ``(speed_e, flags_e)`` (processing variants of the same spectra).
     """
 
+    __repr__ = summary_repr
+
     time_e: np.ndarray
     azimuth_e: np.ndarray
     height_index_e: np.ndarray
@@ -415,7 +418,10 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
     U : float
         Mean wind along +x [m/s] (Taylor advection and the mean of u).
     seed : int or numpy.random.Generator, optional
-        Randomness of tiers 'spectral' and 'signal'; ignored by tier 'los'.
+        Randomness of tiers 'spectral' and 'signal' (background, speckle,
+        noise): required by them (a ValueError without one: a record is never
+        drawn from fresh entropy, the same seed gives the same bits); not used
+        by tier 'los', whose record is the field's.
     start : float
         Start time [s].
     wrap : bool

@@ -48,6 +48,7 @@ import dataclasses
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..beam.sampling import _prepare_beam, direction_from_angles
 from ..signal.chain import (
@@ -165,6 +166,8 @@ class LidarRecord:
         ``cloud_weight`` and ``cloud_fraction``.
     """
 
+    __repr__ = summary_repr
+
     time_e: np.ndarray
     vlos_e: np.ndarray
     speed_e: np.ndarray
@@ -174,7 +177,7 @@ class LidarRecord:
     info: dict
 
 
-def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, variants=None, chunk: int = 4096,
+def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed=None, *, variants=None, chunk: int = 4096,
                     transverse_speed: float | None = None, wrap: bool = False,
                     calibration_time: float = 0.0) -> LidarRecord:
     """Simulate a staring lidar's record of speed estimates in a turbulence field.
@@ -189,9 +192,11 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
         Estimate mid-times [s] (e.g. ``arange(n) / instrument.estimate_rate``).
     U : float
         Mean wind along +x [m/s] (Taylor advection and the mean of u).
-    seed : int or numpy.random.Generator
-        Randomness of tiers 'spectral' and 'signal' (background and
-        speckle/noise); ignored (may be None) for tier 'los'.
+    seed : int or numpy.random.Generator, optional
+        Randomness of tiers 'spectral' and 'signal' (background, speckle,
+        noise): required by them (a ValueError without one: a record is never
+        drawn from fresh entropy, the same seed gives the same bits); not used
+        by tier 'los', whose record is the field's.
     variants : list of dict, optional
         Extra processing of the same spectra (:data:`VARIANT_KEYS`), e.g.
         ``{'name': 'raise10', 'threshold_raise_percent': 10}`` or
@@ -213,6 +218,8 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed, *, vari
     """
     if not isinstance(lidar, StaringLidar):
         raise TypeError(f"lidar must be a StaringLidar, got {type(lidar).__name__}")
+    if lidar.tier != "los" and seed is None:
+        raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
     inst = lidar.instrument
     U = check_real("U", U)
     check_int("chunk", chunk, lo=1, hi=10**6)

@@ -86,6 +86,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
@@ -362,6 +363,8 @@ class NacelleRecord:
         to correct them alike.
     """
 
+    __repr__ = summary_repr
+
     time_e: np.ndarray
     azimuth_e: np.ndarray
     focus_index_e: np.ndarray
@@ -427,7 +430,10 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
     U : float
         Mean wind along +x [m/s] (Taylor advection and the mean of u).
     seed : int or numpy.random.Generator, optional
-        Randomness of tiers 'spectral' and 'signal'; ignored by tier 'los'.
+        Randomness of tiers 'spectral' and 'signal' (background, speckle,
+        noise): required by them (a ValueError without one: a record is never
+        drawn from fresh entropy, the same seed gives the same bits); not used
+        by tier 'los', whose record is the field's.
     start : float
         Start time [s].
     wrap : bool

@@ -10,6 +10,8 @@ import dataclasses
 
 import numpy as np
 
+from .._repr import summary_repr
+
 __all__ = ["PlatformMotion", "rotation_matrices", "read_platform_csv", "PLATFORM_MAX_GAP"]
 
 #: Default longest step of a platform series [s]: the motion between samples is interpolated linearly, and a
@@ -50,6 +52,8 @@ class PlatformMotion:
     roll_deg, pitch_deg, yaw_deg : array_like, shape (n,), optional
         The nacelle's attitude about x, y, z [deg], each within [-45, 45]; default 0.
     """
+
+    __repr__ = summary_repr
 
     time: np.ndarray
     surge: np.ndarray | None = None

@@ -99,6 +99,7 @@ from typing import Callable
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_bool, check_choice, check_int, check_memory, check_real
 from .instrument import Instrument
 from .processing import FAIL_FLAGS, Flag, background_gain, background_spectrum, estimate_variants, usable_fraction
@@ -231,6 +232,8 @@ class FocusGroup:
         Time of ``time_e = 0`` on the background-calibration clock [s].
     """
 
+    __repr__ = summary_repr
+
     instrument: Instrument
     index_e: np.ndarray
     time_e: np.ndarray
@@ -267,6 +270,8 @@ class ChainRecord:
     info : dict
         ``flag_counts``, ``n_failed``, ``variant_availability``, ``tier``, ``estimator``.
     """
+
+    __repr__ = summary_repr
 
     vlos_e: np.ndarray
     speed_e: np.ndarray

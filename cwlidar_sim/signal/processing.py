@@ -63,6 +63,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .._validation import check_choice, check_int
 from ._tasks import _ROWS_PER_TASK, _rng, _run_tasks  # noqa: F401  (_rng: used by sensors)
 from .noise import noise_floor
@@ -198,6 +199,8 @@ class DopplerEstimates:
     estimator : str
         Name of the estimator used.
     """
+
+    __repr__ = summary_repr
 
     speed_e: np.ndarray
     frequency_e: np.ndarray

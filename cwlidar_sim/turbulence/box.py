@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from .._repr import summary_repr
 from .. import _config
 from .._validation import check_bool, check_choice, check_int, check_memory, check_real, check_seed, check_tuple
 from .parameters import MannParameters
@@ -524,6 +525,8 @@ class BoxExpectation:
         [m^3 s^-2] at ``k1_k`` (what the x-periodogram of the box, averaged
         over y and z, estimates).
     """
+
+    __repr__ = summary_repr
 
     covariances: object
     mean_covariances: object

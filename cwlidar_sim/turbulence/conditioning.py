@@ -421,16 +421,16 @@ def conditional_mean(field, records, *, U: float | None = None, params=None):
     return condition_field(zero, records, seed=None, U=U, params=params, inplace=True)
 
 
-def conditioned_line(params, n: int, dx: float, seed: int, records, *, U: float | None = None, y: float = 0.0,
+def conditioned_line(params, shape, spacing, seed: int, records, *, U: float | None = None, y: float = 0.0,
                      z: float = 0.0, dtype=np.float32):
-    """``generate_line(params, n, dx, seed)`` at (y, z), conditioned on ``records`` (see :func:`condition_field`).
+    """``generate_line(params, shape, spacing, seed)`` at (y, z), conditioned on ``records`` (see :func:`condition_field`).
 
     The line's attributes gain ``y`` and ``z`` [m] (where ``beam.sample_los``
     places it); the records must lie on it.
     """
     from .fields import generate_line
 
-    field = generate_line(params, n, dx, seed, dtype=dtype)
+    field = generate_line(params, shape, spacing, seed, dtype=dtype)
     field.attrs.update(y=check_real("y", y), z=check_real("z", z))
     out = condition_field(field, records, seed=seed, U=U, params=params, inplace=True)
     out.attrs["generator"] = "cwlidar_sim.turbulence.conditioned_line"

@@ -44,8 +44,30 @@ def _sym_sqrt(phi_n33):
     return (vec * np.sqrt(np.clip(lam, 0.0, None))[:, None, :]) @ np.swapaxes(vec, 1, 2)
 
 
-def line_spectra(params: MannParameters, n: int, dx: float):
-    """Cross-spectral matrices a line of n points at spacing dx is built from.
+def _line_grid(shape, spacing) -> tuple:
+    """A line's (n, dx) from ``shape`` (Nx, or (Nx,)) and ``spacing`` (dx, or (dx,)), as a box's or a plane's."""
+    if isinstance(shape, (tuple, list, np.ndarray)):
+        if len(shape) != 1:
+            raise ValueError(f"shape={tuple(shape)!r} has {len(shape)} entries; a line's shape is Nx (or (Nx,))")
+        shape = shape[0]
+    if isinstance(spacing, (tuple, list, np.ndarray)):
+        if len(spacing) != 1:
+            raise ValueError(f"spacing={tuple(spacing)!r} has {len(spacing)} entries; a line's spacing is dx "
+                             f"(or (dx,)) [m]")
+        spacing = spacing[0]
+    return check_int("shape", shape, lo=2), check_real("spacing", spacing, lo=0.0, lo_open=True)
+
+
+def line_spectra(params: MannParameters, shape, spacing):
+    """Cross-spectral matrices a line of ``shape`` = n points at ``spacing`` = dx is built from.
+
+    Parameters
+    ----------
+    params : MannParameters
+    shape : int or (int,)
+        Number of points n, >= 2.
+    spacing : float or (float,)
+        Spacing dx [m], > 0.
 
     Returns
     -------
@@ -65,7 +87,7 @@ def line_spectra(params: MannParameters, n: int, dx: float):
         read-only arrays, shared between calls.
     """
     _check_params(params)
-    return _line_spectra(params, check_int("n", n, lo=2), check_real("dx", dx, lo=0.0, lo_open=True))
+    return _line_spectra(params, *_line_grid(shape, spacing))
 
 
 _line_knots_lock = threading.Lock()
@@ -164,16 +186,19 @@ def _line_spectra(params, n, dx):
     return k, F
 
 
-def generate_line(params: MannParameters, n: int, dx: float, seed: int, *, dtype=np.float32):
+def generate_line(params: MannParameters, shape, spacing, seed: int, *, dtype=np.float32):
     """Generate u, v, w on a line along x.
+
+    The arguments are a box's and a plane's (:func:`generate_box`,
+    :func:`generate_plane`) with one axis.
 
     Parameters
     ----------
     params : MannParameters
-    n : int
-        Number of points, >= 2.
-    dx : float
-        Spacing [m], > 0.
+    shape : int or (int,)
+        Number of points Nx, >= 2.
+    spacing : float or (float,)
+        Spacing dx [m], > 0.
     seed : int
         Seed, 0 <= seed < 2**63.
     dtype : float32 or float64
@@ -195,8 +220,7 @@ def generate_line(params: MannParameters, n: int, dx: float, seed: int, *, dtype
     the finer line uses there, see :func:`generate_box`).
     """
     _check_params(params)
-    n = check_int("n", n, lo=2)
-    dx = check_real("dx", dx, lo=0.0, lo_open=True)
+    n, dx = _line_grid(shape, spacing)
     seed = check_seed("seed", seed)
     dt = _check_dtype(dtype)
     check_memory(f"a line of {n} points", 3 * (n + 2) * 16)

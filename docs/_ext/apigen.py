@@ -62,6 +62,11 @@ def module_names(modname: str) -> list[str]:
             and (inspect.isclass(o) or inspect.isfunction(o))]
 
 
+def root_names(package: str = PACKAGE) -> list[str]:
+    """The package root's public names (its ``__all__`` but the dunders): the high-level API."""
+    return [n for n in importlib.import_module(package).__all__ if not n.startswith("__")]
+
+
 def public_names(package: str = PACKAGE) -> dict[str, list[str]]:
     """``{subpackage: __all__}`` for every public subpackage: the names the reference must hold."""
     return {sub: list(importlib.import_module(sub).__all__) for sub in subpackages(package)}
@@ -134,8 +139,11 @@ def generate(outdir: str, package: str = PACKAGE) -> list[str]:
     """Write ``outdir/index.rst`` and one page per subpackage and public module; returns the page names."""
     os.makedirs(outdir, exist_ok=True)
     pages = [package]
+    root = importlib.import_module(package)
+    top = root_names(package)
     _write(os.path.join(outdir, f"{package}.rst"),
-           _title(package) + f".. automodule:: {package}\n")
+           _title(package) + f".. automodule:: {package}\n\n"
+           + _section(package, top, {n: getattr(root, n) for n in top}, [package]))
     for sub in subpackages(package):
         mod = importlib.import_module(sub)
         names = list(mod.__all__)

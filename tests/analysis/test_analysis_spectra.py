@@ -127,11 +127,11 @@ def test_identical_series_give_unit_transfer():
     x = rng.standard_normal(12000)
     tf = transfer_functions(x, x, fs=10.0, U=8.0, k_edges=log_bins(2e-3, 3.0, 5))
     ok = tf.n_k > 0
-    np.testing.assert_allclose(tf.T1_k[ok], 1.0, rtol=1e-12)
-    np.testing.assert_allclose(tf.T2_k[ok], 1.0, rtol=1e-12)
+    np.testing.assert_allclose(tf.transfer_ratio_k[ok], 1.0, rtol=1e-12)
+    np.testing.assert_allclose(tf.transfer_cross_k[ok], 1.0, rtol=1e-12)
     np.testing.assert_allclose(tf.coherence_k[ok], 1.0, rtol=1e-12)
-    assert np.all(tf.sigma_T1_k[ok] < 1e-6) and np.all(tf.sigma_T2_k[ok] < 1e-6)
-    assert np.all(np.isnan(tf.T1_k[~ok]))
+    assert np.all(tf.transfer_ratio_sigma_k[ok] < 1e-6) and np.all(tf.transfer_cross_sigma_k[ok] < 1e-6)
+    assert np.all(np.isnan(tf.transfer_ratio_k[~ok]))
     np.testing.assert_allclose(tf.k_k, np.sqrt(tf.k_edges[1:] * tf.k_edges[:-1]))
 
 
@@ -161,8 +161,8 @@ def test_known_filter_gives_T2_equal_ReH2_and_T1_with_noise_floor(delay):
     mH2, _ = bin_average(k, H**2, e)
     ok = tf.n_k >= 30  # the delta-method sigma needs many raw values
     assert ok.sum() >= 10
-    z2 = (tf.T2_k - mReH**2)[ok] / tf.sigma_T2_k[ok]
-    z1 = (tf.T1_k - (mH2 + noise_var))[ok] / tf.sigma_T1_k[ok]
+    z2 = (tf.transfer_cross_k - mReH**2)[ok] / tf.transfer_cross_sigma_k[ok]
+    z1 = (tf.transfer_ratio_k - (mH2 + noise_var))[ok] / tf.transfer_ratio_sigma_k[ok]
     # Gaussian to first order: |z| < 4.5 for ~15 bins fails with p < 1e-4, and
     # mean(z^2) ~ chi2_nu / nu lies in [0.2, 2.6] with p > 0.998 for nu >= 10
     # (the sigmas themselves are calibrated against seed scatter below).
@@ -171,7 +171,7 @@ def test_known_filter_gives_T2_equal_ReH2_and_T1_with_noise_floor(delay):
         assert 0.2 < np.mean(z**2) < 2.6, np.mean(z**2)
     # Noise lifts method 1 where the filter is strong, not method 2 (A2012 Fig. 6).
     hi = ok & (tf.k_k > 2.5)
-    assert np.all(tf.T1_k[hi] > noise_var) and np.all(tf.T2_k[hi] < 0.5 * noise_var)
+    assert np.all(tf.transfer_ratio_k[hi] > noise_var) and np.all(tf.transfer_cross_k[hi] < 0.5 * noise_var)
     # Im(chi) is H sin(k U dt) F_s: zero-phase leaves none beyond scatter (std of the
     # Im part of a mean of n raw values: sqrt((Fr Fs - Re^2) / (2 n))); a delay does.
     sd_im = np.sqrt((tf.F_r_k * tf.F_s_k - tf.chi_k.real**2) / (2 * tf.n_k))
@@ -181,7 +181,7 @@ def test_known_filter_gives_T2_equal_ReH2_and_T1_with_noise_floor(delay):
         # where k U dt = pi / 2 (k = 1.96 rad/m) the in-phase part vanishes: T2 << |chi|^2 / F_s^2
         mid = ok & (tf.k_k > 1.5) & (tf.k_k < 2.5)
         assert mid.any()
-        assert np.all(tf.T2_k[mid] < 0.1 * np.abs(tf.chi_k[mid]) ** 2 / tf.F_s_k[mid] ** 2)
+        assert np.all(tf.transfer_cross_k[mid] < 0.1 * np.abs(tf.chi_k[mid]) ** 2 / tf.F_s_k[mid] ** 2)
 
 
 def _sigma_calibration(n_seeds, delay, noise_sd, fs=10.0, U=8.0, n_per=512, m=8):
@@ -194,10 +194,10 @@ def _sigma_calibration(n_seeds, delay, noise_sd, fs=10.0, U=8.0, n_per=512, m=8)
         y = 0.5 * x + 0.25 * (np.roll(x, 1) + np.roll(x, -1))
         y = np.roll(y, delay) + noise_sd * rng.standard_normal(x.size)
         tf = transfer_functions(y, x, fs=fs, U=U, k_edges=e, segment_duration=n_per / fs)
-        T1.append(tf.T1_k)
-        T2.append(tf.T2_k)
-        s1.append(tf.sigma_T1_k)
-        s2.append(tf.sigma_T2_k)
+        T1.append(tf.transfer_ratio_k)
+        T2.append(tf.transfer_cross_k)
+        s1.append(tf.transfer_ratio_sigma_k)
+        s2.append(tf.transfer_cross_sigma_k)
     return tf.n_k, np.array(T1), np.array(T2), np.array(s1), np.array(s2)
 
 
@@ -311,3 +311,15 @@ def test_bad_input():
         component_spectra(x, x, x, fs=1.0, U=1.0, k_edges=[1.0], segment_duration=10.0)
     with pytest.raises(ValueError, match="equal lengths"):
         component_spectra(x, x, x[:-1], fs=1.0, U=1.0, k_edges=[0.1, 1.0], segment_duration=10.0)
+
+
+def test_the_two_methods_carry_the_results_files_names():
+    """One name per quantity: method 1 is transfer_ratio, method 2 transfer_cross, in the API as in a results file."""
+    import dataclasses
+
+    from cwlidar_sim.analysis import EstimatorTransfer, TransferEstimate
+
+    names = {f.name for f in dataclasses.fields(TransferEstimate)}
+    assert {"transfer_ratio_k", "transfer_cross_k", "transfer_ratio_sigma_k", "transfer_cross_sigma_k"} <= names
+    assert {"transfer_cross_ek", "transfer_cross_sigma_ek"} <= {f.name for f in dataclasses.fields(EstimatorTransfer)}
+    assert not any(n.startswith(("T1", "T2", "sigma_T")) for n in names)

@@ -50,7 +50,7 @@ def test_probe_length_recovers_zR_and_a0_of_an_unseen_realisation():
     a0 = 0.024
     truth = INST.replace(telescope_radius=a0)
     sim = estimator_transfer(truth, P, 8.0, estimators=("median",), seed=99, **{**SMALL, "n_lines": 4})
-    fit = fit_probe_length(sim.k_k, sim.T2_ek[0], sim.sigma_T2_ek[0], instrument=INST, params=P, U=8.0,
+    fit = fit_probe_length(sim.k_k, sim.transfer_cross_ek[0], sim.transfer_cross_sigma_ek[0], instrument=INST, params=P, U=8.0,
                            estimator="median", band=(0.05, 1.5), zR_factors=(0.5, 0.71, 1.0), **SMALL)
     assert fit.nominal_a0 == 0.020 and fit.nominal_zR == pytest.approx(INST.rayleigh_length)
     assert abs(fit.zR - truth.rayleigh_length) < 2.5 * fit.zR_sigma, (fit.zR, fit.zR_sigma, truth.rayleigh_length)

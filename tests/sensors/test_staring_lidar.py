@@ -333,8 +333,10 @@ def test_bad_input_is_rejected_by_name(field):
         measure_staring(field, lid, t, U, 1, variants=[{"name": "a", "estimator": "best"}])
     with pytest.raises(ValueError, match=f"allowed: <= {SIGNAL_MAX_ESTIMATES}"):
         measure_staring(field, lid.replace(tier="signal"), times(SIGNAL_MAX_ESTIMATES + 1), U, 1)
+    with pytest.raises(ValueError, match="seed is required for tier 'spectral'"):
+        measure_staring(field, lid, t, U)
     with pytest.raises(TypeError, match="seed must be an integer"):
-        measure_staring(field, lid, t, U, None)
+        measure_staring(field, lid, t, U, 1.5)
     with pytest.raises(ValueError, match="times contains non-finite"):
         measure_staring(field, lid, np.array([0.0, np.nan]), U, 1)
     with pytest.raises(ValueError, match="beam leaves the line field in y"):
@@ -345,3 +347,20 @@ def test_bad_input_is_rejected_by_name(field):
         measure_staring(field, lid, t, math.inf, 1)
     with pytest.raises(ValueError, match="transverse_speed"):
         measure_staring(field, lid, t, U, 1, transverse_speed=-2.0)
+
+
+def test_one_seed_rule_for_the_lidars(field):
+    """seed: optional in every measure_*, required (by name) by the tiers that draw noise, unused by 'los'."""
+    import inspect
+
+    from cwlidar_sim.sensors import measure_conical, measure_nacelle
+
+    for fn in (measure_staring, measure_conical, measure_nacelle):
+        p = inspect.signature(fn).parameters["seed"]
+        assert p.default is None and p.kind is p.POSITIONAL_OR_KEYWORD, fn.__name__
+    t = times(20)
+    lid = StaringLidar(tier="los")
+    a = measure_staring(field, lid, t, U)
+    np.testing.assert_array_equal(a.speed_e, measure_staring(field, lid, t, U, 5).speed_e)
+    with pytest.raises(ValueError, match="seed is required for tier 'spectral'"):
+        measure_staring(field, lid.replace(tier="spectral"), t, U)

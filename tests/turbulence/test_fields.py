@@ -108,10 +108,12 @@ def test_same_seed_same_field_and_bad_input():
     b = generate_plane(P, (32, 8), (1.0, 1.0), 5, z=80.0)
     assert b.u.dims == ("x", "y") and b.attrs["z"] == 80.0
     assert np.array_equal(b.w.values, generate_plane(P, (32, 8), (1.0, 1.0), 5, z=80.0).w.values)
-    with pytest.raises(ValueError, match="n"):
+    with pytest.raises(ValueError, match="shape=1 is out of range"):
         generate_line(P, 1, 1.0, 0)
-    with pytest.raises(ValueError, match="dx"):
+    with pytest.raises(ValueError, match="spacing=-1.0 is out of range"):
         generate_line(P, 10, -1.0, 0)
+    with pytest.raises(ValueError, match="a line's shape is Nx"):
+        generate_line(P, (8, 8), 1.0, 0)
     with pytest.raises(ValueError, match="spacing"):
         generate_plane(P, (8, 8), (1.0, 0.0), 0)
     with pytest.raises(ValueError, match="shape"):
@@ -240,3 +242,18 @@ def test_line_spectra_spline_matches_direct_integration():
                       (got[:, 0, 2] - ref[3]) / np.sqrt(ref[0] * ref[2])])
         # Required: 1e-4 relative (measured <= 8e-6 at 20 knots per decade).
         assert err.max() < 1e-4
+
+
+def test_line_plane_and_box_take_the_same_arguments():
+    """One signature for the three fields: (params, shape, spacing, seed), by position or by keyword."""
+    import inspect
+
+    from cwlidar_sim.turbulence import generate_box, line_spectra, plane_spectra
+    from cwlidar_sim.turbulence.conditioning import conditioned_line, conditioned_plane
+
+    for fn in (generate_line, generate_plane, generate_box, conditioned_line, conditioned_plane):
+        assert list(inspect.signature(fn).parameters)[:4] == ["params", "shape", "spacing", "seed"], fn.__name__
+    assert list(inspect.signature(line_spectra).parameters) == list(inspect.signature(plane_spectra).parameters)
+    a = generate_line(params=P, shape=64, spacing=2.0, seed=3)
+    assert np.array_equal(a.u.values, generate_line(P, (64,), (2.0,), 3).u.values)
+    assert a.sizes["x"] == 64 and float(a.x[1] - a.x[0]) == 2.0

@@ -91,7 +91,7 @@ def scene_params(scene: Scene):
 
     A table whose tensor depends on the period's mean speed (``ti``,
     ``iec_class``, the surface layer) has none for the scene: None, each
-    period's is :func:`period_params`'s.
+    period's is :func:`~cwlidar_sim.campaign.planning.period_params`'s.
 
     Returns
     -------
@@ -209,7 +209,10 @@ def _pow2_at_least(n, lo=32):
 
 
 def plan_field(scene: Scene, index: int, params) -> FieldPlan:
-    """Field kind, size and sensor geometry of period ``index`` (``params`` None: the period's own, :func:`period_params`)."""
+    """Field kind, size and sensor geometry of period ``index``.
+
+    ``params`` None: the period's own tensor (:func:`~cwlidar_sim.campaign.planning.period_params`).
+    """
     from scipy.fft import next_fast_len
 
     from ..beam.sampling import direction_from_angles

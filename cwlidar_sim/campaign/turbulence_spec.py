@@ -114,7 +114,10 @@ def iec_sigma_u(iec_class: str, speed: float) -> float:
 
 
 def iec_length_scale(height: float) -> float:
-    """Mann length scale L = 0.8 Lambda_1 of IEC 61400-1 Annex C at ``height`` [m] (Lambda_1 = 0.7 z, 42 m above 60 m)."""
+    """Mann length scale L = 0.8 Lambda_1 of IEC 61400-1 Annex C at ``height`` [m], in m.
+
+    Lambda_1 = 0.7 z up to 60 m, 42 m above.
+    """
     z = check_real("height", height, lo=0.0, lo_open=True)
     return 0.8 * (0.7 * z if z <= 60.0 else 42.0)
 
@@ -261,10 +264,9 @@ class TurbulenceSpec(Spec):
                                  "taken; the explicit alpha_eps, length_scale, gamma hold at every height: drop height")
             if self.source == "fixed" and self.z0 is None:
                 set_field(self, "z0", 0.01)  # the older spelling's stored default (a scene's identity)
-            fill = dict(self._default or {}) if self._default and "alpha_eps" in self._default else {}
-            for k in ("alpha_eps", "length_scale", "gamma"):
-                if getattr(self, k) is None and k in fill:
-                    set_field(self, k, fill[k])
+            for k in ("alpha_eps", "length_scale", "gamma"):  # the kind's default tensor fills what is left out
+                if getattr(self, k) is None and k in (self._default or {}):
+                    set_field(self, k, self._default[k])
             missing = [k for k in ("alpha_eps", "length_scale", "gamma") if getattr(self, k) is None]
             if missing:
                 what = "source = 'fixed'" if self.source == "fixed" else "the explicit Mann tensor"

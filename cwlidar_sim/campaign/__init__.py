@@ -6,6 +6,8 @@ the stages below the campaign layer):
 ``spec``
     Scene-spec machinery shared by every scene kind (TOML interchange, key
     checks, ``RESULTS_VERSION``).
+``turbulence_spec``
+    The ``[turbulence]`` table of every scene kind.
 ``conical_scene``, ``nacelle_scene``, ``scene``
     The scene files: conical (:class:`ConicalScene`), nacelle
     (:class:`NacelleScene`) and staring (:class:`Scene`); :func:`load_scene`

@@ -116,7 +116,7 @@ def _box_points(scene: ConicalScene, index: int) -> tuple:
     hs = tuple(z) if scene.scan.cycle else (z,)
     d = scene.scan.spacing or default_spacing(min(hs))
     phi = math.radians(scene.scan.half_angle_deg)
-    tensor = scene.turbulence.params(_tensor_height(scene, index), p.mean_speed)[0]
+    tensor = scene.turbulence.params(_tensor_height(scene, index), p.mean_speed)
 
     inst = scene.lidar.build_instrument()
     zr_per_r2 = inst.wavelength / (math.pi * inst.telescope_radius**2)  # z_R / r^2 (A2012 Eq. 1)
@@ -178,7 +178,7 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
     if status is not None:
         status(f"{name}: box, lidar, cup, sonic")
     t0 = time.perf_counter()
-    tensor, su, ustar = scene.turbulence.params(_tensor_height(scene, index), p.mean_speed)
+    tensor, su, ustar = scene.turbulence.resolve(_tensor_height(scene, index), p.mean_speed)
     s = scene.scan
     hs = tuple(z) if s.cycle else (z,)
     spacing = s.spacing or conical_period.default_spacing(min(hs))

@@ -68,8 +68,10 @@ Example
     tier = "spectral"
     cnr_db = -10.0
 
-    [turbulence]                   # or alpha_eps, length_scale, gamma for one tensor at every height
-    source = "mann1994"            # neutral surface layer at each height (Mann 1994's Kaimal fit)
+    [turbulence]                   # the keys of every scene's [turbulence] (turbulence_spec); the default:
+    source = "mann1994"            # neutral surface layer at each height (Mann 1994's Kaimal fit); or
+                                   # obukhov_length = -200.0 (unstable); or ti = 0.1 / iec_class = "B"
+                                   # at each height; or alpha_eps, length_scale, gamma everywhere
 
     [[period]]
     name = "p0"
@@ -80,20 +82,15 @@ Example
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
-from ..turbulence.limits import MAX_TURBULENCE_INTENSITY, check_frozen_turbulence
 from ._labels import wind_from_toward
 from .conical_period import default_spacing
 from .lidar_spec import ConicalLidarSpec
-from .spec import SceneSpec, Spec, check_condition_on, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
-
-#: sigma_u / u* of the surface-layer sources, the larger of the two (IEC's 2.4; Mann's fit to Kaimal: 2.24), for the
-#: closed-form turbulence intensity of the frozen-turbulence check.
-SURFACE_SIGMA_U_OVER_USTAR = 2.4
+from .turbulence_spec import TurbulenceSpec
+from .spec import SceneSpec, Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS"]
 
@@ -235,60 +232,23 @@ class ScanSpec(Spec):
 
 
 @dataclasses.dataclass(frozen=True)
-class SurfaceTurbulenceSpec(Spec):
-    """Turbulence with height: a neutral surface layer, or one tensor for every height.
+class SurfaceTurbulenceSpec(TurbulenceSpec):
+    """The ``[turbulence]`` table of a conical scene: every scene's keys, the surface layer by default.
 
-    Parameters
-    ----------
-    source : {'mann1994', 'iec', 'fixed'}
-        'mann1994': Mann's (1994) tensor fit to Kaimal's neutral spectra at
-        each height (L = 0.59 z, alpha eps^(2/3) = 3.2 u*^2 z^(-2/3), Gamma = 3.9);
-        'iec': IEC 61400-1 at each height; 'fixed': ``alpha_eps``,
-        ``length_scale``, ``gamma`` everywhere.
-    z0 : float
-        Roughness length [m] of the log law giving u*; in (0, 2].
-    alpha_eps, length_scale, gamma : float, optional
-        The tensor for 'fixed'.
-    condition_on : tuple of RecordSpec
-        Measured records the boxes are conditioned on (the virtual twin,
-        :mod:`cwlidar_sim.campaign.twin`; run with ``cwlidar-sim twin``):
-        tables of :class:`cwlidar_sim.analysis.records.RecordSpec` keys;
-        ``position`` [m] is relative to the lidar (the cone's apex) in the
-        lidar's frame, x toward its azimuth 0, y toward azimuth 90 deg, z up:
-        a mast at the circle's centre at 40 m is ``[0, 0, 40]``.  Each box is
-        conditioned on the records inside it (a unit whose box holds none is
-        an error).  Relative paths are taken from the scene file's folder.
+    The keys, the ways they set the tensor and the refusals are
+    :class:`cwlidar_sim.campaign.turbulence_spec.TurbulenceSpec`'s; here a
+    table picking no way is ``source = "mann1994"`` (with ``z0`` default
+    0.01 m: Mann's 1994 fit to Kaimal's neutral spectra at each height,
+    ``L = 0.59 z``, ``alpha eps^(2/3) = 3.2 u*^2 z^(-2/3)``, ``Gamma = 3.9``),
+    and ``height`` defaults to each unit's (in cycle mode the box's reference
+    height), so ``ti``, ``sigma_u``, ``iec_class`` and the surface layer give
+    each height and period its own tensor.  ``condition_on``'s ``position``
+    [m] is relative to the lidar (the cone's apex) in the lidar's frame.
     """
 
-    source: str = "mann1994"
-    z0: float = 0.01
-    alpha_eps: float | None = None
-    length_scale: float | None = None
-    gamma: float | None = None
-    condition_on: tuple = ()
-
-    def __post_init__(self):
-        set_field(self, "condition_on", check_condition_on(self.condition_on))
-        check_choice("turbulence.source", self.source, ("mann1994", "iec", "fixed"))
-        set_field(self, "z0", check_real("turbulence.z0", self.z0, lo=0.0, hi=2.0, lo_open=True))
-        given = [self.alpha_eps, self.length_scale, self.gamma]
-        if self.source == "fixed":
-            if None in given:
-                raise ValueError("turbulence.source = 'fixed' needs alpha_eps, length_scale and gamma")
-            self.params()
-        elif any(g is not None for g in given):
-            raise ValueError(f"turbulence: alpha_eps, length_scale, gamma need source = 'fixed' "
-                             f"(source is {self.source!r})")
-
-    def params(self, height=None, speed=None):
-        """(MannParameters, sigma_u target or None, u* or None) at ``height`` [m] and ``speed`` [m/s]."""
-        from ..turbulence.parameters import MannParameters
-
-        if self.source == "fixed":
-            return MannParameters(self.alpha_eps, self.length_scale, self.gamma), None, None
-        from ..turbulence.surface_layer import surface_layer_parameters
-
-        return surface_layer_parameters(height, speed, z0=self.z0, source=self.source)
+    _kind = "conical"
+    _default = {"source": "mann1994"}
+    _has_height = True
 
 
 @dataclasses.dataclass(frozen=True)
@@ -412,22 +372,7 @@ class ConicalScene(SceneSpec):
             raise ValueError(f"units {dup[:5]} are named twice: scan.periods_per_height names a template's "
                              f"later passes <name>_<pass>; allowed: period names that are not another's "
                              f"<name>_<pass>")
-        if self.turbulence.source == "fixed":
-            fixed = self.turbulence.params()[0]
-            for p in periods:
-                check_frozen_turbulence(fixed, p.mean_speed, f"period[{p.name}]")
-        else:
-            # the surface layer's sigma_u / U = c kappa / ln(z / z0), whatever U (c = sigma_u / u*: 2.4 for 'iec',
-            # 2.24 for Mann's fit): in closed form, without the tensors' quadratures
-            z0, zmin = self.turbulence.z0, min(self.scan.heights)
-            ti = SURFACE_SIGMA_U_OVER_USTAR * 0.4 / math.log(zmin / z0)
-            if ti > MAX_TURBULENCE_INTENSITY:
-                raise ValueError(
-                    f"scan.heights: {zmin:g} m over turbulence.z0 = {z0:g} m gives a surface-layer turbulence "
-                    f"intensity sigma_u/U = {ti:.2f}, above the {MAX_TURBULENCE_INTENSITY:g} that Taylor's "
-                    f"frozen-turbulence hypothesis carries; allowed: heights >= "
-                    f"{z0 * math.exp(SURFACE_SIGMA_U_OVER_USTAR * 0.4 / MAX_TURBULENCE_INTENSITY):.3g} m, or a "
-                    f"smaller z0")
+        self.turbulence.check_frozen(periods, self.scan.heights, "scan.heights")
         for p in periods:
             dur = check_real(f"period {p.name!r} duration", self.period_duration(p), lo=10.0, hi=3600.0)
             if self.scan.cycle:

@@ -183,6 +183,9 @@ def plot_misalignment(ds, theta_deg=5.0, i=None):
     if "fit_alpha_eps" in ds and np.isfinite(float(ds.fit_alpha_eps[i])):
         p = MannParameters(float(ds.fit_alpha_eps[i]), float(ds.fit_length_scale[i]), float(ds.fit_gamma[i]))
         src = f"fitted to period {ds.period.values[i]}"
+    elif "mann_alpha_eps" in ds:  # a tensor per period ([turbulence] ti, iec_class, source)
+        p = MannParameters(float(ds.mann_alpha_eps[i]), float(ds.mann_length_scale[i]), float(ds.mann_gamma[i]))
+        src = f"period {ds.period.values[i]}'s parameters"
     else:
         p = MannParameters(ds.attrs["alpha_eps"], ds.attrs["length_scale"], ds.attrs["gamma"])
         src = "scene parameters"

@@ -81,7 +81,7 @@ def estimate_unit(scene: NacelleScene, index: int) -> dict:
     lid = scene.sensor(p)
     dur = scene.period_duration(p)
     (nx, ny, nz), *_ = nacelle_field_shape(lid, p.mean_speed, dur, s.spacing, s.rotor_radius,
-                                           min_extent=2.0 * scene.turbulence.length_scale)
+                                           min_extent=2.0 * scene.period_params(p).length_scale)
     planes = 1 if p.lifetime is None else 1 + len(s.focus_distances)
     points = nx * ny * nz * (2 if s.lateral_doubling else 1)
     nf = len(s.focus_distances)
@@ -119,7 +119,7 @@ def period_records(scene: NacelleScene, index: int, *, status=None):
     p = scene.periods[index]
     s = scene.scan
     U, dur = p.mean_speed, scene.period_duration(p)
-    params = scene.turbulence.params()
+    params = scene.period_params(p)
     lidar_all = scene.sensor(p)
     evolution = None if p.lifetime is None else EddyLifetimeEvolution(p.lifetime, U)
     cost = {}
@@ -207,7 +207,7 @@ def _theory(scene, p, r, edges):
     ev = None if p.lifetime is None else EddyLifetimeEvolution(p.lifetime, p.mean_speed)
     # paired as the simulation pairs: the preview less the revolution average's mean delay
     shift = lid.preview_distance(r) / U - float(beams.delay_pb.mean())
-    th = rews_spectra(theory_wavenumbers(scene, p), scene.turbulence.params(),
+    th = rews_spectra(theory_wavenumbers(scene, p), scene.period_params(p),
                       RotorDisc(s.rotor_radius, s.rotor_exponent), beams, U, weighting=lid.weighting, evolution=ev,
                       resolution=30.0, preview_shift=shift, wavelength=opt.wavelength, radius=opt.radius)
     est = estimated_spectra(th, U, fs=1.0 / lid.dwell_time, segment_duration=s.segment_duration, window="hann",

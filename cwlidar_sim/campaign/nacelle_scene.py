@@ -31,8 +31,8 @@ Example
     tier = "spectral"
     variants = [{ name = "median", estimator = "median" }]
 
-    [turbulence]
-    alpha_eps = 0.1
+    [turbulence]                    # the keys of every scene's [turbulence] (turbulence_spec): or
+    alpha_eps = 0.1                 # ti = 0.12 (or iec_class = "B") with height = 90.0, the hub's
     length_scale = 33.6
     gamma = 3.9
 
@@ -54,8 +54,8 @@ import os
 import numpy as np
 
 from .._validation import check_bool, check_int, check_real, check_seed, check_str
-from ..turbulence.limits import check_frozen_turbulence
 from .lidar_spec import LidarSpecBase
+from .turbulence_spec import TurbulenceSpec
 from .spec import SceneSpec, Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
 
 __all__ = ["NacelleScanSpec", "NacelleTurbulenceSpec", "NacellePeriodSpec", "NacelleLidarSpec",
@@ -174,34 +174,23 @@ class NacelleScanSpec(Spec):
 
 
 @dataclasses.dataclass(frozen=True)
-class NacelleTurbulenceSpec(Spec):
-    """The Mann tensor of every period (at hub height).
+class NacelleTurbulenceSpec(TurbulenceSpec):
+    """The ``[turbulence]`` table of a nacelle scene: every scene's keys, at hub height.
 
-    Parameters
-    ----------
-    alpha_eps : float
-        alpha eps^(2/3) [m^(4/3) s^-2].
-    length_scale : float
-        L [m].
-    gamma : float
-        Shear distortion Gamma [-].
+    The keys, the ways they set the tensor and the refusals are
+    :class:`cwlidar_sim.campaign.turbulence_spec.TurbulenceSpec`'s; here a
+    table picking no way, and the explicit keys it leaves out, are
+    ``alpha_eps = 0.1``, ``length_scale = 33.6`` (IEC's 0.8 x 42 m above 60 m),
+    ``gamma = 3.9``.  The scene has no hub height of its own: ``height`` [m]
+    is needed where the tensor depends on it (the surface layer, and
+    ``ti`` / ``sigma_u`` / ``iec_class`` without ``length_scale``).  A
+    period's mean speed is the hub height's; ``ti`` and ``iec_class`` give
+    each period its own tensor (:meth:`NacelleScene.period_params`).
+    No ``fit_to`` or ``condition_on``.
     """
 
-    alpha_eps: float = 0.1
-    length_scale: float = 33.6
-    gamma: float = 3.9
-
-    def __post_init__(self):
-        try:
-            self.params()
-        except (ValueError, TypeError) as e:
-            raise type(e)(f"turbulence.{e}") from None
-
-    def params(self):
-        """The :class:`cwlidar_sim.turbulence.MannParameters`."""
-        from ..turbulence.parameters import MannParameters
-
-        return MannParameters(self.alpha_eps, self.length_scale, self.gamma)
+    _kind = "nacelle"
+    _default = {"alpha_eps": 0.1, "length_scale": 33.6, "gamma": 3.9}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -396,9 +385,8 @@ class NacelleScene(SceneSpec):
         set_field(self, "duration", check_real("duration", self.duration, lo=30.0, hi=7200.0))
         set_field(self, "seed", check_seed("seed", self.seed))
         check_str("description", self.description, allow_empty=True)
-        params = self.turbulence.params()
+        self.turbulence.check_frozen(periods)
         for p in periods:
-            check_frozen_turbulence(params, p.mean_speed, f"period[{p.name}]")
             dur = self.period_duration(p)
             if dur < 3.0 * self.scan.segment_duration:
                 raise ValueError(f"period {p.name!r} lasts {dur:g} s, shorter than 3 coherence segments of "
@@ -408,6 +396,10 @@ class NacelleScene(SceneSpec):
                 self.sensor(p)
             except (ValueError, TypeError) as e:
                 raise type(e)(f"nacelle lidar of period {p.name!r}: {e}") from None
+
+    def period_params(self, period):
+        """The :class:`cwlidar_sim.turbulence.MannParameters` of a period (its mean speed at hub height)."""
+        return self.turbulence.params(None, period.mean_speed)
 
     def sensor(self, period, focus_distances=None):
         """The :class:`cwlidar_sim.sensors.NacelleLidar` of a period (all focus distances, or those given)."""

@@ -26,7 +26,8 @@ from ..analysis.record_files import file_digest
 from ..analysis.records import RecordSpec, fit_mann_to_record, read_record
 from .scene import Scene
 
-__all__ = ["FieldPlan", "choose_field", "plan_field", "generate_field", "scene_params", "MEAN_SPEED_TOLERANCE"]
+__all__ = ["FieldPlan", "choose_field", "plan_field", "generate_field", "scene_params", "period_params",
+           "theory_params", "MEAN_SPEED_TOLERANCE"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,14 +89,18 @@ def scene_params(scene: Scene):
     mean by more than :data:`MEAN_SPEED_TOLERANCE` is an error (not for a
     twin's scene, whose periods take the conditioning records' mean).
 
+    A table whose tensor depends on the period's mean speed (``ti``,
+    ``iec_class``, the surface layer) has none for the scene: None, each
+    period's is :func:`~cwlidar_sim.campaign.planning.period_params`'s.
+
     Returns
     -------
-    (MannParameters, dict or None)
-        The parameters and, for ``fit_to``, the fit's summary.
+    (MannParameters or None, dict or None)
+        The parameters (None: one per period) and, for ``fit_to``, the fit's summary.
     """
-    p = scene.turbulence.params()
-    if p is not None:
-        return p, None
+    t = scene.turbulence
+    if t.fit_to is None:
+        return (None if t.depends_on_speed else t.params()), None
     path = scene.resolve(scene.turbulence.fit_to)
     digest = file_digest(path, "turbulence.fit_to")
     key = (os.path.abspath(path), digest, json.dumps(scene.analysis.as_dict(), sort_keys=True))
@@ -119,6 +124,31 @@ def scene_params(scene: Scene):
 
 
 _FIT_CACHE: dict = {}
+
+
+def period_params(scene: Scene, index: int, params=None):
+    """The tensor of period ``index``: ``params`` (the scene's, or its fit) or, when None, the period's own.
+
+    A table whose tensor depends on the period's mean speed (``ti``,
+    ``iec_class``, the surface layer: :func:`scene_params` gives None) is
+    resolved at the period's ``mean_speed``.
+    """
+    if params is not None:
+        return params
+    return scene.turbulence.params(None, scene.periods[index].mean_speed)
+
+
+def theory_params(scene: Scene, params=None):
+    """The tensor of the scene's theory: ``params``, or (None) the table's at the mean of the periods' mean speeds.
+
+    The staring scene's estimator-aware theory
+    (:func:`cwlidar_sim.campaign.staring.estimator_theory`) and its results'
+    ``alpha_eps``, ``length_scale``, ``gamma`` attributes are one tensor for
+    the scene, at that mean speed.
+    """
+    if params is not None:
+        return params
+    return scene.turbulence.params(None, float(np.mean([p.mean_speed for p in scene.periods])))
 
 
 def _fit_record(path, scene):
@@ -179,7 +209,10 @@ def _pow2_at_least(n, lo=32):
 
 
 def plan_field(scene: Scene, index: int, params) -> FieldPlan:
-    """Field kind, size and sensor geometry of period ``index``."""
+    """Field kind, size and sensor geometry of period ``index``.
+
+    ``params`` None: the period's own tensor (:func:`~cwlidar_sim.campaign.planning.period_params`).
+    """
     from scipy.fft import next_fast_len
 
     from ..beam.sampling import direction_from_angles
@@ -200,7 +233,7 @@ def plan_field(scene: Scene, index: int, params) -> FieldPlan:
     f = scene.field
     U = period.mean_speed
     T = scene.period_duration(period)
-    L = params.length_scale
+    L = period_params(scene, index, params).length_scale
     nx = next_fast_len(int(math.ceil((U * T + (hi[0] - lo[0]) + 4 * f.dx) / f.dx)), real=True)
     shape, spacing = [nx], [f.dx]
     pos = np.zeros(3)

@@ -24,7 +24,7 @@ Example
     seed = 2012
     duration = 3600.0             # s, per period
 
-    [turbulence]                  # or: fit_to = "sonic.nc"
+    [turbulence]                  # or: ti = 0.1 with height = 33.5, ... (turbulence_spec)
     alpha_eps = 0.05
     length_scale = 20.0
     gamma = 3.2
@@ -50,11 +50,11 @@ from __future__ import annotations
 import dataclasses
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
-from ..turbulence.limits import check_frozen_turbulence
 from .conical_scene import ConicalScene
 from .lidar_spec import CHAIN_TIERS, LidarSpecBase
-from .spec import (SceneSpec, SCENE_KINDS, Spec, check_condition_on, check_periods, check_scene_keys, check_scene_name,
+from .spec import (SceneSpec, SCENE_KINDS, Spec, check_periods, check_scene_keys, check_scene_name,
                    parse_toml, periods_from_dict, read_text_file, resolve_path, set_field)
+from .turbulence_spec import TurbulenceSpec
 
 __all__ = [
     "FIELD_KINDS",
@@ -77,72 +77,6 @@ FIELD_KINDS = ("auto", "line", "plane", "box")
 STARING_RATE = 50.0
 TIERS = CHAIN_TIERS
 _set = set_field
-
-
-@dataclasses.dataclass(frozen=True)
-class TurbulenceSpec(Spec):
-    """Turbulence of the scene: Mann parameters, or a sonic record to fit them to.
-
-    Parameters
-    ----------
-    alpha_eps : float, optional
-        alpha epsilon^(2/3) [m^(4/3) s^-2]; > 0.
-    length_scale : float, optional
-        Mann length scale L [m]; > 0.
-    gamma : float, optional
-        Anisotropy Gamma [-]; >= 0.
-    fit_to : str, optional
-        Path of a sonic record (NetCDF: variables ``u``, ``v``, ``w`` with
-        their ``units``, m s-1 when absent, on a ``time`` coordinate; or CSV
-        with columns time, u, v, w in m/s, the time in s or in the unit its
-        header names, ``time_ms``; u along the mean wind) to fit the
-        three parameters to (relative paths are taken from the scene file's
-        folder), read by the twin's reader
-        (:mod:`cwlidar_sim.analysis.record_files`).  Every period's
-        ``mean_speed`` must lie within 30 % of the record's mean; a fit on
-        a bound is warned about and flagged (see
-        :func:`cwlidar_sim.campaign.planning.scene_params`).  Exclusive with
-        the three parameters.
-    condition_on : tuple of RecordSpec
-        Measured records the field is conditioned on (the virtual twin,
-        :mod:`cwlidar_sim.campaign.twin`): tables of
-        :class:`cwlidar_sim.analysis.records.RecordSpec` keys (``path``,
-        ``kind`` 'sonic' or 'cup', ``position`` [m] relative to the lidar's
-        focus in the field's frame, ``noise_std`` [m/s], columns, units,
-        cleaning); relative paths are taken from the scene file's folder.
-        Default: none (an unconditioned field).
-    """
-
-    alpha_eps: float | None = None
-    length_scale: float | None = None
-    gamma: float | None = None
-    fit_to: str | None = None
-    condition_on: tuple = ()
-
-    def __post_init__(self):
-        _set(self, "condition_on", check_condition_on(self.condition_on))
-        given = [x is not None for x in (self.alpha_eps, self.length_scale, self.gamma)]
-        if self.fit_to is not None:
-            check_str("turbulence.fit_to", self.fit_to)
-            if any(given):
-                raise ValueError("turbulence: give either fit_to or alpha_eps/length_scale/gamma, not both")
-            return
-        if not all(given):
-            raise ValueError("turbulence needs alpha_eps, length_scale and gamma (or fit_to)")
-        from ..turbulence.parameters import MannParameters
-
-        p = MannParameters(self.alpha_eps, self.length_scale, self.gamma)
-        _set(self, "alpha_eps", p.alpha_eps)
-        _set(self, "length_scale", p.length_scale)
-        _set(self, "gamma", p.gamma)
-
-    def params(self):
-        """The MannParameters (None when the scene fits them to a record)."""
-        if self.fit_to is not None:
-            return None
-        from ..turbulence.parameters import MannParameters
-
-        return MannParameters(self.alpha_eps, self.length_scale, self.gamma)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -360,6 +294,7 @@ class Scene(SceneSpec):
     name : str
         Used for the results file ``DIR/<name>.nc``; letters, digits, '-', '_'.
     turbulence : TurbulenceSpec
+        The ``[turbulence]`` table (:mod:`cwlidar_sim.campaign.turbulence_spec`).
     periods : tuple of PeriodSpec
         At least one; names unique.
     lidar, sonic, field, analysis : specs
@@ -396,10 +331,8 @@ class Scene(SceneSpec):
         _set(self, "duration", check_real("duration", self.duration, lo=10.0, hi=86400.0))
         _set(self, "seed", check_seed("seed", self.seed))
         check_str("description", self.description, allow_empty=True)
-        params = self.turbulence.params()  # None with fit_to: checked when the fit is known (staring.run_period)
+        self.turbulence.check_frozen(periods)  # fit_to: checked when the fit is known (staring.run_period)
         for p in periods:
-            if params is not None:
-                check_frozen_turbulence(params, p.mean_speed, f"period[{p.name}]")
             dur = self.period_duration(p)
             if dur < self.analysis.segment_duration:
                 raise ValueError(f"period {p.name!r} lasts {dur} s, shorter than analysis.segment_duration = "

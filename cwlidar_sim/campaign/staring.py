@@ -32,7 +32,7 @@ import numpy as np
 from ..signal.processing import usable_fraction, usable_speeds
 from ..turbulence.limits import check_frozen_turbulence
 from ._labels import HOMODYNE, TOWARD_LIDAR, duration_phrase
-from .planning import generate_field, plan_field
+from .planning import generate_field, period_params, plan_field, theory_params
 from .scene import Scene
 from .spec import RESULTS_VERSION
 
@@ -89,8 +89,10 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     scene : Scene
     index : int
         Period index.
-    params : MannParameters
-        Turbulence of the field.
+    params : MannParameters or None
+        Turbulence of the scene's fields; None: each period's own
+        (:func:`cwlidar_sim.campaign.planning.period_params`, a table whose
+        tensor depends on the period's mean speed).
     status : callable, optional
         Called with a short text at each stage (progress display).
     make_field : callable, optional
@@ -111,6 +113,7 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     period = scene.periods[index]
     U = period.mean_speed
     T = scene.period_duration(period)
+    scene_tensor, params = params, period_params(scene, index, params)
     # a fitted tensor (turbulence.fit_to) is known only now: the same check as the scene's, before any field
     check_frozen_turbulence(params, U, f"period[{period.name}]")
     if scene.lidar.tier == "signal":
@@ -216,7 +219,7 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
         "lidar_info": dict(rec.info), "timing": {"field": t_field, "lidar": t_lidar,
                                                   "total": time.perf_counter() - t0},
     }
-    return period_dataset(scene, params, result)
+    return period_dataset(scene, scene_tensor, result)
 
 
 def _empty_transfer(k_edges, U, n10, segment_duration):
@@ -247,6 +250,12 @@ def period_dataset(scene: Scene, params, r: dict):
     ``time_10hz`` (sample times within the period [s]); ``component`` (u, v,
     w); ``flag`` (quality flags).  :func:`cwlidar_sim.campaign.store.combine_periods`
     joins the periods of a scene along ``period``.
+
+    ``params``: the scene's tensor (given or fitted), or None where each
+    period has its own (then the attributes ``alpha_eps``, ``length_scale``,
+    ``gamma`` are the tensor at the mean of the periods' mean speeds, the
+    theory's, and ``mann_alpha_eps``, ``mann_length_scale``, ``mann_gamma``
+    the period's).
     """
     import xarray as xr
 
@@ -278,8 +287,9 @@ def period_dataset(scene: Scene, params, r: dict):
         """One period's array with the leading ``period`` axis."""
         return np.asarray(x, dtype=dtype)[None]
 
-    # theory with the period's fitted (else the scene's) parameters
-    p = r["fit"].params if r["fit"] is not None and r["fit"].success else params
+    # theory with the period's fitted (else its own) parameters
+    own, scene_p = period_params(scene, r["index"], params), theory_params(scene, params)
+    p = r["fit"].params if r["fit"] is not None and r["fit"].success else own
     F_vs, F_vr, chi = misaligned_spectra(k, p, r["theta"], zR)
     PK = ("period", "k")
     dv = {
@@ -356,7 +366,12 @@ def period_dataset(scene: Scene, params, r: dict):
         "lidar_10hz_valid": (("period", "time_10hz"), pk(r["lidar_10hz_valid"], np.int16),
                              {"units": "1", "long_name": "valid 50 Hz estimates in each 10 Hz block"}),
     }
-    theory = estimator_theory(scene, params)
+    if params is None:  # a tensor per period (the scene's table depends on the mean speed)
+        for name, units in (("alpha_eps", "m4/3 s-2"), ("length_scale", "m"), ("gamma", "1")):
+            dv[f"mann_{name}"] = (("period",), pk(getattr(own, name)),
+                                  {"units": units, "long_name": f"Mann {name} of the period's field ([turbulence] at "
+                                                                f"its mean speed)"})
+    theory = estimator_theory(scene, scene_p)
     if theory is not None:
         coords["estimator"] = ("estimator", np.array(theory.estimators, dtype=object))
         band = f"{theory.band[0]:g}-{theory.band[1]:g} rad/m"
@@ -412,7 +427,7 @@ def period_dataset(scene: Scene, params, r: dict):
         "lidar_tier": scene.lidar.tier,
         "lidar_estimator": inst.estimator,
         "cnr_db": float(scene.lidar.cnr_db),
-        "alpha_eps": params.alpha_eps, "length_scale": params.length_scale, "gamma": params.gamma,
+        "alpha_eps": scene_p.alpha_eps, "length_scale": scene_p.length_scale, "gamma": scene_p.gamma,
         "scene": json.dumps(scene.as_dict()),
         "variants": json.dumps([dict(v) for v in scene.lidar.variants]),
         "spectrum_convention": "one-sided in k1 = 2 pi f / U: variance = integral of F dk over 0..inf",
@@ -504,8 +519,8 @@ def fit_probe_length_results(ds, *, estimator=None, **kw):
         w = np.where(np.isfinite(T) & np.isfinite(S) & (S > 0), 1.0 / S**2, 0.0)
         Tm = np.sum(np.where(w > 0, T, 0.0) * w, axis=0) / np.sum(w, axis=0)
         Sm = 1.0 / np.sqrt(np.sum(w, axis=0))
-    params = scene.turbulence.params()
-    if params is None:
+    params = scene.turbulence.params() if scene.turbulence.mode == "explicit" else None
+    if params is None:  # fitted, or per period: the theory's tensor (at the mean of the mean speeds), as stored
         from ..turbulence import MannParameters
 
         params = MannParameters(ds.attrs["alpha_eps"], ds.attrs["length_scale"], ds.attrs["gamma"])

@@ -48,7 +48,7 @@ def conical_unit_records(scene: ConicalScene, tp, h: int):
     kw.pop("tier", None)
     lidar = ConicalLidar(heights=tuple(hs), tier=scene.lidar.tier, **kw)
     unit = 0 if s.cycle else h
-    tensor = scene.turbulence.params(_tensor_height(scene.replace(periods=scene.periods[:1]), unit), tp.U)[0]
+    tensor = scene.turbulence.params(_tensor_height(scene.replace(periods=scene.periods[:1]), unit), tp.U)
     y_n, z_n = conical_box_yz(lidar, tensor, spacing=spacing, lateral_doubling=s.lateral_doubling)
     theta = scene.periods[0].toward_deg
     used, field_pos = [], []

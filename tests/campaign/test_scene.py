@@ -45,7 +45,7 @@ def test_quick_keeps_geometry_and_seeds():
 
 @pytest.mark.parametrize("text, match", [
     ("colour = 3\n" + MINIMAL, r"unknown key\(s\) in scene: \['colour'\]"),
-    (MINIMAL.replace("gamma = 3.9", "gamma = 3.9\nwidth = 2"), r"unknown key\(s\) for TurbulenceSpec: \['width'\]"),
+    (MINIMAL.replace("gamma = 3.9", "gamma = 3.9\nwidth = 2"), r"unknown key\(s\) in turbulence: \['width'\]"),
     (MINIMAL + "[lidar]\ntier = 'fast'\n", r"lidar.tier"),
     (MINIMAL + "[lidar]\ncnr_db = 500\n", r"lidar.cnr_db"),
     (MINIMAL + "[lidar]\ninstrument = { focal = 60 }\n", r"focal"),

@@ -101,10 +101,13 @@ def circles(edges: dict) -> list:
 
 
 def stage(module: str):
-    """(stage name, rank): top-level private modules and the package root are the bottom (rank 0)."""
+    """(stage name, rank): top-level private modules and the package root are the bottom (rank 0), but
+    ``_cli*`` modules, which hold parts of the command line, are in the cli stage."""
     parts = module.split(".")
     if len(parts) > 1 and parts[1] in RANK:
         return parts[1], RANK[parts[1]]
+    if len(parts) > 1 and parts[1].startswith("_cli"):  # the command line's helper modules (_cli_box...)
+        return "cli", RANK["cli"]
     if len(parts) == 1 or parts[1].startswith("_"):
         return "", 0
     if parts[1] not in RANK:

@@ -153,7 +153,7 @@ def test_hawc2_explicit_paths_and_names(tmp_path):
 # HAWC2: bad input
 # ---------------------------------------------------------------------------
 def test_hawc2_wrong_shape_names_expected_and_actual_size(tmp_path):
-    write_hawc2(synthetic_field((6, 5, 4)), tmp_path / "box")
+    write_hawc2(synthetic_field((6, 5, 4)), tmp_path / "box", sidecar=False)  # no sidecar to say the shape
     with pytest.raises(ValueError, match=r"box_u\.bin") as err:
         read_hawc2(tmp_path / "box", (6, 5, 5), (1.0, 1.0, 1.0))
     msg = str(err.value)
@@ -161,7 +161,7 @@ def test_hawc2_wrong_shape_names_expected_and_actual_size(tmp_path):
 
 
 def test_hawc2_missing_file(tmp_path):
-    write_hawc2(synthetic_field((3, 2, 2)), tmp_path / "box")
+    write_hawc2(synthetic_field((3, 2, 2)), tmp_path / "box", sidecar=False)
     (tmp_path / "box_v.bin").unlink()
     with pytest.raises(FileNotFoundError, match=r"component v.*box_v\.bin"):
         read_hawc2(tmp_path / "box", (3, 2, 2), (1.0, 1.0, 1.0))

@@ -181,7 +181,7 @@ def _summary_text(g, ti, centre, attrs_text) -> str:
              f"{ny:10d}  Horizontal grid-point matrix dimension",
              f"   {g.hub_height!r}  Hub height [m]", "",
              "Normalizing Parameters for Binary Data (approximate statistics):", "",
-             f"   UBar  = {g.mean_speed!r} m/s",
+             f"   UBar  = {float(np.float32(g.mean_speed))!r} m/s",
              *(f"   TI({c}) = {t!r} %" for c, t in zip("uvw", ti)), "",
              f"   Height Offset = {g.hub_height - centre!r} m",
              f"   Grid Base     = {g.z_bottom!r} m", "",

@@ -96,8 +96,8 @@ def attrs_to_json(attrs, label: str) -> str:
         try:
             out[key] = to_json(value)
         except TypeError:
-            raise TypeError(f"{label}[{key!r}] = {value!r} ({type(value).__name__}) cannot be stored as JSON; "
-                            "allowed: str, int, float, bool, None, 1-D numeric arrays, and lists/dicts of those") from None
+            raise TypeError(f"{label}[{key!r}] = {value!r} ({type(value).__name__}) cannot be stored as JSON; allowed: "
+                            "str, int, float, bool, None, 1-D numeric arrays, and lists/dicts of those") from None
     return json.dumps(out, sort_keys=True, allow_nan=True, separators=(",", ":"))
 
 
@@ -239,8 +239,9 @@ def htc_text(paths, htc_path, shape, spacing, convention, reverse_x, attrs) -> s
     if all(v is not None for v in mann.values()):
         seed = attrs.get("seed")
         hfc = attrs.get("hf_compensation")
+        hfc = int(bool(hfc)) if hfc is not None else "-"
         lines.append(f";   create_turb_parameters {mann['length_scale']:.10g} {mann['alpha_eps']:.10g} "
-                     f"{mann['gamma']:.10g} {seed if seed is not None else '-'} {int(bool(hfc)) if hfc is not None else '-'} ;"
+                     f"{mann['gamma']:.10g} {seed if seed is not None else '-'} {hfc} ;"
                      "  L, alfaeps, gamma, seed, highfrq compensation: how this box was made (left a comment:"
                      " active, HAWC2 would generate its own box where the files are missing)")
     lines.append("  begin mann ;")

@@ -4,7 +4,13 @@ HAWC2 (Mann64bit) box format
 ----------------------------
 Three raw files, one per component (u, v, w), each holding ``Nx*Ny*Nz``
 little-endian float32 values [m/s] and no header.  Shape and spacing are not
-in the files; the reader must be told them.  Default file names are
+in the files: :func:`write_hawc2` writes them (with the Mann parameters,
+seed, layout and all attributes) to a JSON sidecar ``BASE.json``, which
+:func:`read_hawc2` reads, and HAWC2's ``begin mann`` block for the files to
+``BASE.htc`` (see ``cwlidar_sim.turbulence._io_meta``); without a sidecar
+the reader must be told them.  TurbSim and Bladed files:
+:mod:`cwlidar_sim.turbulence.io_turbsim`, :mod:`cwlidar_sim.turbulence.io_bladed`.
+Default file names are
 ``BASE_u.bin``, ``BASE_v.bin``, ``BASE_w.bin`` (a trailing ``.bin`` on BASE is
 dropped, so ``box.bin`` names ``box_u.bin``..., as ``mannrs`` does); explicit
 paths are accepted too (``hipersim`` writes ``BASENAMEu.turb``...).
@@ -276,8 +282,8 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
     meta = hawc2_sidecar_paths(base) if sidecar else None
     texts = []
     if meta is not None:
-        args = (paths, arrays[0].shape, _io_meta.box_spacing(box, "box"), convention, asked_reverse_x, dict(box.attrs))
-        texts = [_io_meta.sidecar_text(paths, meta[0], *args[1:], "box.attrs"), _io_meta.htc_text(paths, meta[1], *args[1:])]
+        args = (arrays[0].shape, _io_meta.box_spacing(box, "box"), convention, asked_reverse_x, dict(box.attrs))
+        texts = [_io_meta.sidecar_text(paths, meta[0], *args, "box.attrs"), _io_meta.htc_text(paths, meta[1], *args)]
     nx = arrays[0].shape[0]
     plane_bytes = _HAWC2_DTYPE.itemsize * int(np.prod(arrays[0].shape[1:]))
     step = max(1, max_chunk_bytes // plane_bytes)
@@ -567,8 +573,9 @@ def _from_sidecar(name, given, side, meta, item_check) -> tuple:
     stored = side[name] if side else None
     if given is None:
         if stored is None or None in stored:
-            where = (f"no sidecar {str(meta[0])!r} was found" if meta and not side else
-                     f"the sidecar {str(meta[0])!r} does not hold it" if side else "three explicit paths have no sidecar")
+            where = (f"no sidecar {str(meta[0])!r} was found" if meta and not side
+                     else f"the sidecar {str(meta[0])!r} does not hold it" if side
+                     else "three explicit paths have no sidecar")
             raise ValueError(f"{name} of the HAWC2 box is needed: {where}; give {name}=(...) explicitly")
         return stored
     given = check_tuple(name, given, 3, item_check)

@@ -55,7 +55,7 @@ stops reading, the Dataset's attributes as JSON (``cwlidar_sim attrs:
 The TI a writer chooses only scales the integers: TurbSim's rule, sigma =
 max(standard deviation, |value|max / 20, 0.01 m/s) per component, keeps every
 value within 20000 steps.  Grid, x and time: as
-:mod:`cwlidar_sim.turbulence._io_fullfield` (time step j = our plane Nx-1-j,
+``cwlidar_sim.turbulence._io_fullfield`` (time step j = our plane Nx-1-j,
 file y = our y).  Round trip: to within half a step, ``U TI_c / 2e5``
 [m/s]; the TIs are kept in ``bladed_ti`` so a file read and written again is
 bit-identical.
@@ -293,8 +293,8 @@ def read_bladed(path, *, left_hand_rule: bool | None = None, clockwise: bool | N
         fid, kind = struct.unpack("<hh", raw[:4])
         hint = (" (a Bladed file of another turbulence type: only TurbSim's type 4 is read)" if fid == -99 else
                 " (a TurbSim .bts file? read it with read_turbsim)" if fid in (7, 8) else "")
-        raise ValueError(f"{str(path)!r} is not a Bladed-style wind file of TurbSim's variant: it starts {fid}, {kind}; "
-                         f"allowed: -99, 4{hint}")
+        raise ValueError(f"{str(path)!r} is not a Bladed-style wind file of TurbSim's variant: it starts "
+                         f"{fid}, {kind}; allowed: -99, 4{hint}")
     (_, _, ncomp, _, _, centre, ti_u, ti_v, ti_w, dz, dy, dx, half, mean, _, _, _, _, seed, nz, ny,
      *_) = ff.unpack(_HEADER, raw, _WHAT, path)
     if ncomp != 3 or min(nz, ny) < 1 or half < 0:
@@ -303,12 +303,14 @@ def read_bladed(path, *, left_hand_rule: bool | None = None, clockwise: bool | N
     step = 6 * nz * ny
     nt, rest = divmod(size - _HEADER_BYTES, step)
     if rest or nt not in (2 * half, 2 * half + 1):
-        raise ValueError(f"{_WHAT} {str(path)!r} holds {size} bytes, but its header (nt={2 * half} or {2 * half + 1}, "
-                         f"ny={ny}, nz={nz}) needs {_HEADER_BYTES + 2 * half * step} or {_HEADER_BYTES + (2 * half + 1) * step}: "
-                         + ("truncated" if size < _HEADER_BYTES + 2 * half * step else "not such a file, or damaged"))
+        need = _HEADER_BYTES + 2 * half * step
+        raise ValueError(f"{_WHAT} {str(path)!r} holds {size} bytes, but its header (nt={2 * half} or "
+                         f"{2 * half + 1}, ny={ny}, nz={nz}) needs {need} or {need + step}: "
+                         + ("truncated" if size < need else "not such a file, or damaged"))
     if nt == 0:
         raise ValueError(f"{_WHAT} {str(path)!r} holds no time step")
-    dz, dy, dx, mean = (ff.check_header_real(v, n, _WHAT, path) for v, n in zip((dz, dy, dx, mean), ("dz", "dy", "dx", "U")))
+    dz, dy, dx, mean = (ff.check_header_real(v, n, _WHAT, path)
+                        for v, n in zip((dz, dy, dx, mean), ("dz", "dy", "dx", "U")))
     ti = [ff.check_header_real(t, f"TI({c})", _WHAT, path) for c, t in zip("uvw", (ti_u, ti_v, ti_w))]
     centre = ff.check_header_real(centre, "reference height", _WHAT, path, positive=False)
     summary = _summary_path(path)

@@ -6,7 +6,7 @@ The layout is TurbSim's writer ``WrBinTURBSIM`` (OpenFAST
 ``modules/turbsim/src/TS_FileIO.f90``) and OpenFAST InflowWind's reader
 ``IfW_TurbSim_Init`` (``modules/inflowwind/src/InflowWind_IO.f90``, its
 ``TurbSimHeaderType``), which agree; the grid and time conventions are those
-of :mod:`cwlidar_sim.turbulence._io_fullfield` (from InflowWind's
+of ``cwlidar_sim.turbulence._io_fullfield`` (from InflowWind's
 ``IfW_FlowField.f90``).  No peer that reads or writes ``.bts`` is installed
 here; the tests check the bytes against an independent struct-based writer
 (``tests/reference.py``).

@@ -531,7 +531,8 @@ def test_hawc2_orientation_of_a_known_asymmetric_field(tmp_path, convention, rev
 
 def test_hawc2_sidecar_mismatch_missing_or_malformed_is_refused(tmp_path):
     write_hawc2(synthetic_field((6, 5, 4)), tmp_path / "box")
-    with pytest.raises(ValueError, match=r"shape=\(6, 5, 5\) differs from shape \(6, 5, 4\) in the sidecar .*box\.json"):
+    mismatch = r"shape=\(6, 5, 5\) differs from shape \(6, 5, 4\) in the sidecar .*box\.json"
+    with pytest.raises(ValueError, match=mismatch):
         read_hawc2(tmp_path / "box", (6, 5, 5), (2.0, 3.0, 4.0))
     with pytest.raises(ValueError, match=r"spacing=\(2\.0, 3\.0, 5\.0\) differs from spacing \(2\.0, 3\.0, 4\.0\)"):
         read_hawc2(tmp_path / "box", spacing=(2.0, 3.0, 5.0))

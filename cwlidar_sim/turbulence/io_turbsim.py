@@ -13,20 +13,21 @@ here; the tests check the bytes against an independent struct-based writer
 
 Layout (little-endian, no padding)
 ----------------------------------
-===========  ======  =========================================================
-bytes        type    field
-===========  ======  =========================================================
-0-1          int16   format id: 7 (not periodic) or 8 (periodic)
-2-17         int32   nz, ny, n_tower, nt: grid points up, across, tower
-                     points below the grid, time steps
-18-41        float32 dz [m], dy [m], dt [s], U (mean speed at the hub) [m/s],
-                     hub height [m], height of the grid's bottom row [m]
-42-65        float32 slope and offset of u, of v, of w
-66-69        int32   n_desc, the description's length
-70-          bytes   the description (ASCII), n_desc bytes
-then         int16   per time step: ``nz*ny`` grid points (y fastest, then z),
-                     then ``n_tower`` tower points, each as u, v, w
-===========  ======  =========================================================
+===========  =======  ========================================================
+bytes        type     field
+===========  =======  ========================================================
+0-1          int16    format id: 7 (not periodic) or 8 (periodic)
+2-17         int32    nz, ny, n_tower, nt: grid points up, across, tower
+                      points below the grid, time steps
+18-41        float32  dz [m], dy [m], dt [s], U (mean speed at the hub)
+                      [m/s], hub height [m], height of the grid's bottom row
+                      [m]
+42-65        float32  slope and offset of u, of v, of w
+66-69        int32    n_desc, the description's length
+70-          bytes    the description (ASCII), n_desc bytes
+then         int16    per time step: ``nz*ny`` grid points (y fastest, then
+                      z), then ``n_tower`` tower points, each as u, v, w
+===========  =======  ========================================================
 
 A stored integer ``i`` of component c is ``(i - offset_c) / slope_c`` [m/s]:
 the whole wind (u includes U).  TurbSim takes ``slope = 65535 / (max - min)``

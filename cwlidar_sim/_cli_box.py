@@ -122,12 +122,8 @@ def _cmd_box(args) -> int:
     if args.threads is not None:
         _config.set_num_threads(args.threads)
     params = MannParameters(args.alpha_eps, args.length_scale, args.gamma)
-    fmt = _box_format(args)
-    if fmt in ("turbsim", "bladed"):
-        check_real("--mean-speed", args.mean_speed, lo=0.0, lo_open=True, hi=1e3)
-        half = (args.shape[2] - 1) * args.spacing[2] / 2
-        if args.hub_height is not None and check_real("--hub-height", args.hub_height, lo=half, hi=1e5) <= 0:
-            raise ValueError(f"--hub-height={args.hub_height!r}; allowed: > 0 m")
+    # the targets first (a directory, /dev/null: named as such), then the name and options against the format
+    fmt = args.format or _BY_EXTENSION.get(os.path.splitext(args.out)[1].lower(), "netcdf")
     # before generating: the box's folder is writable, NetCDF imports, the disk holds 3 components
     itemsize = {"netcdf": 4 if args.dtype == "float32" else 8, "hawc2": 4}.get(fmt, 2)
     need = 3 * itemsize * args.shape[0] * args.shape[1] * args.shape[2]
@@ -139,6 +135,12 @@ def _cmd_box(args) -> int:
         targets.append(("--plot", args.plot))
     for label, target in targets:
         check_output_file(target, label=label)
+    fmt = _box_format(args)
+    if fmt in ("turbsim", "bladed"):
+        check_real("--mean-speed", args.mean_speed, lo=0.0, lo_open=True, hi=1e3)
+        half = (args.shape[2] - 1) * args.spacing[2] / 2
+        if args.hub_height is not None and check_real("--hub-height", args.hub_height, lo=half, hi=1e5) <= 0:
+            raise ValueError(f"--hub-height={args.hub_height!r}; allowed: > 0 m")
     box = generate_box(
         params, tuple(args.shape), tuple(args.spacing), args.seed,
         correction=args.correction, hf_compensation=args.hf_compensation,

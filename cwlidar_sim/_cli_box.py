@@ -23,7 +23,7 @@ _NAME = {"netcdf": "NetCDF", "hawc2": "HAWC2", "turbsim": "TurbSim", "bladed": "
 
 def _add_box(sub):
     p = _command(
-        sub, "box", "generate a Mann turbulence box (NetCDF, HAWC2, TurbSim, Bladed)",
+        sub, "box", "generate a Mann turbulence box (.nc, HAWC2, .bts, .wnd)",
         "Generate a periodic Mann (1998) turbulence box and write it to NetCDF, HAWC2 binary (with a JSON "
         "sidecar of shape, spacing and parameters and an HTC snippet), a TurbSim .bts file or a Bladed-style "
         ".wnd file with its .sum (TurbSim's variant, as OpenFAST InflowWind reads them). The format follows "

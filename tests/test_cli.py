@@ -132,7 +132,7 @@ def test_box_refuses_options_that_do_not_apply_before_generating(tmp_path, capsy
         (["--out", "@a.bts", "--mean-speed", "0"], "--mean-speed=0.0 is out of range"),
     ]
     for extra, message in cases:
-        args = [*BOX, *[str(tmp_path / a) if a.startswith(("a.", "@h")) else a for a in extra]]
+        args = [*BOX, *[str(tmp_path / a[1:]) if a.startswith("@") else a for a in extra]]  # @: a file
         assert cli.main(args) == 2, extra
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and message in err[0], (extra, err)

@@ -1,11 +1,14 @@
-"""The command line's help plumbing: the formatter, a command with its examples, the Dask options.
+"""The command line's plumbing: the formatter, a command with its examples, the Dask options, the JSON printed.
 
-Kept apart from :mod:`cwlidar_sim.cli` (the commands themselves) and as light: argparse and textwrap only.
+Kept apart from :mod:`cwlidar_sim.cli` (the commands themselves) and as light: argparse, json, math and
+textwrap only.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import textwrap
 
 __all__: list = []  # private to the CLI
@@ -51,3 +54,20 @@ def _add_dask_options(p, dest, what):
                    help="with a scheduler: longest wait for its first worker before the run, and longest time "
                         "without any worker during it (default 60); then a one-line error, the finished work "
                         "kept")
+
+
+def _finite(obj):
+    """``obj`` with every non-finite float as None (JSON has no NaN or infinity)."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def _json(obj) -> str:
+    """What a command prints for ``--json`` or as its summary: strict JSON (a NaN is null)."""
+    return json.dumps(_finite(obj), indent=2, allow_nan=False,
+                      default=lambda o: _finite(o.item()) if hasattr(o, "item") else str(o))  # numpy scalars

@@ -12,108 +12,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 
-from ._cli_help import _DASK_TRUST, _add_dask_options, _command, _Formatter
+from ._version import __version__
+from ._cli_box import _add_box
+from ._cli_help import _DASK_TRUST, _add_dask_options, _command, _Formatter, _json
 from ._bundled import bundled_files as _bundled_files, bundled_or_path as _bundled_or_path
 from ._interrupt import EXIT_SIGTERM, RESUMABLE, Terminated, sigterm_raises, terminated_message
-
-
-def _finite(obj):
-    """``obj`` with every non-finite float as None (JSON has no NaN or infinity)."""
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
-def _json(obj) -> str:
-    """What a command prints for ``--json`` or as its summary: strict JSON (a NaN is null)."""
-    return json.dumps(_finite(obj), indent=2, allow_nan=False,
-                      default=lambda o: _finite(o.item()) if hasattr(o, "item") else str(o))  # numpy scalars
-
-
-def _add_box(sub):
-    p = _command(
-        sub, "box", "generate a Mann turbulence box (NetCDF or HAWC2)",
-        "Generate a periodic Mann (1998) turbulence box and write it to NetCDF or HAWC2 binary.",
-        ["cwlidar-sim box --alpha-eps 1 --length-scale 33.6 --gamma 3.9 --shape 4096 32 32 \\",
-         "    --spacing 2 2 2 --seed 1 --out box.nc --stats --plot box_spectra.png",
-         "cwlidar-sim box --alpha-eps 1 --length-scale 33.6 --gamma 3.9 --shape 8192 32 32 \\",
-         "    --spacing 1 2 2 --seed 7 --format hawc2 --out turb     # turb_u.bin, turb_v.bin, turb_w.bin"],
-    )
-    p.add_argument("--alpha-eps", type=float, required=True, help="alpha*epsilon^(2/3) [m^(4/3) s^-2]")
-    p.add_argument("--length-scale", type=float, required=True, help="length scale L [m]")
-    p.add_argument("--gamma", type=float, required=True, help="anisotropy Gamma [-]")
-    p.add_argument("--shape", type=int, nargs=3, required=True, metavar=("NX", "NY", "NZ"))
-    p.add_argument("--spacing", type=float, nargs=3, required=True, metavar=("DX", "DY", "DZ"), help="[m]")
-    p.add_argument("--seed", type=int, required=True)
-    p.add_argument("--out", required=True, help="output file (.nc) or HAWC2 basename (writes BASE_u.bin ...)")
-    p.add_argument("--format", choices=("netcdf", "hawc2"), default="netcdf")
-    p.add_argument("--correction", choices=("cell", "none"), default="cell",
-                   help="finite-box correction of the lowest wavenumbers (default: cell)")
-    p.add_argument("--hf-compensation", action="store_true",
-                   help="rescale each k1 so one-point spectra match the full analytic ones")
-    p.add_argument("--sigma-u", type=float, default=None, help="rescale the box to this sample sigma_u [m/s]")
-    p.add_argument("--dtype", choices=("float32", "float64"), default="float32")
-    p.add_argument("--threads", type=int, default=None)
-    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    p.add_argument("--keep-mean", action="store_true", help="keep the k = 0 mode (a fluctuating box mean)")
-    p.add_argument("--stats", action="store_true", help="print box statistics against theory as JSON")
-    p.add_argument("--plot", default=None, metavar="PNG", help="plot one-point spectra against the tensor")
-    p.set_defaults(func=_cmd_box)
-
-
-def _cmd_box(args) -> int:
-    import os
-
-    from . import _config
-    from ._atomic import check_output_file
-    from ._preflight import preflight
-    from .turbulence import MannParameters, generate_box, hawc2_paths, write_hawc2, write_netcdf
-    from .turbulence.stats import box_report, plot_box_spectra
-
-    if args.threads is not None:
-        _config.set_num_threads(args.threads)
-    params = MannParameters(args.alpha_eps, args.length_scale, args.gamma)
-    # before generating: the box's folder is writable, NetCDF imports, the disk holds 3 components
-    itemsize = 4 if args.dtype == "float32" else 8
-    need = 3 * itemsize * args.shape[0] * args.shape[1] * args.shape[2]
-    preflight(os.path.dirname(os.path.abspath(args.out)), need, engine=args.format == "netcdf")
-    # ... and every target can receive a file (not a directory, /dev/null, a FIFO)
-    targets = [("--out", args.out)] if args.format == "netcdf" else \
-        [(f"--out (component {c})", p) for c, p in zip("uvw", hawc2_paths(args.out))]
-    if args.plot:
-        preflight(os.path.dirname(os.path.abspath(args.plot)), 0.0, engine=False)
-        targets.append(("--plot", args.plot))
-    for label, target in targets:
-        check_output_file(target, label=label)
-    if args.format == "netcdf" and not args.out.lower().endswith((".nc", ".nc4", ".netcdf")):
-        raise ValueError(f"--out {args.out!r}: a NetCDF box is written to a .nc file (e.g. "
-                         f"{os.path.splitext(args.out)[0]}.nc); for HAWC2's three .bin files add --format hawc2")
-    box = generate_box(
-        params, tuple(args.shape), tuple(args.spacing), args.seed,
-        correction=args.correction, hf_compensation=args.hf_compensation,
-        keep_mean=args.keep_mean, sigma_u=args.sigma_u, dtype=args.dtype,
-        progress=not args.no_progress and args.shape[0] * args.shape[1] * args.shape[2] >= 1 << 22,
-    )
-    if args.format == "netcdf":
-        write_netcdf(box, args.out)
-        written = [args.out]
-    else:
-        write_hawc2(box, args.out)
-        written = [str(p) for p in hawc2_paths(args.out)]
-    print(f"wrote a {'x'.join(map(str, args.shape))} box ({args.format}): {', '.join(written)}", file=sys.stderr)
-    if args.stats:
-        print(_json(box_report(box)))
-    if args.plot:
-        plot_box_spectra(box, args.plot)
-    return 0
 
 
 def _add_doppler(sub):
@@ -653,7 +559,6 @@ def build_parser() -> argparse.ArgumentParser:
                "'python -m cwlidar_sim' is the same program.",
         formatter_class=_Formatter,
     )
-    from ._version import __version__
 
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")

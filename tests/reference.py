@@ -1034,3 +1034,83 @@ def mann_one_point(k1, alpha_eps, L, gamma, h=0.02):
     jac = (k1 * np.cosh(u) * w_u)[:, None] * (k1 * np.cosh(v) * h)[None, :]
     P11, P22, _, P33 = mann_phi_components(k1, k2, k3, alpha_eps, L, gamma)
     return tuple(float(np.sum(jac * P)) for P in (P11, P22, P33))
+
+
+# =============================================================================
+# turbulence files (cwlidar_sim/turbulence/io_turbsim.py, io_bladed.py): the bytes, from the formats' specs
+# =============================================================================
+# Written value by value with struct from TurbSim's writers WrBinTURBSIM and WrBinBLADED (OpenFAST
+# modules/turbsim/src/TS_FileIO.f90) and InflowWind's readers of the same files; no numpy.  The fields are
+# nested lists [time step][z row][y column] of the values at the rotor, u as the whole wind.
+def _f32(x):
+    """x rounded to float32, as a Python float."""
+    import struct
+
+    return struct.unpack("<f", struct.pack("<f", x))[0]
+
+
+def _nint16(x):
+    """Fortran NINT (half away from zero), clipped to int16."""
+    i = int(math.copysign(math.floor(abs(x) + 0.5), x))
+    return min(32767, max(-32768, i))
+
+
+def turbsim_bts_bytes(u, v, w, dz, dy, dt, mean_speed, hub_height, z_bottom, description, periodic=True):
+    """A TurbSim .bts file: the 70-byte header, the description, then int16 (t, z, y, component)."""
+    import struct
+
+    nt, nz, ny = len(u), len(u[0]), len(u[0][0])
+    comps = (u, v, w)
+    slope, offset = [], []
+    for comp in comps:
+        values = [comp[t][k][j] for t in range(nt) for k in range(nz) for j in range(ny)]
+        lo, hi = min(values), max(values)
+        s = _f32(65535.0 / (hi - lo)) if hi > lo else 1.0
+        slope.append(s)
+        offset.append(_f32(-32768.0 - s * lo))
+    out = bytearray(struct.pack("<h", 8 if periodic else 7))
+    for n in (nz, ny, 0, nt):
+        out += struct.pack("<i", n)
+    for x in (dz, dy, dt, mean_speed, hub_height, z_bottom):
+        out += struct.pack("<f", x)
+    for s, o in zip(slope, offset):
+        out += struct.pack("<f", s) + struct.pack("<f", o)
+    out += struct.pack("<i", len(description)) + description.encode("ascii")
+    for t in range(nt):
+        for k in range(nz):
+            for j in range(ny):
+                for c in range(3):
+                    out += struct.pack("<h", _nint16(slope[c] * comps[c][t][k][j] + offset[c]))
+    return bytes(out)
+
+
+def bladed_wnd_bytes(u, v, w, dz, dy, dx, mean_speed, z_centre, ti_percent, seed, left_hand_rule=True):
+    """A TurbSim-style Bladed .wnd file: the 104-byte header (id -99, type 4), then int16 (t, z, y, component).
+
+    ``u`` is the whole wind; each value is stored as (value - mean) / (U TI / 100 / 1000), v negated under
+    the left-hand rule.
+    """
+    import struct
+
+    nt, nz, ny = len(u), len(u[0]), len(u[0][0])
+    out = bytearray(struct.pack("<h", -99) + struct.pack("<h", 4) + struct.pack("<i", 3))
+    for x in (0.0, 0.0, z_centre, *ti_percent, dz, dy, dx):
+        out += struct.pack("<f", x)
+    out += struct.pack("<i", nt // 2)
+    for x in (mean_speed, 0.0, 0.0, 0.0):
+        out += struct.pack("<f", x)
+    for n in (0, seed, nz, ny):
+        out += struct.pack("<i", n)
+    for _ in range(6):
+        out += struct.pack("<f", 0.0)
+    u32 = _f32(mean_speed)
+    scale = [0.001 * u32 * _f32(t) / 100.0 for t in ti_percent]
+    mean = (u32, 0.0, 0.0)
+    sign = (1.0, -1.0 if left_hand_rule else 1.0, 1.0)
+    comps = (u, v, w)
+    for t in range(nt):
+        for k in range(nz):
+            for j in range(ny):
+                for c in range(3):
+                    out += struct.pack("<h", _nint16(sign[c] * (comps[c][t][k][j] - mean[c]) / scale[c]))
+    return bytes(out)

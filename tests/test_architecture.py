@@ -110,12 +110,15 @@ def circles(edges: dict) -> list:
 
 
 def stage(module: str):
-    """(stage name, rank): top-level private modules are the bottom (rank 0), the package root above campaign."""
+    """(stage name, rank): top-level private modules are the bottom (rank 0), the package root above campaign,
+    and ``_cli*`` modules, which hold parts of the command line, are in the cli stage."""
     parts = module.split(".")
     if len(parts) == 1:
         return ROOT, RANK[ROOT]
     if parts[1] in RANK:
         return parts[1], RANK[parts[1]]
+    if parts[1].startswith("_cli"):  # the command line's helper modules (_cli_box, _cli_help)
+        return "cli", RANK["cli"]
     if parts[1].startswith("_"):
         return "", 0
     if parts[1] not in RANK:

@@ -165,7 +165,7 @@ def test_a_netcdf_write_that_fails_on_a_full_disk_does_not_segfault(tmp_path, li
 
 
 def test_a_hawc2_triplet_is_replaced_whole_or_not_at_all(tmp_path, monkeypatch):
-    """A full disk that surfaces only at fsync of the v file leaves the old u, v and w (no mixed triplet)."""
+    """A full disk that surfaces only at fsync of the v file leaves the old u, v, w, sidecar and snippet (no mix)."""
     import errno
 
     import cwlidar_sim._atomic as atomic
@@ -173,7 +173,7 @@ def test_a_hawc2_triplet_is_replaced_whole_or_not_at_all(tmp_path, monkeypatch):
 
     rng = np.random.default_rng(1)
     box = xr.Dataset({c: (("x", "y", "z"), rng.standard_normal((4, 3, 2)).astype("f4")) for c in "uvw"})
-    paths = write_hawc2(box, tmp_path / "t")
+    paths = [*write_hawc2(box, tmp_path / "t"), tmp_path / "t.json", tmp_path / "t.htc"]  # with its sidecar
     old = [p.read_bytes() for p in paths]
     real = atomic._fsync_path
 
@@ -183,7 +183,9 @@ def test_a_hawc2_triplet_is_replaced_whole_or_not_at_all(tmp_path, monkeypatch):
         real(path, directory=directory)
 
     monkeypatch.setattr(atomic, "_fsync_path", failing)
+    new = box * 2
+    new.attrs["seed"] = 9  # a sidecar and snippet that differ too
     with pytest.raises(OSError, match="No space left on device"):
-        write_hawc2(box * 2, tmp_path / "t")
+        write_hawc2(new, tmp_path / "t")
     assert [p.read_bytes() for p in paths] == old
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["t_u.bin", "t_v.bin", "t_w.bin"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.htc", "t.json", "t_u.bin", "t_v.bin", "t_w.bin"]

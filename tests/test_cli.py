@@ -82,3 +82,58 @@ def test_box_names_what_it_wrote_and_refuses_a_netcdf_file_not_named_nc(tmp_path
     assert not (tmp_path / "b3.txt").exists()
     assert cli.main([*args, "--out", str(tmp_path / "b3.nc")]) == 0
     assert f"wrote a 16x4x4 box (netcdf): {tmp_path / 'b3.nc'}" in capsys.readouterr().err
+
+
+BOX = ["box", "--alpha-eps", "1", "--length-scale", "20", "--gamma", "3", "--shape", "16", "4", "4",
+       "--spacing", "2", "1", "1.5", "--seed", "5", "--no-progress"]
+
+
+def test_box_formats_by_extension_and_orientation_options(tmp_path, capsys):
+    """One seed through every format and orientation: the same field, laid out as each says."""
+    from cwlidar_sim.turbulence import read_bladed, read_hawc2, read_netcdf, read_turbsim
+
+    assert cli.main([*BOX, "--out", str(tmp_path / "ref.nc")]) == 0
+    ref = read_netcdf(tmp_path / "ref.nc")
+    assert cli.main([*BOX, "--format", "hawc2", "--reverse-x", "--out", str(tmp_path / "rev")]) == 0
+    assert cli.main([*BOX, "--format", "hawc2", "--convention", "openfast", "--out", str(tmp_path / "of")]) == 0
+    for c in "uvw":
+        rev = np.fromfile(tmp_path / f"rev_{c}.bin", dtype="<f4").reshape(16, 4, 4)
+        np.testing.assert_array_equal(rev, ref[c].values[::-1])  # file plane j = our plane Nx-1-j
+        of = np.fromfile(tmp_path / f"of_{c}.bin", dtype="<f4").reshape(16, 4, 4)
+        np.testing.assert_array_equal(of, ref[c].values[::-1, ::-1])  # and y reversed, as InflowWind reads
+    assert json.loads((tmp_path / "rev.json").read_text())["reverse_x"] is True
+    np.testing.assert_array_equal(read_hawc2(tmp_path / "of").u.values, ref.u.values)  # the sidecar says how
+    err = capsys.readouterr().err
+    assert all(f"{tmp_path / 'rev'}{s}" in err for s in ("_u.bin", "_v.bin", "_w.bin", ".json", ".htc"))
+    assert cli.main([*BOX, "--out", str(tmp_path / "t.bts"), "--mean-speed", "9", "--hub-height", "30"]) == 0
+    assert f"box (turbsim): {tmp_path / 't.bts'}" in capsys.readouterr().err
+    bts = read_turbsim(tmp_path / "t.bts")
+    assert bts.attrs["hub_height"] == 30 and bts.attrs["mean_speed"] == 9 and bts.attrs["seed"] == 5
+    assert cli.main([*BOX, "--out", str(tmp_path / "b.wnd"), "--mean-speed", "9"]) == 0
+    assert f"box (bladed): {tmp_path / 'b.wnd'}, {tmp_path / 'b.sum'}" in capsys.readouterr().err
+    wnd = read_bladed(tmp_path / "b.wnd")
+    for c in "uvw":
+        np.testing.assert_allclose(bts[c].values, ref[c].values, atol=float(np.ptp(ref[c].values)) / 65535)
+        np.testing.assert_allclose(wnd[c].values, ref[c].values, atol=float(ref[c].values.std()) / 1000)
+
+
+def test_box_refuses_options_that_do_not_apply_before_generating(tmp_path, capsys):
+    cases = [
+        (["--out", "@a.nc", "--convention", "openfast"], "--convention applies to HAWC2 boxes only"),
+        (["--out", "@a.bts", "--mean-speed", "9", "--reverse-x"], "--reverse-x applies to HAWC2 boxes only"),
+        (["--format", "hawc2", "--out", "@h", "--convention", "openfast", "--reverse-x"], "give one of them"),
+        (["--out", "@a.nc", "--mean-speed", "9"], "--mean-speed applies to --format turbsim and bladed only"),
+        (["--format", "hawc2", "--out", "@h", "--hub-height", "9"], "--hub-height applies to --format turbsim"),
+        (["--out", "@a.wnd"], "give --mean-speed U"),
+        (["--format", "turbsim", "--out", "@a.nc", "--mean-speed", "9"], "a TurbSim box is written to a .bts file"),
+        (["--format", "bladed", "--out", "@a.bts", "--mean-speed", "9"], "a Bladed box is written to a .wnd file"),
+        (["--format", "hawc2", "--out", "@a.nc"], "give a base name such as"),
+        (["--out", "@a.bts", "--mean-speed", "9", "--hub-height", "1"], "--hub-height=1.0 is out of range"),
+        (["--out", "@a.bts", "--mean-speed", "0"], "--mean-speed=0.0 is out of range"),
+    ]
+    for extra, message in cases:
+        args = [*BOX, *[str(tmp_path / a[1:]) if a.startswith("@") else a for a in extra]]  # @: a file
+        assert cli.main(args) == 2, extra
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and message in err[0], (extra, err)
+    assert list(tmp_path.iterdir()) == []

@@ -48,6 +48,7 @@ import math
 
 import numpy as np
 
+from .._version import __version__
 from . import conical_period
 from .conical_period import cycle_reference_height, default_spacing
 from ._labels import WIND_DIRECTION_CONVENTION, duration_phrase, periods_phrase, wind_from_toward
@@ -209,7 +210,6 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
     """
     import xarray as xr
 
-    from .._version import __version__
 
     rows = [rows] if isinstance(rows, dict) else list(rows)
     p, _ = scene.units()[index]

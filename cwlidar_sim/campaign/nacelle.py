@@ -57,6 +57,7 @@ import time
 
 import numpy as np
 
+from .._version import __version__
 from ..signal.processing import usable_mask
 from .nacelle_scene import NacelleScene
 from .spec import RESULTS_VERSION
@@ -222,7 +223,6 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
     """Simulate period ``index`` as a Dataset on ``period`` (module notes); ``params`` is ignored."""
     import xarray as xr
 
-    from .._version import __version__
     from ..analysis.rews import align_preview, coherence_bandwidth, coherence_estimate
 
     t_start = time.perf_counter()

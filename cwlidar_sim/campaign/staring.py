@@ -29,6 +29,7 @@ import time
 
 import numpy as np
 
+from .._version import __version__
 from ..signal.processing import usable_fraction, usable_speeds
 from ..turbulence.limits import check_frozen_turbulence
 from ._labels import HOMODYNE, TOWARD_LIDAR, duration_phrase
@@ -415,7 +416,6 @@ def period_dataset(scene: Scene, params, r: dict):
                                  {"units": units, "long_name": f"Mann {name} fitted to the sonic spectra"})
             dv[f"fit_{name}_std"] = (("period",), pk(f.std[name] if f else np.nan),
                                      {"units": units, "long_name": f"1-sigma uncertainty of fit_{name}"})
-    from .._version import __version__
 
     attrs = {
         "title": f"cwlidar_sim campaign {scene.name}",

@@ -1,6 +1,8 @@
 """Mann (1994, 1998) spectral-tensor turbulence: tensor, spectra, fields, files."""
 
-from .io import hawc2_paths, read_hawc2, read_netcdf, write_hawc2, write_netcdf
+from .io import hawc2_paths, hawc2_sidecar_paths, read_hawc2, read_netcdf, write_hawc2, write_netcdf
+from .io_bladed import read_bladed, write_bladed
+from .io_turbsim import read_turbsim, write_turbsim
 from .box import BoxExpectation, BoxGenerator, expected_box_covariance, generate_box
 from .fields import generate_line, generate_plane, line_spectra, plane_spectra
 from .grids import common_extent, grid_for_extent
@@ -30,8 +32,13 @@ __all__ = [
     "spectral_tensor",
     "subcell_variance",
     "hawc2_paths",
+    "hawc2_sidecar_paths",
+    "read_bladed",
     "read_hawc2",
     "read_netcdf",
+    "read_turbsim",
+    "write_bladed",
     "write_hawc2",
     "write_netcdf",
+    "write_turbsim",
 ]

@@ -4,7 +4,13 @@ HAWC2 (Mann64bit) box format
 ----------------------------
 Three raw files, one per component (u, v, w), each holding ``Nx*Ny*Nz``
 little-endian float32 values [m/s] and no header.  Shape and spacing are not
-in the files; the reader must be told them.  Default file names are
+in the files: :func:`write_hawc2` writes them (with the Mann parameters,
+seed, layout and all attributes) to a JSON sidecar ``BASE.json``, which
+:func:`read_hawc2` reads, and HAWC2's ``begin mann`` block for the files to
+``BASE.htc`` (see ``cwlidar_sim.turbulence._io_meta``); without a sidecar
+the reader must be told them.  TurbSim and Bladed files:
+:mod:`cwlidar_sim.turbulence.io_turbsim`, :mod:`cwlidar_sim.turbulence.io_bladed`.
+Default file names are
 ``BASE_u.bin``, ``BASE_v.bin``, ``BASE_w.bin`` (a trailing ``.bin`` on BASE is
 dropped, so ``box.bin`` names ``box_u.bin``..., as ``mannrs`` does); explicit
 paths are accepted too (``hipersim`` writes ``BASENAMEu.turb``...).
@@ -106,8 +112,6 @@ reading, so they round-trip.
 
 from __future__ import annotations
 
-import json
-import numbers
 import os
 from pathlib import Path
 
@@ -115,8 +119,10 @@ import numpy as np
 
 from .._atomic import atomic_paths, check_output_file, write_netcdf_atomic
 from .._validation import check_bool, check_int, check_memory, check_real, check_tuple
+from . import _io_meta
+from ._io_meta import decode_attrs as _decode_attrs, encode_attrs as _encode_attrs
 
-__all__ = ["hawc2_paths", "read_hawc2", "read_netcdf", "write_hawc2", "write_netcdf"]
+__all__ = ["hawc2_paths", "hawc2_sidecar_paths", "read_hawc2", "read_netcdf", "write_hawc2", "write_netcdf"]
 
 _COMPONENTS = ("u", "v", "w")
 #: File conventions: how the file's indices map onto our Dataset's.
@@ -125,8 +131,6 @@ _FIELD_DIMS = (("x", "y", "z"), ("x", "y"), ("x",))
 _HAWC2_DTYPE = np.dtype("<f4")
 #: Default largest slab copied at once while writing a HAWC2 file [bytes].
 _DEFAULT_CHUNK_BYTES = 16 * 2**20
-#: Global attribute listing the attributes stored as JSON text.
-_JSON_ATTR = "cwlidar_sim_json_attrs"
 
 _LONG_NAMES = {
     "u": "longitudinal velocity fluctuation",
@@ -180,8 +184,31 @@ def hawc2_paths(base_or_paths) -> tuple[Path, Path, Path]:
     return tuple(out)
 
 
+def hawc2_sidecar_paths(base_or_paths) -> tuple[Path, Path] | None:
+    """File names of the JSON sidecar and HTC snippet written with a HAWC2 box.
+
+    Parameters
+    ----------
+    base_or_paths : str or os.PathLike or sequence of 3 of them
+        As for :func:`hawc2_paths`.
+
+    Returns
+    -------
+    tuple of pathlib.Path or None
+        ``(BASE.json, BASE.htc)`` for a base name (a trailing ``.bin`` dropped,
+        as for the data files); None for three explicit paths (no sidecar is
+        written or looked for then).
+    """
+    if not isinstance(base_or_paths, (str, os.PathLike)):
+        hawc2_paths(base_or_paths)  # the same checks
+        return None
+    u_path = hawc2_paths(base_or_paths)[0]
+    stem = u_path.name[: -len("_u.bin")]
+    return u_path.with_name(stem + ".json"), u_path.with_name(stem + ".htc")
+
+
 def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2",
-                max_chunk_bytes: int = _DEFAULT_CHUNK_BYTES):
+                max_chunk_bytes: int = _DEFAULT_CHUNK_BYTES, sidecar: bool = True):
     """Write a 3-D box as a HAWC2 / Mann64bit binary turbulence box.
 
     Parameters
@@ -209,6 +236,14 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
         Largest float32 slab converted at a time [bytes] (at least one x
         plane is always taken).  Memory held by the writer is about this,
         never a contiguous copy of a whole component.
+    sidecar : bool, optional
+        With a base name (not three explicit paths), also write ``BASE.json``
+        (shape, spacing, Mann parameters, seed, convention, reverse_x, the
+        package version and every attribute; :func:`read_hawc2` reads it)
+        and ``BASE.htc`` (HAWC2's ``begin mann; ... end mann;`` block for
+        these files); see :func:`hawc2_sidecar_paths` and
+        ``cwlidar_sim.turbulence._io_meta`` for their content.  Default True.
+        The spacing comes from ``box.attrs['dx']``... or the coordinates.
 
     Returns
     -------
@@ -231,26 +266,38 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
 
     Notes
     -----
-    No header is written: the reader needs the shape (Nx, Ny, Nz) and spacing
-    (dx, dy, dz) [m] from elsewhere (e.g. ``box.attrs``).  Each file is first
-    written to a temporary file beside it (``.NAME.XXXXXXXX.tmp.bin``) and the
-    three are renamed over the targets only when all three are complete
+    The data files have no header: shape (Nx, Ny, Nz) and spacing (dx, dy,
+    dz) [m] travel in the sidecar (or must be given to the reader).  Each file
+    is first written to a temporary file beside it
+    (``.NAME.XXXXXXXX.tmp.bin``) and the three (five with the sidecar and
+    HTC snippet) are renamed over the targets only when all are complete
     (``cwlidar_sim._atomic.atomic_paths``): a failure leaves the old files.
     """
-    reverse_x = check_bool("reverse_x", reverse_x)
-    reverse_x, reverse_y = _convention_flips(convention, reverse_x)
+    asked_reverse_x = check_bool("reverse_x", reverse_x)
+    reverse_x, reverse_y = _convention_flips(convention, asked_reverse_x)
     max_chunk_bytes = check_int("max_chunk_bytes", max_chunk_bytes, lo=1)
+    sidecar = check_bool("sidecar", sidecar)
     arrays = _field_arrays(box, "box", allowed=(_FIELD_DIMS[0],))
     paths = hawc2_paths(base)
+    meta = hawc2_sidecar_paths(base) if sidecar else None
+    texts = []
+    if meta is not None:
+        args = (arrays[0].shape, _io_meta.box_spacing(box, "box"), convention, asked_reverse_x, dict(box.attrs))
+        texts = [_io_meta.sidecar_text(paths, meta[0], *args, "box.attrs"), _io_meta.htc_text(paths, meta[1], *args)]
     nx = arrays[0].shape[0]
     plane_bytes = _HAWC2_DTYPE.itemsize * int(np.prod(arrays[0].shape[1:]))
     step = max(1, max_chunk_bytes // plane_bytes)
     for c, p in zip(_COMPONENTS, paths):
         check_output_file(p, label=f"HAWC2 file of component {c}")
-    # All three components go to temporary files first, and are synced and renamed
-    # only when the three are whole, so a failure (a non-finite value, a full disk)
-    # leaves the old triplet as it was.
-    with atomic_paths(paths) as tmps:
+    for what, p in zip(("sidecar", "HTC snippet"), meta or ()):
+        check_output_file(p, label=f"HAWC2 {what}")
+    # All files go to temporary files first, and are synced and renamed only when
+    # all are whole, so a failure (a non-finite value, a full disk) leaves the old
+    # files as they were.
+    with atomic_paths(list(paths) + list(meta or ())) as tmps:
+        for text, tmp in zip(texts, tmps[3:]):
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(text)
         for c, vel_xyz, tmp in zip(_COMPONENTS, arrays, tmps):
             with open(tmp, "wb") as fh:
                 for i0 in range(0, nx, step):
@@ -275,28 +322,34 @@ def write_hawc2(box, base, *, reverse_x: bool = False, convention: str = "hawc2"
     return paths
 
 
-def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, convention: str = "hawc2",
-               remove_u_mean: bool = False, mmap: bool = False, attrs=None):
+def read_hawc2(base_or_paths, shape=None, spacing=None, *, reverse_x: bool | None = None,
+               convention: str | None = None, remove_u_mean: bool = False, mmap: bool = False, attrs=None):
     """Read a HAWC2 / Mann64bit binary turbulence box.
 
     Parameters
     ----------
     base_or_paths : str or os.PathLike or sequence of 3 of them
         Base name or the three paths (u, v, w); see :func:`hawc2_paths`.
-    shape : sequence of 3 int
+    shape : sequence of 3 int, optional
         (Nx, Ny, Nz), each >= 1.  Each file must hold exactly
-        ``Nx*Ny*Nz*4`` bytes.
-    spacing : sequence of 3 float
-        (dx, dy, dz) [m], each > 0 and finite.
+        ``Nx*Ny*Nz*4`` bytes.  Default: from the sidecar ``BASE.json``
+        (:func:`hawc2_sidecar_paths`; a base name only); given as well, it
+        must equal the sidecar's.
+    spacing : sequence of 3 float, optional
+        (dx, dy, dz) [m], each > 0 and finite.  Default: from the sidecar;
+        given as well, it must equal the sidecar's (to 1e-9 relative).
     reverse_x : bool, optional
         The files hold the planes in reverse order (see :func:`write_hawc2`);
         they are flipped back so that the Dataset is in our convention.
+        Default: the sidecar's, else False.  Given, it overrides the
+        sidecar's (to read the planes as another reader would).
     convention : {"hawc2", "openfast"}, optional
-        "hawc2" (default): the generators' layout.  "openfast": the files
-        as OpenFAST's InflowWind reads them (x planes in arrival order, y
-        reversed, signs unchanged); the Dataset is then the field the
-        InflowWind turbine sees, in our frame.  ``reverse_x`` must be False
-        with "openfast".  See the module docstring.
+        "hawc2": the generators' layout.  "openfast": the files as OpenFAST's
+        InflowWind reads them (x planes in arrival order, y reversed, signs
+        unchanged); the Dataset is then the field the InflowWind turbine
+        sees, in our frame.  ``reverse_x`` must be False with "openfast".
+        Default: the sidecar's, else "hawc2"; given, it overrides the
+        sidecar's.  See the module docstring.
     remove_u_mean : bool, optional
         Subtract from u, at every (y, z), its mean over x, as InflowWind
         does with ``ScaleMethod`` 1 or 2.  Loads the data (not with
@@ -306,8 +359,9 @@ def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, conven
         data are read lazily, only the slices used, and the files must stay in
         place while the Dataset is used.  Default False (load into memory).
     attrs : mapping, optional
-        Extra Dataset attributes (e.g. Mann parameters, seed); ``dx``, ``dy``,
-        ``dz`` are always set from ``spacing``.
+        Extra Dataset attributes (e.g. Mann parameters, seed), added to (and
+        overriding) the sidecar's; ``dx``, ``dy``, ``dz`` are always set from
+        ``spacing``.
 
     Returns
     -------
@@ -321,15 +375,23 @@ def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, conven
     FileNotFoundError
         A component file is missing.
     ValueError
-        Bad shape or spacing, or a file size that is not ``Nx*Ny*Nz*4`` bytes
-        (the message gives the expected and the actual size).
+        Bad shape or spacing, shape or spacing missing (no sidecar) or
+        different from the sidecar's (both named), a sidecar that is not one
+        (malformed JSON, wrong fields), or a file size that is not
+        ``Nx*Ny*Nz*4`` bytes (the message gives the expected and the actual
+        size).
     """
     import xarray as xr
 
     paths = hawc2_paths(base_or_paths)
-    shape = check_tuple("shape", shape, 3, lambda n, v: check_int(n, v, lo=1))
-    spacing = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
-    reverse_x = check_bool("reverse_x", reverse_x)
+    meta = hawc2_sidecar_paths(base_or_paths)
+    side = _io_meta.read_sidecar(meta[0]) if meta is not None else None
+    shape = _from_sidecar("shape", shape, side, meta, lambda n, v: check_int(n, v, lo=1))
+    spacing = _from_sidecar("spacing", spacing, side, meta, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
+    if convention is None:
+        convention = side["convention"] if side else "hawc2"
+    reverse_x = check_bool("reverse_x", reverse_x if reverse_x is not None
+                           else (side["reverse_x"] if side and convention == side["convention"] else False))
     reverse_x, reverse_y = _convention_flips(convention, reverse_x)
     remove_u_mean = check_bool("remove_u_mean", remove_u_mean)
     mmap = check_bool("mmap", mmap)
@@ -370,7 +432,8 @@ def read_hawc2(base_or_paths, shape, spacing, *, reverse_x: bool = False, conven
         d: (d, np.arange(n) * s, {"units": "m", "long_name": _LONG_NAMES[d]})
         for d, n, s in zip("xyz", shape, spacing)
     }
-    ds_attrs = dict(extra)
+    ds_attrs = dict(side["attrs"]) if side else {}
+    ds_attrs.update(extra)
     ds_attrs.update(dx=spacing[0], dy=spacing[1], dz=spacing[2])
     if convention != "hawc2":
         ds_attrs["hawc2_convention"] = convention
@@ -505,6 +568,23 @@ def _convention_flips(convention, reverse_x) -> tuple[bool, bool]:
     return reverse_x, False
 
 
+def _from_sidecar(name, given, side, meta, item_check) -> tuple:
+    """``shape`` or ``spacing`` of a HAWC2 box: as given, else the sidecar's; both given must agree."""
+    stored = side[name] if side else None
+    if given is None:
+        if stored is None or None in stored:
+            where = (f"no sidecar {str(meta[0])!r} was found" if meta and not side
+                     else f"the sidecar {str(meta[0])!r} does not hold it" if side
+                     else "three explicit paths have no sidecar")
+            raise ValueError(f"{name} of the HAWC2 box is needed: {where}; give {name}=(...) explicitly")
+        return stored
+    given = check_tuple(name, given, 3, item_check)
+    if stored is not None and any(s is not None and abs(g - s) > 1e-9 * abs(s) for g, s in zip(given, stored)):
+        raise ValueError(f"{name}={given} differs from {name} {tuple(stored)} in the sidecar {str(meta[0])!r}; "
+                         f"give the sidecar's {name} (or none), or remove the stale sidecar")
+    return given
+
+
 def _check_path(name, value) -> Path:
     if not isinstance(value, (str, os.PathLike)):
         raise TypeError(f"{name} must be str or os.PathLike, got {type(value).__name__} {value!r}")
@@ -558,77 +638,3 @@ def _field_dims(field, label, *, allowed):
         if da.size == 0:
             raise ValueError(f"{label}['{c}'] is empty (shape {da.shape}); allowed: at least one point per dim")
     return target
-
-
-def _netcdf_native(value) -> bool:
-    """True if netCDF-4 can hold ``value`` as an attribute as it is."""
-    if isinstance(value, (bool, np.bool_)):
-        return False
-    if isinstance(value, (str, np.str_)):
-        return True
-    if isinstance(value, (numbers.Integral, np.integer)):
-        return -(2**63) <= int(value) < 2**63
-    if isinstance(value, (numbers.Real, np.floating)):
-        return True
-    if isinstance(value, (list, tuple, np.ndarray)):
-        arr = np.asarray(value)
-        return (
-            arr.ndim == 1
-            and arr.size > 0
-            and (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer))
-            and arr.dtype != np.bool_
-        )
-    return False
-
-
-def _encode_attrs(attrs: dict, label: str) -> dict:
-    out = {}
-    json_names = []
-    for key, value in attrs.items():
-        if not isinstance(key, str):
-            raise TypeError(f"{label} key {key!r} must be a str")
-        if key == _JSON_ATTR:
-            continue
-        if _netcdf_native(value):
-            out[key] = value
-            continue
-        try:
-            out[key] = json.dumps(_to_json(value), allow_nan=True)
-        except TypeError:
-            raise TypeError(
-                f"{label}[{key!r}] = {value!r} ({type(value).__name__}) cannot be stored in NetCDF; allowed: "
-                "str, int, float, bool, None, 1-D numeric arrays, and lists/dicts of those"
-            ) from None
-        json_names.append(key)
-    if json_names:
-        out[_JSON_ATTR] = json.dumps(json_names)
-    return out
-
-
-def _to_json(value):
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if value is None or isinstance(value, str):
-        return value
-    if isinstance(value, (numbers.Integral, np.integer)):
-        return int(value)
-    if isinstance(value, (numbers.Real, np.floating)):
-        return float(value)
-    if isinstance(value, np.ndarray):
-        return _to_json(value.tolist())
-    if isinstance(value, (list, tuple)):
-        return [_to_json(v) for v in value]
-    if isinstance(value, dict) and all(isinstance(k, str) for k in value):
-        return {k: _to_json(v) for k, v in value.items()}
-    raise TypeError(type(value).__name__)
-
-
-def _decode_attrs(attrs) -> dict:
-    out = dict(attrs)
-    names = out.pop(_JSON_ATTR, None)
-    if names is None:
-        return out
-    for key in json.loads(names):
-        if key in out:
-            out[key] = json.loads(out[key])
-    return out

@@ -14,6 +14,7 @@ boxes they write with their own writers:
 
 from __future__ import annotations
 
+import json
 import re
 import struct
 import tracemalloc
@@ -153,7 +154,7 @@ def test_hawc2_explicit_paths_and_names(tmp_path):
 # HAWC2: bad input
 # ---------------------------------------------------------------------------
 def test_hawc2_wrong_shape_names_expected_and_actual_size(tmp_path):
-    write_hawc2(synthetic_field((6, 5, 4)), tmp_path / "box")
+    write_hawc2(synthetic_field((6, 5, 4)), tmp_path / "box", sidecar=False)  # no sidecar to say the shape
     with pytest.raises(ValueError, match=r"box_u\.bin") as err:
         read_hawc2(tmp_path / "box", (6, 5, 5), (1.0, 1.0, 1.0))
     msg = str(err.value)
@@ -161,7 +162,7 @@ def test_hawc2_wrong_shape_names_expected_and_actual_size(tmp_path):
 
 
 def test_hawc2_missing_file(tmp_path):
-    write_hawc2(synthetic_field((3, 2, 2)), tmp_path / "box")
+    write_hawc2(synthetic_field((3, 2, 2)), tmp_path / "box", sidecar=False)
     (tmp_path / "box_v.bin").unlink()
     with pytest.raises(FileNotFoundError, match=r"component v.*box_v\.bin"):
         read_hawc2(tmp_path / "box", (3, 2, 2), (1.0, 1.0, 1.0))
@@ -466,3 +467,106 @@ def test_netcdf_bad_input(tmp_path):
     xr.Dataset({"u": (("x",), np.zeros(3))}).to_netcdf(tmp_path / "only_u.nc", engine="h5netcdf")
     with pytest.raises(ValueError, match=r"lacks velocity component\(s\) \['v', 'w'\]"):
         read_netcdf(tmp_path / "only_u.nc")
+
+
+# ---------------------------------------------------------------------------
+# HAWC2: the sidecar (BASE.json) and HTC snippet (BASE.htc)
+# ---------------------------------------------------------------------------
+def asymmetric_field(shape=(5, 3, 4), spacing=(2.0, 3.0, 4.0)):
+    """u = x, v = y**2, w = z + x*y [m/s]: every axis and component told apart by value."""
+    x, y, z = np.meshgrid(*(np.arange(n) * s for n, s in zip(shape, spacing)), indexing="ij")
+    ds = synthetic_field(shape, spacing)
+    for c, a in zip("uvw", (x, y**2, z + x * y)):
+        ds[c] = (("x", "y", "z"), a.astype(np.float32))
+    return ds
+
+
+def test_hawc2_sidecar_round_trip_without_shape_or_spacing(tmp_path):
+    from cwlidar_sim import __version__
+    from cwlidar_sim.turbulence import hawc2_sidecar_paths
+
+    ds = synthetic_field((6, 5, 4))
+    ds.attrs["hf_compensation"] = 1
+    write_hawc2(ds, tmp_path / "box.bin")
+    side, htc = hawc2_sidecar_paths(tmp_path / "box.bin")
+    assert (side.name, htc.name) == ("box.json", "box.htc")
+    doc = json.loads(side.read_text())
+    assert doc["shape"] == [6, 5, 4] and doc["spacing"] == [2.0, 3.0, 4.0]
+    assert doc["mann_parameters"] == {"alpha_eps": 0.08, "length_scale": 33.6, "gamma": 3.9} and doc["seed"] == 1234
+    assert doc["convention"] == "hawc2" and doc["reverse_x"] is False
+    assert doc["cwlidar_sim_version"] == __version__ and doc["files"]["u"] == "box_u.bin"
+    back = read_hawc2(tmp_path / "box")  # shape, spacing and attributes from the sidecar
+    for c in "uvw":
+        np.testing.assert_array_equal(back[c].values, ds[c].values)
+    for d in "xyz":
+        np.testing.assert_array_equal(back[d].values, ds[d].values)
+    assert back.attrs == ds.attrs
+    assert hawc2_sidecar_paths([tmp_path / "a", tmp_path / "b", tmp_path / "c"]) is None
+
+
+@pytest.mark.parametrize("convention, reverse_x, in_file", [
+    ("hawc2", False, lambda a: a),
+    ("hawc2", True, lambda a: a[::-1]),  # file plane j = our plane Nx-1-j
+    ("openfast", False, lambda a: a[::-1, ::-1]),  # and file y j = our Ny-1-j
+])
+def test_hawc2_orientation_of_a_known_asymmetric_field(tmp_path, convention, reverse_x, in_file):
+    ds = asymmetric_field()
+    paths = write_hawc2(ds, tmp_path / "a", convention=convention, reverse_x=reverse_x)
+    nx, ny, nz = 5, 3, 4
+    for c, p in zip("uvw", paths):
+        raw = np.fromfile(p, dtype="<f4").reshape(nx, ny, nz)
+        np.testing.assert_array_equal(raw, in_file(ds[c].values))
+    u = np.fromfile(paths[0], dtype="<f4").reshape(nx, ny, nz)
+    assert u[0, 0, 0] == (0.0 if convention == "hawc2" and not reverse_x else 8.0)  # x of file plane 0
+    v = np.fromfile(paths[1], dtype="<f4").reshape(nx, ny, nz)
+    assert v[0, 0, 0] == (36.0 if convention == "openfast" else 0.0)  # y**2 of file column 0
+    # the sidecar says how the planes lie: reading it needs no argument
+    back = read_hawc2(tmp_path / "a")
+    for c in "uvw":
+        np.testing.assert_array_equal(back[c].values, ds[c].values)
+    # given, the arguments override it: what a reader of the other layout sees
+    other = read_hawc2(tmp_path / "a", convention="hawc2", reverse_x=False)
+    np.testing.assert_array_equal(other.u.values, in_file(ds.u.values))
+
+
+def test_hawc2_sidecar_mismatch_missing_or_malformed_is_refused(tmp_path):
+    write_hawc2(synthetic_field((6, 5, 4)), tmp_path / "box")
+    mismatch = r"shape=\(6, 5, 5\) differs from shape \(6, 5, 4\) in the sidecar .*box\.json"
+    with pytest.raises(ValueError, match=mismatch):
+        read_hawc2(tmp_path / "box", (6, 5, 5), (2.0, 3.0, 4.0))
+    with pytest.raises(ValueError, match=r"spacing=\(2\.0, 3\.0, 5\.0\) differs from spacing \(2\.0, 3\.0, 4\.0\)"):
+        read_hawc2(tmp_path / "box", spacing=(2.0, 3.0, 5.0))
+    assert read_hawc2(tmp_path / "box", (6, 5, 4), (2.0, 3.0, 4.0)).u.shape == (6, 5, 4)  # agreeing: fine
+    side = tmp_path / "box.json"
+    text = side.read_text()
+    side.write_text(text[:-20])
+    with pytest.raises(ValueError, match=r"HAWC2 sidecar .*box\.json.* is not valid JSON") as err:
+        read_hawc2(tmp_path / "box")
+    assert "\n" not in str(err.value)
+    side.write_text(text.replace('"format": "cwlidar_sim', '"format": "other'))
+    with pytest.raises(ValueError, match=r"box\.json.* is not a cwlidar_sim HAWC2 sidecar"):
+        read_hawc2(tmp_path / "box")
+    side.write_text(json.dumps(dict(json.loads(text), shape=[6, 5])))
+    with pytest.raises(ValueError, match=r"box\.json.*'shape' is \[6, 5\]"):
+        read_hawc2(tmp_path / "box")
+    side.unlink()
+    with pytest.raises(ValueError, match=r"shape of the HAWC2 box is needed: no sidecar .*box\.json"):
+        read_hawc2(tmp_path / "box")
+    write_hawc2(synthetic_field((6, 5, 4)), tmp_path / "n", sidecar=False)
+    assert not (tmp_path / "n.json").exists() and not (tmp_path / "n.htc").exists()
+
+
+def test_hawc2_htc_snippet_as_the_hawc2_toolbox_reads_it(tmp_path):
+    htc_file = pytest.importorskip("wetb.hawc2.htc_file", reason="the DTU Wind Energy toolbox (wetb, with hipersim) "
+                                   "is not installed (pip install '.[test]')")
+    ds = synthetic_field((16, 5, 4), spacing=(1.5, 3.0, 4.0))
+    write_hawc2(ds, tmp_path / "turb")
+    text = (tmp_path / "turb.htc").read_text()
+    main = tmp_path / "main.htc"
+    main.write_text("begin wind ;\n  turb_format 1 ;\n" + text + "end wind ;\nexit ;\n")
+    mann = htc_file.HTCFile(str(main)).wind.mann
+    assert [mann[f"filename_{c}"].values[0] for c in "uvw"] == [f"./turb_{c}.bin" for c in "uvw"]
+    assert [mann[f"box_dim_{c}"].values for c in "uvw"] == [[16, 1.5], [5, 3.0], [4, 4.0]]
+    assert mann.dont_scale.values == [1]
+    assert "create_turb_parameters" not in mann  # a comment only: HAWC2 must not generate a box of its own
+    assert "create_turb_parameters 33.6 0.08 3.9 1234" in text

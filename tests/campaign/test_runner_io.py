@@ -117,7 +117,7 @@ def test_cli_run_report_and_errors(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text(TEXT.replace("gamma = 3.9", "gamma = 3.9\nsigma = 1"))
     assert main(["run", str(bad), "--out", str(out)]) == 2
-    assert "unknown key(s) for TurbulenceSpec: ['sigma']" in capsys.readouterr().err
+    assert "unknown key(s) in turbulence: ['sigma']" in capsys.readouterr().err
     assert main(["report", str(tmp_path / "empty")]) == 2
 
 

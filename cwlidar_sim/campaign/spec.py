@@ -175,7 +175,7 @@ def prefix_path(path: str, message: str, keys=(), owner: str | None = None) -> s
     A message that already starts with ``path`` is kept; one that starts
     with a key of the table (``gamma=30 is ...``) becomes ``path.gamma=30
     is ...``; a leading ``owner.`` (a class name some checks write) is
-    replaced by ``path.``; any other gets ``path: `` in front.
+    replaced by ``path.``; any other becomes ``path: message``.
     """
     if message == path or (message.startswith(path) and message[len(path)] in ".[ :=("):
         return message

@@ -127,23 +127,29 @@ def _range_text(lo, hi, lo_open, hi_open) -> str:
     return f"{'(' if lo_open else '['}{lo}, {hi}{')' if hi_open else ']'}"
 
 
-def did_you_mean(unknown, allowed) -> str:
-    """`` (did you mean 'heights' for 'height'?)`` for the unknown keys that have a close allowed key
-    (difflib's ratio >= 0.6, a case-insensitive match, or an allowed key that extends it); else ``''``."""
+def closest_key(key, allowed) -> str | None:
+    """The allowed key closest to ``key``, or None: the same letters in another case, a key it begins
+    (``'cnr'`` for ``'cnr_db'``, 3 letters or more), difflib's closest (ratio >= 0.6), a key it extends."""
     import difflib
 
+    k = str(key)
     allowed = sorted(str(a) for a in allowed)
     lowered = {a.lower(): a for a in allowed}
-    pairs = []
-    for key in unknown:
-        k = str(key)
-        near = difflib.get_close_matches(k, allowed, n=1, cutoff=0.6)
-        if not near and k.lower() in lowered:
-            near = [lowered[k.lower()]]
-        if not near:
-            near = [a for a in allowed if a.startswith(k) or k.startswith(a)][:1]
-        if near:
-            pairs.append(f"{near[0]!r} for {k!r}")
+    if k.lower() in lowered:
+        return lowered[k.lower()]
+    longer = [a for a in allowed if len(k) >= 3 and a.startswith(k)]
+    if longer:
+        return longer[0]
+    near = difflib.get_close_matches(k, allowed, n=1, cutoff=0.6)
+    if near:
+        return near[0]
+    return next((a for a in allowed if k.startswith(a)), None)
+
+
+def did_you_mean(unknown, allowed) -> str:
+    """`` (did you mean 'heights' for 'height'?)`` for the unknown keys that have a close allowed key
+    (:func:`closest_key`); else ``''``."""
+    pairs = [f"{near!r} for {str(k)!r}" for k in unknown for near in [closest_key(k, allowed)] if near]
     return f" (did you mean {', '.join(pairs)}?)" if pairs else ""
 
 

@@ -68,6 +68,7 @@ def _cmd_doppler(args) -> int:
     import dataclasses
 
     from . import _config
+    from ._validation import did_you_mean
     from .signal import Instrument, preset, simulate_uniform, uniform_report
 
     if args.threads is not None:
@@ -80,7 +81,7 @@ def _cmd_doppler(args) -> int:
         if not sep:
             raise ValueError(f"--set {item!r} must look like FIELD=VALUE")
         if key not in types:
-            raise ValueError(f"unknown instrument field {key!r}; allowed: {sorted(types)}")
+            raise ValueError(f"--set {key}: unknown instrument field{did_you_mean([key], types)}; allowed: {sorted(types)}")
         t = types[key]
         try:
             changes[key] = int(val) if t in (int, "int") else float(val) if t in (float, "float") else val

@@ -88,9 +88,11 @@ import numpy as np
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
 from ._labels import wind_from_toward
 from .conical_period import default_spacing
-from .lidar_spec import ConicalLidarSpec
+from .lidar_spec import ConicalLidarSpec, lidar_schema
 from .turbulence_spec import TurbulenceSpec
-from .spec import SceneSpec, Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
+from .spec import (SceneSpec, Spec, Table, check_distinct_reals, check_periods, check_scene_keys,
+                   check_scene_name, entry_label, periods_from_dict, resolve_path, set_field, spec_table,
+                   table_from_dict, turbulence_schema)
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS"]
 
@@ -149,6 +151,9 @@ class ScanSpec(Spec):
     revs_per_height: int = 1
     refocus_time: float = 0.0
     periods_per_height: tuple = ()
+
+    #: Keys :meth:`from_dict` refuses with its own message (they moved to ``[lidar]``).
+    _explained_keys = ("lidar", "tier")
 
     def __post_init__(self):
         set_field(self, "heights", check_distinct_reals("scan.heights", self.heights, count=(1, 20), noun="heights",
@@ -283,23 +288,26 @@ class ConicalPeriodSpec(Spec):
     wind_from_deg: float | None = None
 
     _required = ("name", "mean_speed")
+    #: Keys of a staring period that :meth:`from_dict` refuses with its own message.
+    _explained_keys = ("misalignment_deg", "start")
 
     def __post_init__(self):
-        check_str("period.name", self.name)
-        set_field(self, "mean_speed", check_real(f"period[{self.name}].mean_speed", self.mean_speed, lo=1.0, hi=30.0))
+        # bare key names: the scene names the entry, period[0] ('p0') (spec.periods_from_dict)
+        check_str("name", self.name)
+        set_field(self, "mean_speed", check_real("mean_speed", self.mean_speed, lo=1.0, hi=30.0))
         if self.wind_from_deg is None:
             set_field(self, "wind_direction_deg", 0.0 if self.wind_direction_deg is None else
-                      check_real(f"period[{self.name}].wind_direction_deg", self.wind_direction_deg))
+                      check_real("wind_direction_deg", self.wind_direction_deg))
         elif self.wind_direction_deg is not None:
-            raise ValueError(f"period[{self.name}] gives both wind_direction_deg={self.wind_direction_deg!r} (toward, "
+            raise ValueError(f"gives both wind_direction_deg={self.wind_direction_deg!r} (toward, "
                              f"in the lidar's frame) and wind_from_deg={self.wind_from_deg!r} (meteorological: from, "
                              f"clockwise from north); allowed: one of them")
         else:
-            set_field(self, "wind_from_deg", check_real(f"period[{self.name}].wind_from_deg", self.wind_from_deg))
+            set_field(self, "wind_from_deg", check_real("wind_from_deg", self.wind_from_deg))
         if self.duration is not None:
-            set_field(self, "duration", check_real(f"period[{self.name}].duration", self.duration, lo=10.0, hi=3600.0))
+            set_field(self, "duration", check_real("duration", self.duration, lo=10.0, hi=3600.0))
         if self.seed is not None:
-            set_field(self, "seed", check_seed(f"period[{self.name}].seed", self.seed))
+            set_field(self, "seed", check_seed("seed", self.seed))
 
     @property
     def toward_deg(self) -> float:
@@ -308,13 +316,12 @@ class ConicalPeriodSpec(Spec):
 
     @classmethod
     def from_dict(cls, d: dict) -> "ConicalPeriodSpec":
-        name = d.get("name") if isinstance(d, dict) else None
         if isinstance(d, dict) and "misalignment_deg" in d:
-            raise ValueError(f"period {name!r}: misalignment_deg is the staring beam's angle to the wind; a conical "
-                             f"period takes wind_from_deg (meteorological: from, clockwise from north [deg]) or "
-                             f"wind_direction_deg (the direction the wind blows toward in the lidar's frame [deg])")
+            raise ValueError("misalignment_deg is the staring beam's angle to the wind; a conical period takes "
+                             "wind_from_deg (meteorological: from, clockwise from north [deg]) or "
+                             "wind_direction_deg (the direction the wind blows toward in the lidar's frame [deg])")
         if isinstance(d, dict) and "start" in d:
-            raise ValueError(f"period {name!r}: start is for staring scenes (background pauses)")
+            raise ValueError("start is for staring scenes (background pauses)")
         return super().from_dict(d)
 
 
@@ -373,12 +380,13 @@ class ConicalScene(SceneSpec):
                              f"later passes <name>_<pass>; allowed: period names that are not another's "
                              f"<name>_<pass>")
         self.turbulence.check_frozen(periods, self.scan.heights, "scan.heights")
-        for p in periods:
-            dur = check_real(f"period {p.name!r} duration", self.period_duration(p), lo=10.0, hi=3600.0)
+        for i, p in enumerate(periods):
+            where = entry_label("period", i, p.name)
+            dur = check_real(f"{where}.duration", self.period_duration(p), lo=10.0, hi=3600.0)
             if self.scan.cycle:
                 block = self.scan.block_time()
                 if (dur + self.scan.refocus_time) < nh * block * (1 - 1e-12):
-                    raise ValueError(f"period {p.name!r} lasts {dur:g} s, shorter than one cycle through the "
+                    raise ValueError(f"{where} lasts {dur:g} s, shorter than one cycle through the "
                                      f"{nh} heights ({nh} x {block:g} s blocks); allowed: longer periods or fewer "
                                      f"revs_per_height")
 
@@ -468,17 +476,27 @@ class ConicalScene(SceneSpec):
         d["period"] = d.pop("periods")
         return d
 
+    #: The scene file's tables and the spec class of each.
+    _tables = {"scan": ScanSpec, "lidar": ConicalLidarSpec, "turbulence": SurfaceTurbulenceSpec}
+
+    @classmethod
+    def schema(cls) -> dict:
+        """TOML path of each table of the scene file -> its keys (:func:`cwlidar_sim.campaign.spec.check_scene_keys`)."""
+        out = {"": Table(("name", "kind", "description", "seed", "duration", "period", *cls._tables)),
+               "scan": spec_table(ScanSpec)}
+        out.update(lidar_schema(cls._tables["lidar"]))
+        out.update(turbulence_schema(cls._tables["turbulence"]))
+        out["period[]"] = spec_table(ConicalPeriodSpec)
+        return out
+
     @classmethod
     def from_dict(cls, d: dict, *, base_dir: str = ".") -> "ConicalScene":
-        check_scene_keys(d, {"name", "kind", "description", "seed", "duration", "period", "scan", "lidar",
-                             "turbulence"}, ("name", "period"), "conical scene")
+        """Build from a TOML-shaped mapping; unknown keys are rejected by name, every error names its TOML path."""
+        check_scene_keys(d, cls.schema(), ("name", "period"), "conical scene")
         kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
-        if "scan" in d:
-            kw["scan"] = ScanSpec.from_dict(d["scan"])
-        if "lidar" in d:
-            kw["lidar"] = ConicalLidarSpec.from_dict(d["lidar"])
-        if "turbulence" in d:
-            kw["turbulence"] = SurfaceTurbulenceSpec.from_dict(d["turbulence"])
+        for key, spec in cls._tables.items():
+            if key in d:
+                kw[key] = table_from_dict(spec, d[key], key)
         kw["periods"] = periods_from_dict(d["period"], ConicalPeriodSpec)
         return cls(base_dir=base_dir, **kw)
 

@@ -32,9 +32,9 @@ from __future__ import annotations
 import dataclasses
 
 from .._validation import check_choice, check_keys
-from .spec import Spec, set_field
+from .spec import Spec, Table, at_path, entry_label, set_field, spec_table
 
-__all__ = ["LidarSpecBase", "ConicalLidarSpec", "CHAIN_TIERS", "SENSOR_KEYS"]
+__all__ = ["LidarSpecBase", "ConicalLidarSpec", "CHAIN_TIERS", "SENSOR_KEYS", "lidar_schema"]
 
 #: Tiers a scene may name ('auto' only where the scene kind resolves it).
 CHAIN_TIERS = ("los", "spectral", "signal")
@@ -112,22 +112,18 @@ class LidarSpecBase(Spec):
 
     def __post_init__(self):
         from ..sensors.base import LidarBase
-        from ..signal.chain import variant_instruments
-        from ..signal.instrument import PRESETS
+        from ..signal.chain import VARIANT_KEYS, variant_instruments
+        from ..signal.instrument import PRESETS, Instrument
 
         check_choice("lidar.preset", self.preset, tuple(PRESETS))
         if not isinstance(self.instrument, dict):
             raise TypeError(f"lidar.instrument must be a table of overrides, got {type(self.instrument).__name__}")
-        try:
-            inst = self.build_instrument()
-        except (ValueError, TypeError) as e:  # named as the scene file names it
-            raise type(e)(f"lidar.instrument.{e}") from None
+        with at_path("lidar.instrument", tuple(f.name for f in dataclasses.fields(Instrument))):
+            inst = self.build_instrument()  # named as the scene file names it
         check_choice("lidar.tier", self.tier, self._tiers)
         kw = self.sensor_kwargs(0.5)
-        try:
+        with at_path("lidar", SENSOR_KEYS):
             base = LidarBase(instrument=inst, **kw)
-        except (ValueError, TypeError) as e:
-            raise type(e)(f"lidar.{e}") from None
         for k in SENSOR_KEYS:
             if k not in ("tier", "cell_length"):
                 set_field(self, k, getattr(base, k))
@@ -135,10 +131,18 @@ class LidarSpecBase(Spec):
             set_field(self, "cell_length", base.cell_length)
         variants = tuple(self.variants)
         for i, v in enumerate(variants):
-            if isinstance(v, dict) and v.get("name") == "main":
-                raise ValueError(f"lidar.variants[{i}].name 'main' is reserved for the lidar's own processing")
+            if not isinstance(v, dict):
+                continue
+            where = entry_label("lidar.variants", i, v.get("name"))
+            if v.get("name") == "main":
+                raise ValueError(f"{where}.name 'main' is reserved for the lidar's own processing")
+            over = {k: x for k, x in v.items() if k != "name"}
+            if set(over) <= set(VARIANT_KEYS):
+                with at_path(where, VARIANT_KEYS):
+                    inst.replace(**over)  # each variant's values, named by its entry
         # the chain's own check: names, and only the processing fields (the spectra stay the same)
-        variant_instruments(inst, [dict(v) if isinstance(v, dict) else v for v in variants])
+        with at_path("lidar", ("variants",)):
+            variant_instruments(inst, [dict(v) if isinstance(v, dict) else v for v in variants])
         set_field(self, "variants", tuple(dict(v) for v in variants))
 
     def build_instrument(self, extra=None):
@@ -194,3 +198,13 @@ class ConicalLidarSpec(LidarSpecBase):
     preset: str = "cs"
     span: float = 30.0
     speckle: str = "independent"
+
+
+def lidar_schema(cls) -> dict:
+    """Schema entries of a ``[lidar]`` table of class ``cls`` (:func:`cwlidar_sim.campaign.spec.check_scene_keys`):
+    the table, its ``instrument`` overrides and each of its ``variants``."""
+    from ..signal.chain import VARIANT_KEYS
+    from ..signal.instrument import Instrument
+
+    return {"lidar": spec_table(cls), "lidar.instrument": Table(tuple(f.name for f in dataclasses.fields(Instrument))),
+            "lidar.variants[]": Table(("name",) + tuple(VARIANT_KEYS))}

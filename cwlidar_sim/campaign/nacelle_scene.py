@@ -54,9 +54,11 @@ import os
 import numpy as np
 
 from .._validation import check_bool, check_int, check_real, check_seed, check_str
-from .lidar_spec import LidarSpecBase
+from .lidar_spec import LidarSpecBase, lidar_schema
 from .turbulence_spec import TurbulenceSpec
-from .spec import SceneSpec, Spec, check_distinct_reals, check_periods, check_scene_keys, check_scene_name, periods_from_dict, resolve_path, set_field
+from .spec import (SceneSpec, Spec, Table, check_distinct_reals, check_periods, check_scene_keys, check_scene_name,
+                   entry_label, periods_from_dict, resolve_path, set_field, spec_table, table_from_dict,
+                   turbulence_schema)
 
 __all__ = ["NacelleScanSpec", "NacelleTurbulenceSpec", "NacellePeriodSpec", "NacelleLidarSpec",
            "NacellePlatformSpec", "PLATFORM_DOFS", "NacelleScene"]
@@ -224,17 +226,17 @@ class NacellePeriodSpec(Spec):
     _required = ("name", "mean_speed")
 
     def __post_init__(self):
-        check_str("period.name", self.name)
-        w = f"period[{self.name}]"
-        set_field(self, "mean_speed", check_real(f"{w}.mean_speed", self.mean_speed, lo=3.0, hi=40.0))
-        set_field(self, "yaw_misalignment_deg", check_real(f"{w}.yaw_misalignment_deg", self.yaw_misalignment_deg,
+        # bare key names: the scene names the entry, period[0] ('frozen') (spec.periods_from_dict)
+        check_str("name", self.name)
+        set_field(self, "mean_speed", check_real("mean_speed", self.mean_speed, lo=3.0, hi=40.0))
+        set_field(self, "yaw_misalignment_deg", check_real("yaw_misalignment_deg", self.yaw_misalignment_deg,
                                                            lo=-45.0, hi=45.0))
         if self.lifetime is not None:
-            set_field(self, "lifetime", check_real(f"{w}.lifetime", self.lifetime, lo=0.0, hi=1e6, lo_open=True))
+            set_field(self, "lifetime", check_real("lifetime", self.lifetime, lo=0.0, hi=1e6, lo_open=True))
         if self.duration is not None:
-            set_field(self, "duration", check_real(f"{w}.duration", self.duration, lo=30.0, hi=7200.0))
+            set_field(self, "duration", check_real("duration", self.duration, lo=30.0, hi=7200.0))
         if self.seed is not None:
-            set_field(self, "seed", check_seed(f"{w}.seed", self.seed))
+            set_field(self, "seed", check_seed("seed", self.seed))
 
 
 #: Degrees of freedom of the ``[platform]`` table (those of :class:`cwlidar_sim.sensors.PlatformMotion`).
@@ -386,16 +388,17 @@ class NacelleScene(SceneSpec):
         set_field(self, "seed", check_seed("seed", self.seed))
         check_str("description", self.description, allow_empty=True)
         self.turbulence.check_frozen(periods)
-        for p in periods:
+        for i, p in enumerate(periods):
+            where = entry_label("period", i, p.name)
             dur = self.period_duration(p)
             if dur < 3.0 * self.scan.segment_duration:
-                raise ValueError(f"period {p.name!r} lasts {dur:g} s, shorter than 3 coherence segments of "
+                raise ValueError(f"{where} lasts {dur:g} s, shorter than 3 coherence segments of "
                                  f"scan.segment_duration = {self.scan.segment_duration:g} s; allowed: longer "
                                  f"periods or shorter segments")
             try:
                 self.sensor(p)
             except (ValueError, TypeError) as e:
-                raise type(e)(f"nacelle lidar of period {p.name!r}: {e}") from None
+                raise type(e)(f"nacelle lidar of {where}: {e}") from None
 
     def period_params(self, period):
         """The :class:`cwlidar_sim.turbulence.MannParameters` of a period (its mean speed at hub height)."""
@@ -451,15 +454,29 @@ class NacelleScene(SceneSpec):
         d["period"] = d.pop("periods")
         return d
 
+    #: The scene file's tables and the spec class of each.
+    _tables = {"scan": NacelleScanSpec, "lidar": NacelleLidarSpec, "turbulence": NacelleTurbulenceSpec,
+               "platform": NacellePlatformSpec}
+
+    @classmethod
+    def schema(cls) -> dict:
+        """TOML path of each table of the scene file -> its keys (:func:`cwlidar_sim.campaign.spec.check_scene_keys`)."""
+        out = {"": Table(("name", "kind", "description", "seed", "duration", "period", *cls._tables)),
+               "scan": spec_table(NacelleScanSpec)}
+        out.update(lidar_schema(cls._tables["lidar"]))
+        out.update(turbulence_schema(cls._tables["turbulence"]))
+        out.update({"platform": spec_table(NacellePlatformSpec), "platform.phase_deg": Table(PLATFORM_DOFS),
+                    "period[]": spec_table(NacellePeriodSpec)})
+        return out
+
     @classmethod
     def from_dict(cls, d: dict, *, base_dir: str = ".") -> "NacelleScene":
-        check_scene_keys(d, {"name", "kind", "description", "seed", "duration", "period", "scan", "lidar",
-                             "turbulence", "platform"}, ("name", "period"), "nacelle scene")
+        """Build from a TOML-shaped mapping; unknown keys are rejected by name, every error names its TOML path."""
+        check_scene_keys(d, cls.schema(), ("name", "period"), "nacelle scene")
         kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
-        for key, spec in (("scan", NacelleScanSpec), ("lidar", NacelleLidarSpec),
-                          ("turbulence", NacelleTurbulenceSpec), ("platform", NacellePlatformSpec)):
+        for key, spec in cls._tables.items():
             if key in d:
-                kw[key] = spec.from_dict(d[key])
+                kw[key] = table_from_dict(spec, d[key], key)
         kw["periods"] = periods_from_dict(d["period"], NacellePeriodSpec)
         return cls(base_dir=base_dir, **kw)
 

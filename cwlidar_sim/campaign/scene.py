@@ -51,9 +51,10 @@ import dataclasses
 
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
 from .conical_scene import ConicalScene
-from .lidar_spec import CHAIN_TIERS, LidarSpecBase
-from .spec import (SceneSpec, SCENE_KINDS, Spec, check_periods, check_scene_keys, check_scene_name,
-                   parse_toml, periods_from_dict, read_text_file, resolve_path, set_field)
+from .lidar_spec import CHAIN_TIERS, LidarSpecBase, lidar_schema
+from .spec import (SceneSpec, SCENE_KINDS, Spec, Table, check_periods, check_scene_keys, check_scene_name,
+                   entry_label, parse_toml, periods_from_dict, read_text_file, resolve_path, set_field, spec_table,
+                   table_from_dict, turbulence_schema)
 from .turbulence_spec import TurbulenceSpec
 
 __all__ = [
@@ -262,15 +263,15 @@ class PeriodSpec(Spec):
     _required = ("name", "mean_speed")
 
     def __post_init__(self):
-        check_str("period.name", self.name)
-        _set(self, "mean_speed", check_real(f"period[{self.name}].mean_speed", self.mean_speed, lo=1.0, hi=30.0))
-        _set(self, "misalignment_deg",
-             check_real(f"period[{self.name}].misalignment_deg", self.misalignment_deg, lo=-45.0, hi=45.0))
+        # bare key names: the scene names the entry, period[0] ('A') (spec.periods_from_dict)
+        check_str("name", self.name)
+        _set(self, "mean_speed", check_real("mean_speed", self.mean_speed, lo=1.0, hi=30.0))
+        _set(self, "misalignment_deg", check_real("misalignment_deg", self.misalignment_deg, lo=-45.0, hi=45.0))
         if self.duration is not None:
-            _set(self, "duration", check_real(f"period[{self.name}].duration", self.duration, lo=10.0, hi=86400.0))
-        _set(self, "start", check_real(f"period[{self.name}].start", self.start, lo=0.0, hi=1e7))
+            _set(self, "duration", check_real("duration", self.duration, lo=10.0, hi=86400.0))
+        _set(self, "start", check_real("start", self.start, lo=0.0, hi=1e7))
         if self.seed is not None:
-            _set(self, "seed", check_seed(f"period[{self.name}].seed", self.seed))
+            _set(self, "seed", check_seed("seed", self.seed))
 
 
 _TABLES = {
@@ -332,10 +333,11 @@ class Scene(SceneSpec):
         _set(self, "seed", check_seed("seed", self.seed))
         check_str("description", self.description, allow_empty=True)
         self.turbulence.check_frozen(periods)  # fit_to: checked when the fit is known (staring.run_period)
-        for p in periods:
+        for i, p in enumerate(periods):
+            where = entry_label("period", i, p.name)
             dur = self.period_duration(p)
             if dur < self.analysis.segment_duration:
-                raise ValueError(f"period {p.name!r} lasts {dur} s, shorter than analysis.segment_duration = "
+                raise ValueError(f"{where} lasts {dur} s, shorter than analysis.segment_duration = "
                                  f"{self.analysis.segment_duration} s")
 
     #: The sensor layout (the runner's dispatch key; a conical scene's is 'conical').
@@ -371,16 +373,25 @@ class Scene(SceneSpec):
         return d
 
     @classmethod
+    def schema(cls) -> dict:
+        """TOML path of each table of the scene file -> its keys (:func:`cwlidar_sim.campaign.spec.check_scene_keys`)."""
+        out = {"": Table(("name", "kind", "description", "seed", "duration", "period", *_TABLES))}
+        out.update(turbulence_schema(_TABLES["turbulence"]))
+        out.update(lidar_schema(_TABLES["lidar"]))
+        out.update({key: spec_table(spec) for key, spec in _TABLES.items() if key not in ("turbulence", "lidar")})
+        out["period[]"] = spec_table(PeriodSpec)
+        return out
+
+    @classmethod
     def from_dict(cls, d: dict, *, base_dir: str = ".") -> "Scene":
-        """Build from a TOML-shaped mapping; unknown keys are rejected by name."""
-        check_scene_keys(d, {"name", "kind", "description", "seed", "duration", "period", *_TABLES},
-                         ("name", "turbulence", "period"), "scene")
+        """Build from a TOML-shaped mapping; unknown keys are rejected by name, every error names its TOML path."""
+        check_scene_keys(d, cls.schema(), ("name", "turbulence", "period"), "scene")
         if d.get("kind", "staring") != "staring":
             raise ValueError(f"kind = {d['kind']!r} is not a staring scene; allowed: {list(SCENE_KINDS)}")
         kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
         for key, spec in _TABLES.items():
             if key in d:
-                kw[key] = spec.from_dict(d[key])
+                kw[key] = table_from_dict(spec, d[key], key)
         kw["periods"] = periods_from_dict(d["period"], PeriodSpec)
         return cls(base_dir=base_dir, **kw)
 

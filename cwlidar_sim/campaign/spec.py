@@ -16,15 +16,18 @@ nothing of the campaign, and every scene, store and runner module may import it.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
+import re
 
-from .._validation import check_keys, check_real, check_str, did_you_mean
+from .._validation import check_keys, check_real, check_str, closest_key
 
 __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "SceneSpec", "set_path", "select_periods", "spec_as_dict", "set_field", "check_scene_name",
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
            "parse_toml", "open_regular_file", "toml_depth", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "check_distinct_reals",
-           "resolve_path"]
+           "resolve_path", "Table", "spec_table", "table_fields", "turbulence_schema", "entry_label", "prefix_path",
+           "at_path", "table_from_dict", "unknown_keys_message", "check_dotted_key"]
 
 #: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.store.scene_key`);
 #: raised whenever stored periods would differ from what the code now computes (3: the gridded
@@ -206,24 +209,239 @@ def check_scene_name(name) -> str:
     return name
 
 
-def check_scene_keys(d, allowed, required, what: str) -> None:
-    """A scene mapping: a table, no key outside ``allowed``, every key of ``required``."""
+# -- the TOML path in every message ---------------------------------------------------------------
+# A scene is read table by table; each table is parsed "at" its TOML path (``lidar``, ``lidar.instrument``,
+# ``period[0] ('A')``), and an error raised inside is re-raised naming that path once (:func:`at_path`).
+# Unknown keys are found before any table is parsed, for the whole file at once (:func:`check_scene_keys`),
+# against the scene kind's schema: the TOML path of every table -> its keys, so that a key written in the
+# wrong table is pointed to the one that has it.
+
+
+@dataclasses.dataclass(frozen=True)
+class Table:
+    """The keys of one table of a scene's schema.
+
+    Parameters
+    ----------
+    keys : tuple of str
+        The keys the table takes.
+    explained : tuple of str
+        Keys the table's parser refuses with its own message (a key that moved
+        elsewhere); not reported as unknown, never suggested.
+    """
+
+    keys: tuple
+    explained: tuple = ()
+
+
+def table_fields(cls) -> tuple:
+    """The keys of a spec dataclass's table: its fields (not ``base_dir``)."""
+    return tuple(f.name for f in dataclasses.fields(cls) if f.name != "base_dir")
+
+
+def spec_table(cls) -> Table:
+    """The :class:`Table` of a spec class: its fields, and the keys its ``from_dict`` explains (``_explained_keys``)."""
+    return Table(table_fields(cls), tuple(getattr(cls, "_explained_keys", ())))
+
+
+def turbulence_schema(cls) -> dict:
+    """Schema entries of a ``[turbulence]`` table of class ``cls``, with its ``condition_on`` records if it has them."""
+    out = {"turbulence": spec_table(cls)}
+    if "condition_on" in table_fields(cls):
+        from ..analysis.records import RecordSpec
+
+        out["turbulence.condition_on[]"] = spec_table(RecordSpec)
+    return out
+
+
+def entry_label(array: str, index: int, name=None) -> str:
+    """How messages name entry ``index`` of the array of tables ``array``: ``period[0] ('A')``, ``period[2]``."""
+    return f"{array}[{index}]" + (f" ({name!r})" if isinstance(name, str) and name else "")
+
+
+def prefix_path(path: str, message: str, keys=(), owner: str | None = None) -> str:
+    """``message`` naming the TOML ``path`` once.
+
+    A message that already starts with ``path`` is kept; one that starts
+    with a key of the table (``gamma=30 is ...``) becomes ``path.gamma=30
+    is ...``; a leading ``owner.`` (a class name some checks write) is
+    replaced by ``path.``; any other becomes ``path: message``.
+    """
+    if message == path or (message.startswith(path) and message[len(path)] in ".[ :=("):
+        return message
+    if owner and message.startswith(owner + "."):
+        return f"{path}.{message[len(owner) + 1:]}"
+    m = re.match(r"[A-Za-z_]\w*", message)
+    if m and m.group() in keys and message[m.end():m.end() + 1] in ("", ".", "[", "=", " ", ":"):
+        return f"{path}.{message}"
+    return f"{path}: {message}"
+
+
+@contextlib.contextmanager
+def at_path(path: str, keys=(), owner: str | None = None):
+    """Re-raise a ValueError or TypeError raised inside naming ``path`` once (:func:`prefix_path`)."""
+    try:
+        yield
+    except (ValueError, TypeError) as e:
+        raise type(e)(prefix_path(path, str(e), keys, owner)) from None
+
+
+def table_from_dict(cls, d, path: str):
+    """``cls.from_dict(d)`` for the table at TOML ``path``; every error names the path once.
+
+    ``d`` must be a table holding ``cls._required``; the keys themselves are
+    checked beforehand, for the whole scene (:func:`check_scene_keys`).
+    """
+    if not isinstance(d, dict):
+        raise TypeError(f"{path} must be a table, got {type(d).__name__} {d!r}")
+    missing = [k for k in getattr(cls, "_required", ()) if k not in d]
+    if missing:
+        raise ValueError(f"{path} is missing the required key(s) {missing}")
+    with at_path(path, table_fields(cls)):
+        return cls.from_dict(d)
+
+
+def _below(pattern: str, table: str) -> bool:
+    """Whether the schema table ``pattern`` lies inside ``table`` (every table lies inside the top, '')."""
+    return pattern != table and (table == "" or pattern.startswith(table + ".") or pattern.startswith(table + "["))
+
+
+def _place(key: str, pattern: str, table: str) -> str:
+    """Where ``key`` of the schema table ``pattern`` is written, said from inside ``table``."""
+    if pattern.endswith("[]"):
+        array = pattern[:-2]
+        where = f"{array}[i].{key}"
+        if table and array.startswith(table + ".") and "." not in array[len(table) + 1:]:
+            return f"{where}, i.e. {array[len(table) + 1:]} = [{{ ..., {key} = ... }}]"
+        return f"{where}, i.e. {key} in each [[{array}]]" if "[" not in array else where
+    where = f"{pattern}.{key}"
+    rel = pattern[len(table) + 1:] if table and pattern.startswith(table + ".") else None
+    if rel and not re.search(r"[.\[]", rel):
+        return f"{where}, i.e. {rel} = {{ {key} = ... }}"
+    return where
+
+
+def _hint(key: str, table: str, schema: dict) -> str | None:
+    """Where an unknown ``key`` of ``table`` probably belongs: the table (nested first) that has it, else
+    this table's closest key, else the closest key of a table right inside it."""
+    key = str(key)
+    others = [p for p, t in schema.items() if p != table and key in t.keys]
+    if others:
+        others.sort(key=lambda p: not _below(p, table))
+        return _place(key, others[0], table)
+    near = closest_key(key, schema[table].keys) if table in schema else None
+    if near:
+        return repr(near)
+    for p, t in schema.items():  # a misspelt key of a table right inside this one (not across the scene: too loose)
+        if table and _below(p, table) and not re.search(r"[.\[]", p[len(table) + 1:].removesuffix("[]")):
+            near = closest_key(key, t.keys)
+            if near:
+                return _place(near, p, table)
+    return None
+
+
+def unknown_keys_message(where: str, unknown, table: str, schema: dict) -> str:
+    """One line: the unknown keys of the table named ``where`` (pattern ``table`` of ``schema``), where each
+    probably belongs (a table that has it, else the closest key), and the table's keys."""
+    pairs = []
+    for k in unknown:
+        h = _hint(k, table, schema)
+        if h:
+            pairs.append(h.replace(", i.e.", f" for {k!r}, i.e.", 1) if ", i.e." in h else f"{h} for {k!r}")
+    hint = f" (did you mean {'; '.join(pairs)}?)" if pairs else ""
+    return f"unknown key(s) in {where}: {sorted(unknown)}{hint}; allowed: {sorted(schema[table].keys)}"
+
+
+def _as_schema(schema) -> dict:
+    """A schema with a :class:`Table` for every path (a plain collection of keys: the top level alone)."""
+    if not isinstance(schema, dict):
+        schema = {"": schema}
+    return {p: t if isinstance(t, Table) else Table(tuple(t)) for p, t in schema.items()}
+
+
+def _tables(d: dict, pattern: str):
+    """(table, label) of every table of the scene mapping ``d`` at the schema ``pattern`` (those present)."""
+    nodes = [(d, "")]
+    for part in pattern.split("."):
+        array = part.endswith("[]")
+        name = part[:-2] if array else part
+        nxt = []
+        for node, label in nodes:
+            v = node.get(name) if isinstance(node, dict) else None
+            path = f"{label}.{name}" if label else name
+            if array and isinstance(v, (list, tuple)):
+                nxt.extend((e, entry_label(path, i, e.get("name"))) for i, e in enumerate(v) if isinstance(e, dict))
+            elif not array and isinstance(v, dict):
+                nxt.append((v, path))
+        nodes = nxt
+    return nodes
+
+
+def check_scene_keys(d, schema, required, what: str) -> None:
+    """A scene mapping: a table, every key of ``required``, and no unknown key in any of its tables.
+
+    Parameters
+    ----------
+    d : dict
+        The scene's parsed TOML.
+    schema : dict
+        TOML path of each table -> its :class:`Table` (or its keys): ``''``
+        the top level, ``'lidar.instrument'`` a nested table, ``'period[]'``
+        each entry of an array of tables.  An unknown key is reported with
+        the table's path and a hint where it belongs (a table that has it,
+        nested ones first, else the closest key by spelling); a plain set of
+        keys stands for the top level alone.
+    required : iterable of str
+        Top-level keys that must be present.
+    what : str
+        How the messages name the top level ('scene', 'conical scene').
+    """
+    schema = _as_schema(schema)
     if not isinstance(d, dict):
         raise TypeError(f"a scene must be a table, got {type(d).__name__}")
-    unknown = sorted(set(d) - set(allowed))
-    if unknown:
-        raise ValueError(f"unknown key(s) in {what}: {unknown}{did_you_mean(unknown, allowed)}; "
-                         f"allowed: {sorted(allowed)}")
-    for key in required:
-        if key not in d:
-            raise ValueError(f"{what} is missing the required key {key!r}")
+    for pattern, table in schema.items():
+        for node, label in ([(d, what)] if pattern == "" else _tables(d, pattern)):
+            unknown = sorted(set(node) - set(table.keys) - set(table.explained))
+            if unknown:
+                raise ValueError(unknown_keys_message(label, unknown, pattern, schema))
+        if pattern == "":
+            for key in required:
+                if key not in d:
+                    raise ValueError(f"{what} is missing the required key {key!r}")
+
+
+def check_dotted_key(key: str, schema: dict, what: str = "scene") -> None:
+    """A dotted scene key (``lidar.instrument.estimator``, ``period.0.mean_speed``) that names a key of
+    ``schema``'s tables (:func:`check_scene_keys`), else a ValueError naming the unknown part, where it
+    probably belongs and the table's keys.  What lies below a key that is no table of the schema (a
+    value, ``platform.phase_deg.surge``) is left to the scene's own checks."""
+    schema = _as_schema(schema)
+    parts = key.split(".")
+    pattern, label, i = "", what, 0
+    while i < len(parts):
+        part, table = parts[i], schema[pattern]
+        if part not in table.keys and part not in table.explained:
+            raise ValueError(f"scene key {key!r}: {unknown_keys_message(label, [part], pattern, schema)}")
+        child = f"{pattern}.{part}" if pattern else part
+        path = f"{label}.{part}" if pattern else part
+        if f"{child}[]" in schema and i + 1 < len(parts):
+            if not parts[i + 1].isdigit():
+                raise ValueError(f"scene key {key!r}: {path} is an array of tables, its entries are "
+                                 f"{'.'.join(parts[:i + 1])}.0, .1, ...; allowed: e.g. "
+                                 f"{'.'.join(parts[:i + 1])}.0.{parts[i + 1]}")
+            pattern, label, i = f"{child}[]", f"{path}[{parts[i + 1]}]", i + 2
+        elif child in schema:
+            pattern, label, i = child, path, i + 1
+        else:
+            return
 
 
 def periods_from_dict(periods, cls) -> tuple:
-    """The ``[[period]]`` array of a scene mapping as a tuple of ``cls`` specs."""
+    """The ``[[period]]`` array of a scene mapping as a tuple of ``cls`` specs (errors name ``period[i] ('A')``)."""
     if not isinstance(periods, (list, tuple)):
         raise TypeError("period must be an array of tables ([[period]])")
-    return tuple(cls.from_dict(p) for p in periods)
+    return tuple(table_from_dict(cls, p, entry_label("period", i, p.get("name") if isinstance(p, dict) else None))
+                 for i, p in enumerate(periods))
 
 
 def check_periods(periods, cls, what: str) -> tuple:
@@ -256,12 +474,17 @@ def check_condition_on(entries) -> tuple:
         if isinstance(e, RecordSpec):
             out.append(e)
             continue
+        where = entry_label("turbulence.condition_on", i, e.get("name") if isinstance(e, dict) else None)
         if not isinstance(e, dict):
-            raise TypeError(f"turbulence.condition_on[{i}] must be a table of record keys, got {type(e).__name__}")
-        try:
+            raise TypeError(f"{where} must be a table of record keys, got {type(e).__name__}")
+        schema = {"turbulence.condition_on[]": spec_table(RecordSpec)}
+        unknown = sorted(set(e) - set(table_fields(RecordSpec)))
+        if unknown:
+            raise ValueError(unknown_keys_message(where, unknown, "turbulence.condition_on[]", schema))
+        if "path" not in e:
+            raise ValueError(f"{where} is missing the required key(s) ['path']")
+        with at_path(where, table_fields(RecordSpec), owner="RecordSpec"):
             out.append(RecordSpec.from_dict(dict(e)))
-        except (TypeError, ValueError) as err:
-            raise type(err)(f"turbulence.condition_on[{i}]: {err}") from None
     names = [r.name for r in out]
     if len(set(names)) != len(names):
         raise ValueError(f"turbulence.condition_on: record names must be unique, got {names} (set name = ...)")

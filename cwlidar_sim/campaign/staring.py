@@ -35,7 +35,7 @@ from ..turbulence.limits import check_frozen_turbulence
 from ._labels import HOMODYNE, TOWARD_LIDAR, duration_phrase
 from .planning import generate_field, period_params, plan_field, theory_params
 from .scene import Scene
-from .spec import RESULTS_VERSION
+from .spec import RESULTS_VERSION, entry_label
 
 __all__ = ["run_period", "period_dataset", "estimator_theory", "fit_probe_length_results", "LIDAR_BLOCK",
            "SONIC_DELAY"]
@@ -116,13 +116,13 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     T = scene.period_duration(period)
     scene_tensor, params = params, period_params(scene, index, params)
     # a fitted tensor (turbulence.fit_to) is known only now: the same check as the scene's, before any field
-    check_frozen_turbulence(params, U, f"period[{period.name}]")
+    check_frozen_turbulence(params, U, entry_label("period", index, period.name))
     if scene.lidar.tier == "signal":
         from ..sensors import SIGNAL_MAX_ESTIMATES
 
         longest = SIGNAL_MAX_ESTIMATES / scene.lidar.build_instrument().estimate_rate
         if T > longest:
-            raise ValueError(f"lidar.tier = 'signal' simulates every 50 MHz sample; period {period.name!r} lasts "
+            raise ValueError(f"lidar.tier = 'signal' simulates every 50 MHz sample; {entry_label('period', index, period.name)} lasts "
                              f"{T} s, allowed: <= {longest:g} s (use 'spectral' for campaigns)")
     seeds = np.random.SeedSequence(scene.period_seed(index)).spawn(3)
     s_field, s_sonic, s_lidar = (int(s.generate_state(1, np.uint64)[0] >> np.uint64(1)) for s in seeds)

@@ -49,13 +49,13 @@ import json
 import math
 import os
 
-from .._validation import check_bool, check_int, check_keys, check_seed
+from .._validation import check_bool, check_int, check_seed, did_you_mean
 from . import conical, nacelle
 from .auto import resolve
 from .planning import plan_field, scene_params
 from .reproduce import BUNDLED, bundled_scene
 from .scene import Scene, load_scene, scene_from_dict
-from .spec import parse_toml, read_text_file, select_periods, set_path
+from .spec import at_path, check_dotted_key, parse_toml, read_text_file, select_periods, set_path, table_fields
 from .store import estimate_bytes
 
 __all__ = ["CampaignSpec", "Task", "load_campaign", "loads_campaign", "expand", "estimate_task", "COST_S_PER_SIM_HOUR"]
@@ -101,9 +101,12 @@ def _expand_values(key, spec):
 
 
 def check_keys_plain(where, d, allowed):
+    """No key of the table ``d`` outside ``allowed``; else a ValueError naming ``where``, the closest keys and
+    the allowed ones."""
     unknown = sorted(set(d) - set(allowed))
     if unknown:
-        raise ValueError(f"unknown key(s) in {where}: {unknown}; allowed: {sorted(allowed)}")
+        raise ValueError(f"unknown key(s) in {where}: {unknown}{did_you_mean(unknown, allowed)}; "
+                         f"allowed: {sorted(allowed)}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -209,7 +212,12 @@ class CampaignSpec:
 
     @classmethod
     def from_dict(cls, d: dict, *, base_dir: str = ".") -> "CampaignSpec":
-        check_keys(cls, d, required=("name", "base"))
+        if not isinstance(d, dict):
+            raise TypeError(f"a campaign must be a table, got {type(d).__name__}")
+        check_keys_plain("campaign", d, table_fields(cls))
+        missing = [k for k in ("name", "base") if k not in d]
+        if missing:
+            raise ValueError(f"campaign is missing the required key(s) {missing}")
         d = dict(d)
         d.pop("base_dir", None)
         if "sweep" in d:
@@ -255,6 +263,11 @@ def _task_seed(campaign_seed: int, identity) -> int:
 def expand(spec: CampaignSpec) -> list[Task]:
     """All tasks of a campaign, each with its validated scene (sweep order: first group slowest)."""
     base = spec.base_scene()
+    schema = type(base).schema()
+    for where, keys in [("[set]", spec.set)] + [(f"sweep[{i}]", g) for i, g in enumerate(spec.sweep)]:
+        for key in keys:  # every dotted key names a key of the base scene's tables, before any task is built
+            with at_path(f"campaign {where}"):
+                check_dotted_key(key, schema, f"{base.kind} scene" if base.kind != "staring" else "scene")
     tree = base.as_dict()
     for p in tree["period"]:
         p.pop("seed", None)

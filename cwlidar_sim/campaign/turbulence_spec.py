@@ -79,7 +79,7 @@ from .._validation import check_choice, check_real, check_str
 from ..turbulence.limits import MAX_TURBULENCE_INTENSITY, check_frozen_turbulence, longitudinal_std
 from ..turbulence.parameters import MannParameters
 from ..turbulence.surface_layer import surface_layer_parameters
-from .spec import Spec, check_condition_on, check_scene_keys, set_field
+from .spec import Spec, check_condition_on, check_scene_keys, entry_label, set_field
 
 __all__ = ["TurbulenceSpec", "IEC_REFERENCE_INTENSITY", "IEC_NTM_B", "IEC_GAMMA", "iec_sigma_u", "iec_length_scale"]
 
@@ -410,11 +410,11 @@ class TurbulenceSpec(Spec):
             heights, where = (self.height,), "turbulence.height"
         if mode == "explicit":
             p = self.params()
-            for per in periods:
-                check_frozen_turbulence(p, per.mean_speed, f"period[{per.name}]")
+            for i, per in enumerate(periods):
+                check_frozen_turbulence(p, per.mean_speed, entry_label("period", i, per.name))
         elif mode == "known":
             key = self._speed_key()
-            for per in periods:
+            for i, per in enumerate(periods):
                 U = per.mean_speed
                 su = self.target_sigma_u(U)
                 if su / U > MAX_TURBULENCE_INTENSITY * (1 + 1e-12):
@@ -426,7 +426,7 @@ class TurbulenceSpec(Spec):
                         allowed = f"mean_speed >= {umin:.3g} m/s for this class, or a lower class"
                     raise ValueError(
                         f"turbulence.{key} = {getattr(self, key)!r} gives sigma_u = {su:.3g} m/s, a turbulence "
-                        f"intensity sigma_u/U = {su / U:.2f} in period[{per.name}] (mean_speed = {U:g} m/s), above "
+                        f"intensity sigma_u/U = {su / U:.2f} in {entry_label('period', i, per.name)} (mean_speed = {U:g} m/s), above "
                         f"the {MAX_TURBULENCE_INTENSITY:g} that Taylor's frozen-turbulence hypothesis carries; "
                         f"allowed: {allowed}")
         else:
@@ -448,9 +448,9 @@ class TurbulenceSpec(Spec):
                         f"smaller z0")
             else:  # stability: each tensor in closed form (one quadrature per Gamma), its range checked by name
                 for z in heights:
-                    for per in periods:
+                    for i, per in enumerate(periods):
                         p, su, _ = self.resolve(z, per.mean_speed)
-                        check_frozen_turbulence(p, per.mean_speed, f"period[{per.name}] at {z:g} m")
+                        check_frozen_turbulence(p, per.mean_speed, f"{entry_label('period', i, per.name)} at {z:g} m")
 
     # -- interchange --------------------------------------------------------
     @classmethod

@@ -35,8 +35,8 @@ def test_scene_validation_and_round_trip():
     assert loads_scene(TEXT.replace("heights = [40.0]", "heights = [40.0, 60.0]")).unit_names() == \
         ["a_z40", "a_z60", "b_z40", "b_z60"]
     for bad, match in [
-        (TEXT.replace("scan_revs = [1, 3]", "scan_revs = [1, 3]\nfoo = 1"), r"unknown key\(s\) for ScanSpec: \['foo'\]"),
-        (TEXT.replace("tier = \"los\"", "tier = \"los\"\nfoo = 1"), r"unknown key\(s\) for ConicalLidarSpec: \['foo'\]"),
+        (TEXT.replace("scan_revs = [1, 3]", "scan_revs = [1, 3]\nfoo = 1"), r"unknown key\(s\) in scan: \['foo'\]"),
+        (TEXT.replace("tier = \"los\"", "tier = \"los\"\nfoo = 1"), r"unknown key\(s\) in lidar: \['foo'\]"),
         (TEXT.replace("tier = \"los\"", "tier = \"los\"\ncnr_db = 500.0"), r"lidar.cnr_db=500.0 is out of range"),
         (TEXT.replace("scan_revs = [1, 3]", "scan_revs = [1, 3]\ntier = \"los\""), r"scan.lidar and scan.tier moved"),
         (TEXT.replace("seed = 4", "seed = 4\ncolour = 1"), r"unknown key\(s\) in conical scene: \['colour'\]"),
@@ -132,5 +132,5 @@ def test_turbulence_the_wind_cannot_carry_is_refused():
     fixed = TEXT.replace("[lidar]", "[turbulence]\nsource = 'fixed'\nalpha_eps = 0.5\nlength_scale = 20.0\n"
                                     "gamma = 3.9\n[lidar]")  # sigma_u = 2.86 m/s
     loads_scene(fixed.replace("mean_speed = 8.0", "mean_speed = 6.0"))  # 0.48
-    with pytest.raises(ValueError, match=r"period\[a\]: the tensor alpha_eps=0.5 .* sigma_u/U = 0.57"):
+    with pytest.raises(ValueError, match=r"period\[0\] \('a'\): the tensor alpha_eps=0.5 .* sigma_u/U = 0.57"):
         loads_scene(fixed.replace("mean_speed = 8.0", "mean_speed = 5.0"))

@@ -79,5 +79,5 @@ def test_a_fitted_tensor_too_strong_for_the_wind_is_refused_before_the_field(mon
 
     monkeypatch.setattr(staring, "plan_field", no_field)
     sc = bundled_scene("a2012", quick=True)
-    with pytest.raises(ValueError, match=r"period\[A\]: the tensor alpha_eps=1000 .* Taylor"):
+    with pytest.raises(ValueError, match=r"period\[0\] \('A'\): the tensor alpha_eps=1000 .* Taylor"):
         staring.run_period(sc, 0, MannParameters(1e3, 18.76, 3.9))

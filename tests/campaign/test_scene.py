@@ -55,7 +55,7 @@ def test_quick_keeps_geometry_and_seeds():
     (MINIMAL + "[field]\nkind = 'cube'\n", r"field.kind"),
     (MINIMAL + "[analysis]\nk_min = 2.0\nk_max = 1.0\n", r"analysis.k_max"),
     (MINIMAL.replace("mean_speed = 8.0", "mean_speed = 0.1"), r"mean_speed"),
-    (MINIMAL.replace("mean_speed = 8.0", "mean_speed = 8.0\nmisalignment = 5"), r"unknown key\(s\) for PeriodSpec: \['misalignment'\]"),
+    (MINIMAL.replace("mean_speed = 8.0", "mean_speed = 8.0\nmisalignment = 5"), r"unknown key\(s\) in period\[0\] \('A'\): \['misalignment'\]"),
     (MINIMAL.replace("length_scale = 20.0", "length_scale = -20.0"), r"length_scale"),
     (MINIMAL + "[[period]]\nname = 'A'\nmean_speed = 7\n", r"unique"),
     (MINIMAL.replace('name = "t"', 'name = "a/b"'), r"name"),
@@ -131,8 +131,8 @@ mean_speed = 8.0
     (CONE.replace("[scan]", "[scan]\ncycle = 1"), TypeError, "scan.cycle must be a bool (true or false), got int 1"),
     (CONE.replace("[scan]", "[scan]\nlateral_doubling = 0"), TypeError, "scan.lateral_doubling must be a bool"),
     (MINIMAL + "[sonic]\noffset = [1.0, 2.0]\n", ValueError, "sonic.offset must be a list of 3 numbers [m], got [1.0, 2.0]"),
-    (MINIMAL.replace('name = "A"', "name = 3"), TypeError, "period.name must be a string, got int 3"),
-    (CONE.replace('name = "A"', 'name = ""'), ValueError, "period.name must not be empty"),
+    (MINIMAL.replace('name = "A"', "name = 3"), TypeError, "period[0].name must be a string, got int 3"),
+    (CONE.replace('name = "A"', 'name = ""'), ValueError, "period[0].name must not be empty"),
     (MINIMAL.replace('name = "t"', 'name = "a b"'), ValueError, "name 'a b' may hold only letters"),
     (CONE.replace('name = "c"', 'name = "a/b"'), ValueError, "name 'a/b' may hold only letters"),
     ("colour = 1\n" + MINIMAL, ValueError, "unknown key(s) in scene: ['colour']; allowed: "),
@@ -171,7 +171,7 @@ def test_turbulence_the_periods_wind_cannot_carry_is_refused_at_the_scene():
     strong = MINIMAL.replace("alpha_eps = 0.05", "alpha_eps = 0.5")  # sigma_u = 2.86 m/s (0.05: 0.91 m/s)
     assert loads_scene(strong).periods[0].mean_speed == 8.0  # intensity 0.36 at 8 m/s: accepted
     slow = strong + '[[period]]\nname = "calm"\nmean_speed = 5.0\n'  # 0.57 at 5 m/s
-    with pytest.raises(ValueError, match=r"period\[calm\]: the tensor alpha_eps=0.5 .* sigma_u = 2.86 m/s, "
+    with pytest.raises(ValueError, match=r"period\[1\] \('calm'\): the tensor alpha_eps=0.5 .* sigma_u = 2.86 m/s, "
                                          r"a turbulence intensity sigma_u/U = 0.57"):
         loads_scene(slow)
     with pytest.raises(ValueError, match=r"gamma=9.0 is above 8"):

@@ -164,11 +164,11 @@ mean_speed = 12.0
 
 def test_taylor_limit_applies_to_the_resolved_sigma_u_of_each_period():
     loads_scene(SCENE.format(turbulence='sigma_u = 2.0\nheight = 30.0', slow=4.0))  # 0.5 at 4 m/s: accepted
-    with pytest.raises(ValueError, match=r"turbulence\.sigma_u = 2\.0 gives .* sigma_u/U = 0\.53 in period\[slow\] "
+    with pytest.raises(ValueError, match=r"turbulence\.sigma_u = 2\.0 gives .* sigma_u/U = 0\.53 in period\[0\] \('slow'\) "
                                          r"\(mean_speed = 3\.8 m/s\).*allowed: sigma_u <= 1\.9 m/s"):
         loads_scene(SCENE.format(turbulence='sigma_u = 2.0\nheight = 30.0', slow=3.8))
     # A+: 0.18 (0.75 U + 5.6) <= 0.5 U from U = 1.008 / 0.365 = 2.76 m/s
-    with pytest.raises(ValueError, match=r"turbulence\.iec_class = 'A\+' .* period\[slow\].*mean_speed >= 2\.76 m/s"):
+    with pytest.raises(ValueError, match=r"turbulence\.iec_class = 'A\+' .* period\[0\] \('slow'\).*mean_speed >= 2\.76 m/s"):
         loads_scene(SCENE.format(turbulence='iec_class = "A+"\nheight = 30.0', slow=2.5))
     loads_scene(SCENE.format(turbulence='iec_class = "A+"\nheight = 30.0', slow=2.8))
 

@@ -72,22 +72,22 @@ def test_an_instrument_value_in_the_wrong_unit_is_refused(tmp_path, corpus, inst
 
 def test_turbulence_the_mean_wind_cannot_carry_is_refused(tmp_path, corpus):
     # the alpha_eps = 1e3: sigma_u ~ 1e2 m/s at U = 8 m/s used to run with availability 1.0
-    refused(tmp_path, corpus, "period[A]", "alpha_eps=1000", "sigma_u/u", "taylor", alpha_eps=1e3)
+    refused(tmp_path, corpus, "period[0] ('A')", "alpha_eps=1000", "sigma_u/u", "taylor", alpha_eps=1e3)
 
 
 def test_gamma_outside_the_fitted_range_is_refused(tmp_path, corpus):
-    refused(tmp_path, corpus, "gamma=1000", "fitted for", gamma=1000)
+    refused(tmp_path, corpus, "turbulence.gamma=1000", "fitted for", gamma=1000)
 
 
 def test_a_length_scale_in_the_wrong_unit_is_refused(tmp_path, corpus):
-    refused(tmp_path, corpus, "length_scale=50000.0", "boundary layer", length_scale=5e4)
+    refused(tmp_path, corpus, "turbulence.length_scale=50000.0", "boundary layer", length_scale=5e4)
 
 
 def test_a_nacelle_scene_checks_its_turbulence_too(tmp_path, corpus):
     path = tmp_path / "nac.toml"
     path.write_text(bundled_text("nacelle").replace("alpha_eps = 0.1", "alpha_eps = 50.0"))
     child = run_cli(["run", path, "--out", tmp_path / "o", "--no-progress"], cwd=tmp_path)
-    assert_one_line_error(child, "period[frozen]", "alpha_eps=50", "taylor")
+    assert_one_line_error(child, "period[0] ('frozen')", "alpha_eps=50", "taylor")
     corpus.record("error", child)
 
 

@@ -11,7 +11,7 @@ the theory's own (same edges and sub-points); only their weights change, each th
 aperture weighting over the cell (Simpson, 8 panels), the weight beyond the span going to the mean-wind
 tail as usual.  This swaps a private helper of the theory for the run (a tool, not a package option).
 
-``floor``: method 1's high-k floor is white estimator noise: F_n(k) = sigma_n^2 dx_e / (2 pi) (two-sided,
+``floor``: method 1's high-k floor is white estimator noise: F_n(k) = sigma_n^2 dx_e / pi (one-sided,
 dx_e = U / f_e the distance between estimates) over the sonic's F_u(k).  The error of the estimates about
 the noise-free line-of-sight speed is measured with the staring lidar (tier 'spectral', median, continuum
 speckle) on a Mann line of A2012's scene, for the default instrument and for each candidate that raises
@@ -107,7 +107,7 @@ def floor(a):
     fld = generate_line(p, n, dx, a.seed)
     t = np.arange(n_e) / inst.estimate_rate
     k = np.array([0.8, 2.2])
-    Fu = one_point_spectra(k, p)[0]                   # two-sided [m^3/s^2]
+    Fu = one_point_spectra(k, p)[0]                   # one-sided [m^3/s^2]
     dxe = U / inst.estimate_rate
     cases = [("default (1953 blocks, CNR -10 dB)", {}, {}),
              ("390 blocks (20 % of the stream)", {"blocks_per_estimate": 390}, {}),
@@ -128,20 +128,20 @@ def floor(a):
         err = rec.speed_e - rec.vlos_e
         sn = float(np.std(err[ok]))
         # the error's own spectrum (failed estimates replaced by the mean error, as the analysis does),
-        # two-sided: P(k) = dx_e |sum e_j exp(-i k x_j)|^2 / (2 pi N), averaged over +-12 % around each k
+        # one-sided: P(k) = dx_e |sum e_j exp(-i k x_j)|^2 / (pi N), averaged over +-12 % around each k
         e = np.where(ok, err, np.nanmean(err[ok]) if ok.any() else 0.0)
         e = e - e.mean()
-        P = dxe * np.abs(np.fft.rfft(e)) ** 2 / (2 * math.pi * e.size)
+        P = dxe * np.abs(np.fft.rfft(e)) ** 2 / (math.pi * e.size)
         kk = 2 * math.pi * np.fft.rfftfreq(e.size, dxe)
         Fe = [float(P[(kk > 0.88 * q) & (kk < 1.12 * q)].mean()) for q in k]
-        Fn = sn * sn * dxe / (2 * math.pi)
+        Fn = sn * sn * dxe / math.pi
         row = {"case": name, "sigma_n": sn, "availability": float(ok.mean()),
                "floor_08": Fe[0] / float(Fu[0]), "floor_22": Fe[1] / float(Fu[1]),
                "white_floor_08": float(Fn / Fu[0]), "white_floor_22": float(Fn / Fu[1]),
                "wall_s": time.perf_counter() - t0}
         rows.append(row)
         print(json.dumps(row), flush=True)
-    need = math.sqrt(0.04 * Fu[0] * 2 * math.pi / dxe)
+    need = math.sqrt(0.04 * Fu[0] * math.pi / dxe)
     rows.append({"case": "sigma_n for a 4 % floor at 0.8 rad/m", "sigma_n": need, "F_u_08": float(Fu[0]),
                  "F_u_22": float(Fu[1]), "dx_e": dxe})
     print(json.dumps(rows[-1]))

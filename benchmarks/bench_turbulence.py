@@ -288,8 +288,9 @@ def _box_stats_direct(arrs, spacing, k_mid, k_hf):
     for i in range(nx):  # slab by slab in float64: no box-sized temporaries
         uw += float(np.sum((u[i].astype(np.float64) - means[0]) * (w[i].astype(np.float64) - means[2])))
     out["cov_uw"] = uw / u.size
-    # Periodogram along x, averaged over y and z, two-sided, sum(F) dk1 = <a^2>.
-    norm = dx / (2.0 * math.pi * nx) / (ny * nz)
+    # Periodogram along x, averaged over y and z, one-sided (like one_point_spectra and
+    # expected_box_covariance's F_k4): sum over k1 >= 0 of F dk1 = <a^2> (k1 = 0 and Nyquist counted half).
+    norm = dx / (math.pi * nx) / (ny * nz)
     for c, a in zip(COMPONENTS, arrs):
         acc = np.zeros(nx // 2 + 1)
         for j in range(ny):
@@ -313,9 +314,9 @@ def _mode_variances(arrs, spacing, k_mid, k_hf):
     sum_{k != 0} |a_k|^4.  For the u-w covariance sum_k Re(a_k b_k*),
     Var = 2 sum_k Var(Re a_k b_k*) = sum_k (S_aa S_bb + Re S_ab^2), estimated by
     sum_k |a_k|^2 |b_k|^2 (exact when S_ab is real; otherwise an upper bound).
-    A band sum of the periodogram, (1/dk1) sum over modes with k1 = +k_n in the
-    band of |a_k|^2, holds no conjugate pairs, so its variance is
-    (1/dk1)^2 sum s_k^2, estimated by (1/dk1)^2 sum |a_k|^4 / 2.
+    A band sum of the one-sided periodogram, (2/dk1) sum over modes with k1 = +k_n
+    in the band of |a_k|^2, holds no conjugate pairs, so its variance is
+    (2/dk1)^2 sum s_k^2, estimated by (2/dk1)^2 sum |a_k|^4 / 2.
     """
     import scipy.fft
 
@@ -341,7 +342,7 @@ def _mode_variances(arrs, spacing, k_mid, k_hf):
             # modes with k1 = +k_n: row n with n3 >= 0, and (by conjugation) row
             # nx - n with n3 > 0 (excluding Nyquist), i.e. the (n, -n2, -n3) modes.
             s4 = (P[idx] ** 2).sum() + ((P[(nx - idx) % nx][:, :, 1:] ** 2) * (wz[1:] - 1.0)).sum()
-            out[f"F_{band}_sum_{c}_var"] = float(s4 / 2.0 / dk1**2)
+            out[f"F_{band}_sum_{c}_var"] = float(2.0 * s4 / dk1**2)
     out["cov_uw_var"] = float((p2[0] * p2[2] * wz).sum())
     return out
 

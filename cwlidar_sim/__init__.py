@@ -42,9 +42,21 @@ Stages, one subpackage each, for everything below that:
 
 Conventions used throughout the package
 ---------------------------------------
-Units are SI: metres, seconds, m/s, and wavenumbers in rad/m.  Spectra are
-*two-sided* in wavenumber unless a docstring says otherwise:
-``sigma_i**2 = integral of F_ii(k1) dk1 over -inf..inf``.
+Units are SI: metres, seconds, m/s, and wavenumbers in rad/m.  Every
+one-dimensional spectrum the package returns, measured or theoretical, is
+*one-sided* (the measured-data convention, as Kaimal's and
+``scipy.signal.welch``'s): ``sigma_i**2 = integral of F_ii(k1) dk1 over
+0..inf`` in wavenumber, ``integral of S(f) df over 0..inf`` in frequency
+(``S(f) = U F(k1) / (2 pi)`` at ``k1 = 2 pi f / U``), the same for
+cross-spectra and covariances.  Mann's one-point spectra
+(:func:`~cwlidar_sim.turbulence.one_point_spectra`) are therefore twice his
+two-sided ``integral of Phi dk2 dk3``, and a measured spectrum estimates its
+theory without any factor.  Densities over a whole wave-vector space keep
+their own definition: the spectral tensor ``Phi_ij(k)`` (variance = its
+integral over all of R^3), a plane's ``Phi2(k1, k2)`` (over all of R^2) and
+the energy spectrum ``E(|k|)`` (``integral over 0..inf = (sigma_u^2 +
+sigma_v^2 + sigma_w^2) / 2``).  Doppler spectra of the signal chain are
+powers per frequency bin (:mod:`cwlidar_sim.signal`).
 
 Array names carry their dimensions as a suffix of single letters (PyWake's
 habit), e.g. ``psd_tf`` is time x frequency.  The letters are:

@@ -5,10 +5,10 @@
     log-binning (:func:`log_bins`, :func:`bin_average`), the measured
     transfer functions of A2012's methods 1 and 2 with their sampling
     uncertainty (:func:`transfer_functions`) and log-binned component
-    spectra (:func:`component_spectra`).  Measured spectra are *one-sided*.
+    spectra (:func:`component_spectra`).
 ``theory``
     exp(-2 |k| zR) (A2012 Eq. 9) and the misaligned-beam spectra of A2012
-    Eqs. 12-14 from the Mann tensor (:func:`misaligned_spectra`, two-sided).
+    Eqs. 12-14 from the Mann tensor (:func:`misaligned_spectra`).
 ``vad``
     The conical scan's rectified-cosine fit (:func:`fit_rectified_cosine`,
     :func:`fit_record`), CS's turbulence parameter and radial variances,
@@ -16,7 +16,7 @@
     65 % selection.
 ``cs_model``
     CS's filter model (Kaimal or Mann spectra, probe and scan filters):
-    :func:`cs_model.std_ratio`, :func:`cs_model.radial_variance_ratio`.  One-sided spectra.
+    :func:`cs_model.std_ratio`, :func:`cs_model.radial_variance_ratio`.
 ``estimator_theory``
     Each Doppler estimator's expected method-2 transfer function for the
     aligned beam from a seeded ensemble of cheap line fields
@@ -27,6 +27,10 @@
 ``fitting``
     Least-squares fit of the Mann tensor parameters to measured one-point
     spectra (:func:`fit_mann`).
+
+Every spectrum returned here, measured or theoretical, is *one-sided* in k1
+(``sigma^2 = integral of F dk1 over 0..inf``; the package's convention), so a
+measured spectrum and its theory compare without any factor.
 
 Importing this package does not import numba or scipy; they load on first use.
 """

@@ -2,8 +2,8 @@
 
 Spectrum convention: in this module spectra are **one-sided** in the
 along-wind wavenumber k1 > 0 [rad/m], as CS writes them
-(``sigma^2 = integral over 0..inf of F(k1) dk1``); the package's Mann
-one-point spectra (two-sided) are doubled on the way in.
+(``sigma^2 = integral over 0..inf of F(k1) dk1``), the package's
+convention (:func:`cwlidar_sim.turbulence.one_point_spectra`).
 
 Ingredients
 -----------
@@ -102,15 +102,17 @@ def kaimal_spectra(k1, height: float, u_star: float = 1.0):
 
 
 def mann_spectra_one_sided(k1, params, *, k_cut: float | None = None):
-    """One-sided F11, F22, F33 of the Mann tensor [m^3/s^2] (twice the package's two-sided spectra).
+    """One-sided F11, F22, F33 of the Mann tensor [m^3/s^2]: :func:`~cwlidar_sim.turbulence.one_point_spectra`'s.
 
     ``k_cut`` restricts k2 and k3 to ``|k| <= k_cut`` (a grid's Nyquist).
+    The name keeps the convention in sight beside :func:`kaimal_spectra`;
+    every spectrum of the package is one-sided.
     """
     from ..turbulence.spectra import one_point_spectra
 
     kw = {} if k_cut is None else {"k2_max": k_cut, "k3_max": k_cut}
     F11, F22, F33, _ = one_point_spectra(np.asarray(k1, dtype=np.float64), params, **kw)
-    return 2.0 * F11, 2.0 * F22, 2.0 * F33
+    return F11, F22, F33
 
 
 def scan_length(height: float, speed: float, n_rev: int, *, half_angle_deg: float = 30.0,

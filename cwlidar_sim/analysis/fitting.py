@@ -84,7 +84,7 @@ class MannFit:
 
 
 def _model_spectra(k_k, L, gamma, rule="fine"):
-    """Two-sided (F11, F22, F33, F13) for alpha_eps = 1, shape (4, n) (the bins shared among the threads)."""
+    """One-sided (F11, F22, F33, F13) for alpha_eps = 1, shape (4, n) (the bins shared among the threads)."""
     from ..turbulence import MannParameters, one_point_spectra
 
     return np.array(one_point_spectra(k_k, MannParameters(1.0, L, gamma), rule=rule))
@@ -201,9 +201,11 @@ def fit_mann(k1_k, F11_k, F22_k, F33_k, F13_k, *, one_sided=True, initial=None, 
         [m^3 s^-2 = (m/s)^2 / (rad/m)]; NaN values (e.g. empty bins) are
         skipped.
     one_sided : bool
-        True if the measured spectra are one-sided in k1 (as returned by
-        :func:`component_spectra`), so the model is ``2 F_ij``; False for
-        two-sided spectra.
+        True (the default) if the measured spectra are one-sided in k1, the
+        package's convention (:func:`component_spectra`): the model is
+        :func:`~cwlidar_sim.turbulence.one_point_spectra`'s ``F_ij`` as it
+        is.  False for two-sided spectra (``integral over -inf..inf``, Mann's
+        convention): the model is then ``F_ij / 2``.
     initial : MannParameters or dict, optional
         Starting ``length_scale`` and ``gamma`` (alpha_eps, solved in closed
         form, is ignored).  Default: ``L = 2 / k_peak`` with k_peak the
@@ -330,7 +332,7 @@ def fit_mann(k1_k, F11_k, F22_k, F33_k, F13_k, *, one_sided=True, initial=None, 
                          f"allowed: spectra with non-zero values")
     Q_ck = np.where(ok_ck, W_ck / np.where(np.isfinite(scale), scale, 1.0)[:, None], 0.0)
     bq_ck = np.where(ok_ck, b_ck, 0.0) * Q_ck
-    sided = 2.0 if one_sided else 1.0
+    sided = 1.0 if one_sided else 0.5  # one_point_spectra is one-sided
 
     if L0 is None:
         if ok_ck[2].any():

@@ -24,7 +24,7 @@ g_A(k) . u_hat(k) d^3k``.  With the hub at the origin of (y, z):
   + k3 p_bz)) conj(phi_hat_b(k . n_b))``; with ``T_b = -p_bx / U`` (each
   beam's own preview, the default) the focus's x drops out.
 
-Two-sided spectra in k1 (``S(f) = (4 pi / U) S(k1)`` one-sided in f):
+Two-sided spectra in k1 here, internally (``S(f) = (4 pi / U) S(k1)``, the one-sided PSD in f):
 ``S_AB(k1) = integral g_A^H Phi g_B dk2 dk3``, the same ordering as the
 estimated ``E[X_A X_B^*]``.  Coherence ``gamma^2 = |S_RL|^2 / (S_RR S_LL)``.
 

@@ -18,9 +18,10 @@ Conventions
   covariance.
 * Wavenumber spectra ``F(k)`` are *one-sided* in k [rad/m] with
   ``F(k) = S(f) U / (2 pi)`` at ``k = 2 pi f / U``, so that
-  ``integral of F dk = integral of S df`` (note: the package's analytic
-  spectra, :func:`cwlidar_sim.turbulence.one_point_spectra`, are two-sided;
-  the one-sided spectrum is twice the two-sided one).
+  ``integral of F dk = integral of S df``: the convention of the package's
+  analytic spectra too (:func:`cwlidar_sim.turbulence.one_point_spectra`,
+  :func:`cwlidar_sim.analysis.misaligned_spectra`), which the measured ones
+  estimate without any factor.
 """
 
 from __future__ import annotations
@@ -535,8 +536,8 @@ def component_spectra(u_t, v_t, w_t, *, fs, U, k_edges, segment_duration=600.0, 
     k_k : ndarray
         Bin centres (geometric mean of the edges) [rad/m].
     F11_k, F22_k, F33_k : ndarray
-        *One-sided* auto-spectra [m^2 s^-2 / (rad/m)] (twice the two-sided
-        :func:`cwlidar_sim.turbulence.one_point_spectra` in expectation),
+        *One-sided* auto-spectra [m^2 s^-2 / (rad/m)] (in expectation
+        :func:`cwlidar_sim.turbulence.one_point_spectra`'s, no factor),
         bin means of the segment-averaged raw values; NaN in empty bins.
     F13_k : ndarray
         Re of the one-sided u-w cross-spectrum, same units (its integral is

@@ -1,9 +1,9 @@
 """Theoretical transfer functions of a staring cw lidar (A2012 Eq. 9 and Eqs. 12-14).
 
-Spectrum convention: the spectra returned here are *two-sided* in k1
-[rad/m], like :func:`cwlidar_sim.turbulence.one_point_spectra`
-(``sigma^2 = integral over -inf..inf``); ratios of them are the transfer
-functions and do not depend on the convention.
+Spectrum convention: the spectra returned here are *one-sided* in k1
+[rad/m], like :func:`cwlidar_sim.turbulence.one_point_spectra` and the
+measured spectra (``sigma^2 = integral over 0..inf``); ratios of them are
+the transfer functions and do not depend on the convention.
 """
 
 from __future__ import annotations
@@ -103,8 +103,10 @@ def misaligned_spectra(k1_k, params, theta_deg, zR):
     Returns
     -------
     F_vs_k, F_vr_k, chi_k : ndarray
-        *Two-sided* spectra [m^3 s^-2] (``sigma^2 = integral over
-        -inf..inf dk1``): at theta = 0, ``F_vs`` is F11 of
+        *One-sided* spectra [m^3 s^-2] (``sigma^2 = integral over 0..inf
+        dk1``; twice the two-sided integrals above), the convention of the
+        measured ``F_s_k``, ``F_r_k`` and ``chi_k`` of
+        :func:`cwlidar_sim.analysis.transfer_functions`: at theta = 0, ``F_vs`` is F11 of
         :func:`cwlidar_sim.turbulence.one_point_spectra` and at 90 degrees
         F22.  ``chi`` is real (the weights and ``n Phi n`` are real).
         ``F_vr F_vs >= chi^2`` by the Cauchy-Schwarz inequality.
@@ -177,4 +179,5 @@ def misaligned_spectra(k1_k, params, theta_deg, zR):
     F_vs_k = np.bincount(seg_m, weights=pnn_m, minlength=k1.size)
     F_vr_k = np.bincount(seg_m, weights=pnn_m * np.exp(-2.0 * zR * kn_m), minlength=k1.size)
     chi_k = np.bincount(seg_m, weights=pnn_m * np.exp(-zR * kn_m), minlength=k1.size)
-    return F_vs_k.reshape(shape), F_vr_k.reshape(shape), chi_k.reshape(shape)
+    # one-sided: twice the integrals over the whole (k2, k3) plane (Mann's two-sided spectra)
+    return 2.0 * F_vs_k.reshape(shape), 2.0 * F_vr_k.reshape(shape), 2.0 * chi_k.reshape(shape)

@@ -192,10 +192,10 @@ def discrete_field(kind, params, shape, spacing, *, correction="cell", hf_compen
     shape = tuple(int(n) for n in shape)
     spacing = tuple(float(d) for d in spacing)
     if kind == "line":
-        from .fields import line_spectra
+        from .fields import _line_spectra
 
         (n,), (dx,) = shape, spacing
-        _k, F = line_spectra(params, n, dx)
+        _k, F = _line_spectra(params, n, dx)
         tab = (_k, _to6(F) * (2.0 * math.pi / (n * dx)))
         return DiscreteField("line", shape, spacing, (1, 1), params, settings, tab)
     if kind == "plane":

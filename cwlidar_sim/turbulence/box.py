@@ -160,7 +160,7 @@ def _setup(params, shape, spacing, correction, hf_compensation) -> _Setup:
     if hf_compensation:
         from scipy.interpolate import CubicSpline
 
-        from .spectra import one_point_spectra
+        from .spectra import _one_point_two_sided
 
         dk = _dk(shape, spacing)
         raw = _raw_box_spectra(params, shape, spacing, corr_33, r, ftab, fbase)
@@ -168,7 +168,7 @@ def _setup(params, shape, spacing, correction, hf_compensation) -> _Setup:
         f_box = raw[:, :3] * pre2 * dk[1] * dk[2]
         k_rows = dk[0] * np.arange(raw.shape[0])
         k_tab = np.geomspace(dk[0], max(k_rows[-1], dk[0] * 1.0001), _HF_TABLE)
-        F = np.stack(one_point_spectra(np.concatenate([[0.0], k_tab]), params)[:3], axis=1)
+        F = np.stack(_one_point_two_sided(np.concatenate([[0.0], k_tab]), params)[:3], axis=1)
         f_full = np.empty_like(f_box)
         f_full[0] = F[0]
         spl = CubicSpline(np.log(k_tab), np.log(F[1:]), axis=0)
@@ -521,9 +521,12 @@ class BoxExpectation:
     k1_k : ndarray
         Non-negative wavenumbers of the box, 0 .. pi/dx [rad/m].
     F_k4 : ndarray, shape (len(k1_k), 4)
-        Expected two-sided one-point spectra (F11, F22, F33, F13)
-        [m^3 s^-2] at ``k1_k`` (what the x-periodogram of the box, averaged
-        over y and z, estimates).
+        Expected *one-sided* one-point spectra (F11, F22, F33, F13)
+        [m^3 s^-2] at ``k1_k``, like :func:`one_point_spectra`'s (what the
+        one-sided x-periodogram of the box, averaged over y and z,
+        estimates; ``covariances.uu`` is the sum of ``F_k4[:, 0] dk1`` over
+        the rows, the k1 = 0 row and the Nyquist row of an even Nx counted
+        half).
     """
 
     __repr__ = summary_repr
@@ -578,7 +581,7 @@ def expected_box_covariance(params: MannParameters, shape, spacing, *, correctio
         covariances=Covariances(uu=tot[0], vv=tot[1], ww=tot[2], uw=tot[3]),
         mean_covariances=Covariances(uu=c0[0, 0], vv=c0[1, 1], ww=c0[2, 2], uw=c0[0, 2]),
         k1_k=dk[0] * np.arange(rows),
-        F_k4=F,
+        F_k4=2.0 * F,
     )
 
 

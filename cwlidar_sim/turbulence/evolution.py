@@ -222,8 +222,8 @@ def longitudinal_coherence(k1, params: MannParameters, evolution: EddyLifetimeEv
     Tensor-product Gauss-Legendre on geometric panels in k2 (folded: the
     diagonal of Phi is even in k2) and k3, scaled to ``min(|k1|, 1/L)``
     (the panels of :func:`~cwlidar_sim.turbulence.spectra.half_line_nodes`);
-    at ``dx = 0`` the numerator is :func:`one_point_spectra`'s F_ii, which
-    the tests check to 1e-6.
+    at ``dx = 0`` the numerator is half :func:`one_point_spectra`'s
+    (one-sided) F_ii, Mann's two-sided F_ii, which the tests check to 1e-6.
     """
     _check_params(params)
     _check_evolution(evolution)

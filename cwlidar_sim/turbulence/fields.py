@@ -27,7 +27,7 @@ from .. import _config
 from .._validation import check_int, check_memory, check_real, check_seed, check_tuple
 from .box import _REGION, NOISE_LINE, NOISE_PLANE, _as_dataset, _check_noise_shape, _noise_keys
 from .parameters import MannParameters
-from .spectra import half_line_nodes, one_point_spectra
+from .spectra import _one_point_two_sided, half_line_nodes
 from .tensor import _check_params, _prefactor, lifetime_table
 
 #: k1 cells nearest 0 whose spectra are cell-averaged (F33 rises steeply there).
@@ -74,7 +74,11 @@ def line_spectra(params: MannParameters, shape, spacing):
     k1_k : ndarray
         Wavenumbers 0 .. of the rfft grid [rad/m].
     F_k33 : ndarray
-        Two-sided one-point cross-spectral matrices [m^3 s^-2]: interpolated
+        *One-sided* one-point cross-spectral matrices [m^3 s^-2], like
+        :func:`one_point_spectra`'s (the line's variance is the sum of
+        ``F_k33 dk1`` over k1 > 0, the Nyquist mode of an even n counted
+        half); the line draws each mode at +-k1 from half of it, Mann's
+        two-sided matrix.  Interpolated
         from :func:`one_point_spectra` at 20 knots per decade of k1 (on a
         lattice in log k1 shared by all n and dx of the same parameters;
         local cubics, :func:`lattice_pieces`, in log k1 of log F_ii and of
@@ -83,11 +87,12 @@ def line_spectra(params: MannParameters, shape, spacing):
         16 cells nearest 0 (8-point Gauss-Legendre on the cubics);
         F_k33[0] = 0 (zero mean).  A mode's value depends on its wavenumber
         and the parameters only, not on n or dx, so lines of one length
-        n dx share their spectra where their wavenumbers coincide.  Cached:
-        read-only arrays, shared between calls.
+        n dx share their spectra where their wavenumbers coincide.  A new
+        array on each call (the two-sided tables behind it are cached).
     """
     _check_params(params)
-    return _line_spectra(params, *_line_grid(shape, spacing))
+    k, F = _line_spectra(params, *_line_grid(shape, spacing))
+    return k, 2.0 * F
 
 
 _line_knots_lock = threading.Lock()
@@ -118,7 +123,7 @@ def _line_knots(params, x_lo, x_hi):
         missing = [int(i) for i in j if int(i) not in store]
     if missing:
         # the quadrature runs on the package's threads (turbulence.spectra)
-        vals = np.array(one_point_spectra(np.exp(np.array(missing) * h), params)).T
+        vals = np.array(_one_point_two_sided(np.exp(np.array(missing) * h), params)).T
         with _line_knots_lock:
             store.update(zip(missing, vals))
     with _line_knots_lock:
@@ -157,6 +162,7 @@ def _eval_pieces(coef, j0, h, x):
 
 @functools.lru_cache(maxsize=8)
 def _line_spectra(params, n, dx):
+    """Two-sided :func:`line_spectra` (what the line's modes are drawn from): cached, read-only arrays."""
     dk = 2 * math.pi / (n * dx)
     nh = n // 2 + 1
     k = dk * np.arange(nh)
@@ -207,8 +213,8 @@ def generate_line(params: MannParameters, shape, spacing, seed: int, *, dtype=np
     -------
     line : xarray.Dataset
         u, v, w [m/s] on dim "x" (x = i dx [m]), periodic, zero mean; their
-        expected two-sided one-point spectra are the tensor's F_ij(k1) at
-        every k1 the line holds (no lateral truncation at all).
+        expected one-sided one-point spectra are :func:`one_point_spectra`'s
+        F_ij(k1) at every k1 the line holds (no lateral truncation at all).
 
     Notes
     -----
@@ -226,7 +232,7 @@ def generate_line(params: MannParameters, shape, spacing, seed: int, *, dtype=np
     check_memory(f"a line of {n} points", 3 * (n + 2) * 16)
     from ._kernels import normals_kernel
 
-    k, F = line_spectra(params, n, dx)
+    k, F = _line_spectra(params, n, dx)
     M = _sym_sqrt(F)
     dk = 2 * math.pi / (n * dx)
     # Mode s >= 0 takes the normals 6 s .. 6 s + 5 of the line's stream: keyed

@@ -1,8 +1,11 @@
 """Analytic one-point spectra and variances of the Mann tensor.
 
-Spectrum convention: *two-sided* in k1 [rad/m], ``sigma_i^2 = integral of
-F_ii(k1) dk1 over -inf..inf`` and ``<u w> = integral of F_13 dk1``.  The
-one-point spectra are even in k1, so the one-sided spectrum is ``2 F``.
+Spectrum convention: the public functions return *one-sided* spectra in k1
+[rad/m] (the package's convention, the measured spectra's):
+``sigma_i^2 = integral of F_ii(k1) dk1 over 0..inf`` and ``<u w> = integral
+of F_13 dk1`` over 0..inf.  Internally (``_one_point_two_sided``, the
+quadrature, the field generators) the spectra are Mann's two-sided ones,
+``integral over -inf..inf``, half as large: they are even in k1.
 """
 
 from __future__ import annotations
@@ -211,7 +214,7 @@ def _onepoint_unscaled(k1_k, L, gamma, k2_max, k3_max, rule="fine"):
 
 def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k3_max: float = math.inf,
                       rule: str = "fine"):
-    """One-point cross-spectra F_ij(k1) = double integral of Phi_ij dk2 dk3.
+    """One-sided one-point cross-spectra F_ij(k1) = 2 x the double integral of Phi_ij dk2 dk3.
 
     Parameters
     ----------
@@ -231,8 +234,12 @@ def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k
     Returns
     -------
     F11, F22, F33, F13 : ndarray
-        Two-sided spectra [m^3 s^-2] (``sigma_u^2 = integral of F11 dk1``
-        over -inf..inf).  F12 and F23 vanish by the mirror symmetry in y.
+        *One-sided* spectra [m^3 s^-2]: ``sigma_u^2 = integral of F11 dk1``
+        over 0..inf, ``<u w> = integral of F13 dk1`` over 0..inf (twice Mann's
+        two-sided F_ij, whose integral runs over -inf..inf), the convention
+        of the measured spectra (:func:`cwlidar_sim.analysis.segment_spectra`),
+        which they estimate without any factor.  F12 and F23 vanish by the
+        mirror symmetry in y.
 
     Notes
     -----
@@ -243,6 +250,22 @@ def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k
     for Gamma up to 8 (tested at 1e-6 against an independent quadrature,
     ``tests/reference.py``).
     """
+    F, shape = _one_point_checked(k1, params, k2_max, k3_max, rule)
+    return tuple((2.0 * F[:, i]).reshape(shape) for i in range(4))
+
+
+def _one_point_two_sided(k1, params, *, k2_max=math.inf, k3_max=math.inf, rule="fine"):
+    """Mann's two-sided F11, F22, F33, F13 [m^3 s^-2] (half of :func:`one_point_spectra`'s), validated.
+
+    What the field generators and the box's expectation are built from (a
+    mode at +k1 and one at -k1 each hold F dk1 of the variance).
+    """
+    F, shape = _one_point_checked(k1, params, k2_max, k3_max, rule)
+    return tuple(F[:, i].reshape(shape) for i in range(4))
+
+
+def _one_point_checked(k1, params, k2_max, k3_max, rule):
+    """The arguments checked and the two-sided quadrature, shape (k1.size, 4), with k1's shape."""
     if rule not in _ONEPOINT_RULES:
         raise ValueError(f"rule must be one of {ONEPOINT_RULES}, got {rule!r}")
     _check_params(params)
@@ -251,24 +274,25 @@ def one_point_spectra(k1, params: MannParameters, *, k2_max: float = math.inf, k
     k1 = np.asarray(k1, dtype=float)
     if not np.all(np.isfinite(k1)):
         raise ValueError("k1 must be finite; allowed: any finite wavenumber in rad/m")
-    F = _onepoint_raw(np.abs(k1.ravel()), params, k2_max, k3_max, rule)
-    return tuple(F[:, i].reshape(k1.shape) for i in range(4))
+    return _onepoint_raw(np.abs(k1.ravel()), params, k2_max, k3_max, rule), k1.shape
 
 
 def isotropic_spectra(k1, params: MannParameters):
-    """Closed-form von Karman one-point spectra for Gamma = 0 (two-sided).
+    """Closed-form von Karman one-point spectra for Gamma = 0, one-sided like :func:`one_point_spectra`.
 
     Returns
     -------
     F11, F22 : ndarray
-        ``F11 = (9/55) a L^(5/3) / (1 + (k1 L)^2)^(5/6)`` and
-        ``F22 = F33 = (3/110) a L^(5/3) (3 + 8 (k1 L)^2) / (1 + (k1 L)^2)^(11/6)``
-        with a = alpha_eps, the Gamma of ``params`` being ignored.
+        *One-sided* spectra [m^3 s^-2] (``sigma^2 = integral over 0..inf
+        dk1``): ``F11 = (18/55) a L^(5/3) / (1 + (k1 L)^2)^(5/6)`` and
+        ``F22 = F33 = (3/55) a L^(5/3) (3 + 8 (k1 L)^2) / (1 + (k1 L)^2)^(11/6)``
+        with a = alpha_eps, the Gamma of ``params`` being ignored (twice
+        the two-sided forms of Mann 1994).
     """
     _check_params(params)
     kl2 = (np.asarray(k1, dtype=float) * params.length_scale) ** 2
     a = params.alpha_eps * params.length_scale ** (5.0 / 3.0)
-    return (9.0 / 55.0) * a / (1.0 + kl2) ** (5.0 / 6.0), (3.0 / 110.0) * a * (3.0 + 8.0 * kl2) / (1.0 + kl2) ** (
+    return (18.0 / 55.0) * a / (1.0 + kl2) ** (5.0 / 6.0), (3.0 / 55.0) * a * (3.0 + 8.0 * kl2) / (1.0 + kl2) ** (
         11.0 / 6.0
     )
 
@@ -346,9 +370,9 @@ def _covariances(params, kmax):
 def subcell_variance(params: MannParameters, field_spacing: float) -> float:
     """Variance of the along-beam speed at scales a gridded field cannot hold [m^2 s^-2].
 
-    ``var = integral_{|k1| > pi/dx} F11(k1) dk1 = sigma_u^2 - integral_{|k1| <= pi/dx} F11 dk1``
+    ``var = integral_{k1 > pi/dx} F11(k1) dk1 = sigma_u^2 - integral_{0 <= k1 <= pi/dx} F11 dk1``
 
-    (beam along x, radial component u, ``F11`` two-sided in rad/m, dx the
+    (beam along x, radial component u, ``F11`` one-sided in rad/m, dx the
     field's spacing along the beam).  A range cell takes the field's speed
     at one point; the scatterers in it move with the true speed, which
     differs from the field's by these unresolved scales, so each cell's

@@ -31,8 +31,10 @@ def box_spectra(box):
     k1_k : ndarray
         Wavenumbers 0 .. pi/dx [rad/m].
     F_k4 : ndarray
-        Two-sided spectra (F11, F22, F33, Re F13) [m^3 s^-2], normalised so
-        that the sum over all k1 (both signs) of F dk1 is the variance.
+        *One-sided* spectra (F11, F22, F33, Re F13) [m^3 s^-2], like
+        :func:`~cwlidar_sim.turbulence.one_point_spectra`'s: the sum of
+        F dk1 over the rows, the k1 = 0 and Nyquist rows counted half, is
+        the variance.
     """
     nx = box.sizes["x"]
     dx = float(box.attrs["dx"])
@@ -40,7 +42,7 @@ def box_spectra(box):
     X = {}
     for c in "uvw":
         X[c] = np.fft.rfft(np.asarray(box[c].values, dtype=np.float64), axis=0)
-    norm = 1.0 / (nx**2 * dk)
+    norm = 2.0 / (nx**2 * dk)
     F = np.stack([
         (np.abs(X["u"]) ** 2).mean(axis=(1, 2)),
         (np.abs(X["v"]) ** 2).mean(axis=(1, 2)),
@@ -110,7 +112,7 @@ def plot_box_spectra(box, path) -> None:
         ax.loglog(kt, sign[i] * kt * full[:, i], "-", color=col, lw=1)
         ax.loglog(kt, sign[i] * kt * grid[:, i], "--", color=col, lw=1)
     ax.set_xlabel("$k_1$ [rad/m]")
-    ax.set_ylabel("$k_1 F(k_1)$ [m$^2$ s$^{-2}$] (two-sided)")
+    ax.set_ylabel("$k_1 F(k_1)$ [m$^2$ s$^{-2}$] (one-sided)")
     shape = tuple(box.sizes[d] for d in ("x", "y", "z"))
     ax.set_title(f"Mann box {shape[0]}x{shape[1]}x{shape[2]}, d=({dx:g},{dy:g},{dz:g}) m, "
                  f"L={params.length_scale:g} m, $\\Gamma$={params.gamma:g}", fontsize=9)

@@ -174,7 +174,7 @@ def generate(outdir: str, package: str = PACKAGE) -> list[str]:
     index = _title("API reference")
     index += ("Generated at build time from each subpackage's ``__all__``: every public name, with its\n"
               "parameters and units from its numpydoc docstring.  The package's conventions (SI units,\n"
-              "two-sided spectra in k1, array names that carry their dimensions) are on the first page.\n\n")
+              "one-sided spectra, array names that carry their dimensions) are on the first page.\n\n")
     index += ".. toctree::\n   :maxdepth: 1\n\n" + "".join(f"   {p}\n" for p in [package, *subpackages(package)]) + "\n"
     _write(os.path.join(outdir, "index.rst"), index)
     return pages

@@ -14,11 +14,14 @@ EDGES = log_bins(2e-3, 2.0, 5)  # 15 bins: 3 decades about 1/L
 K = np.sqrt(EDGES[1:] * EDGES[:-1])
 
 
-def test_recovers_analytic_spectra_two_sided_with_nan_bins():
-    F = np.array(one_point_spectra(K, TRUE))
+@pytest.mark.parametrize("one_sided", [True, False])
+def test_recovers_analytic_spectra_one_or_two_sided_with_nan_bins(one_sided):
+    F = np.array(one_point_spectra(K, TRUE))  # one-sided, the default convention
+    if not one_sided:
+        F = F / 2.0  # Mann's two-sided spectra
     F[1, 3] = np.nan  # an empty bin in one component
     F[:, -1] = np.nan  # and a whole empty bin
-    fit = fit_mann(K, *F, one_sided=False, initial={"length_scale": 12.0, "gamma": 1.5})
+    fit = fit_mann(K, *F, one_sided=one_sided, initial={"length_scale": 12.0, "gamma": 1.5})
     assert fit.success, fit.message
     assert fit.n_points == 4 * 15 - 1 - 4
     # The model is the data: only the optimiser's tolerance (xtol 1e-6 on
@@ -81,7 +84,7 @@ def test_reported_std_matches_the_scatter_over_300_synthetic_records(monkeypatch
     monkeypatch.setattr(fitting, "_model_spectra", surrogate)
     n_line = 2**17
     n_k = np.histogram(2 * math.pi * np.arange(1, n_line // 2 + 1) / n_line, EDGES)[0]
-    G = 2 * TRUE.alpha_eps * grid[1, 1]  # one-sided, as component_spectra measures
+    G = TRUE.alpha_eps * grid[1, 1]  # one-sided, as component_spectra measures
     chol = [np.linalg.cholesky([[G[0, b], G[3, b]], [G[3, b], G[2, b]]]) for b in range(K.size)]
     rng = np.random.default_rng(1)
     names = ("alpha_eps", "length_scale", "gamma")

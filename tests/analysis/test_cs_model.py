@@ -78,12 +78,12 @@ def test_model_trends_and_mann_spectra():
     r = {(z, n): std_ratio(z, 10.0, n, n_k=2000) for z in (40.0, 100.0) for n in (1, 3)}
     assert 0.7 < r[(100.0, 3)] < r[(40.0, 3)] < r[(40.0, 1)] < 1.0 and r[(100.0, 3)] < r[(100.0, 1)]
     assert 0 < radial_variance_ratio(100.0, 10.0, 1, n_k=2000) < radial_variance_ratio(40.0, 10.0, 1, n_k=2000) < 1
-    # isotropic Mann (Gamma = 0): the one-sided spectra are twice the von Karman closed forms
+    # isotropic Mann (Gamma = 0): the von Karman closed forms, one-sided both
     p = MannParameters(alpha_eps=0.1, length_scale=30.0, gamma=0.0)
     k = np.array([0.003, 0.05, 0.8])
     got = mann_spectra_one_sided(k, p)
     ref = isotropic_spectra(k, p)
     for g, f in zip(got, ref[:3]):
-        np.testing.assert_allclose(g, 2 * f, rtol=1e-5)
+        np.testing.assert_allclose(g, f, rtol=1e-5)
     mm = model_integrals(60.0, 10.0, 1, spectrum="mann", params=p, n_k=2000)
     assert mm["var_u"] == pytest.approx(p.isotropic_variance, rel=0.01)

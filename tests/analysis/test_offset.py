@@ -10,8 +10,8 @@ K = np.array([0.02, 0.3])
 
 
 def test_undisplaced_integral_is_the_one_point_spectrum():
-    num, den = _cross_spectrum(K, P, 0.0, 0.0)
-    F11 = one_point_spectra(K, P)[0]
+    num, den = _cross_spectrum(K, P, 0.0, 0.0)  # two-sided (k2, k3) integrals
+    F11 = one_point_spectra(K, P)[0] / 2.0  # one-sided: twice that
     assert np.allclose(den, F11, rtol=2e-3) and np.allclose(num.real, den, rtol=1e-12)
 
 

@@ -257,7 +257,7 @@ def _point_to_disc(k1, R):
 
 
 def test_axial_point_lidar_gives_the_point_to_rews_coherence():
-    F = one_point_spectra(K1, P)[0]
+    F = one_point_spectra(K1, P)[0] / 2.0  # rews_theory's spectra are two-sided (its module notes)
     lid = circular_scan(1, 0.0, 50.0)
     s = rews_spectra(K1, P, RotorDisc(16.0), lid, U, weighting="point")
     # the independent reference at the two lower k1; at 0.3 rad/m (k1 R = 4.8) the
@@ -280,7 +280,7 @@ def test_axial_point_lidar_gives_the_point_to_rews_coherence():
 
 
 def test_axial_lorentzian_beam_is_a2012_eq9():
-    F = one_point_spectra(K1, P)[0]
+    F = one_point_spectra(K1, P)[0] / 2.0  # two-sided, as rews_spectra
     zR = BeamOptics(50.0).rayleigh_length
     s = rews_spectra(K1, P, RotorDisc(16.0), circular_scan(1, 0.0, 50.0), U, weighting="lorentzian")
     np.testing.assert_allclose(s.lidar_k, F * np.exp(-2 * zR * K1), rtol=3e-6)

@@ -50,10 +50,10 @@ def test_lifetime_shape_table_matches_hyp2f1():
 
 def test_longitudinal_cross_spectrum_at_zero_separation_is_the_one_point_spectrum():
     k1 = np.array([1e-3, 0.05, 2.0])
-    F = one_point_spectra(k1, P)
+    F = one_point_spectra(k1, P)  # one-sided: twice the (k2, k3) integral
     for c, i in (("u", 0), ("v", 1), ("w", 2)):
         cross, auto = _cross_spectrum(k1, P, EV, 0.0, c)
-        np.testing.assert_allclose(auto, F[i], rtol=2e-6)
+        np.testing.assert_allclose(2.0 * auto, F[i], rtol=2e-6)
         np.testing.assert_allclose(cross, auto, rtol=1e-12)
 
 
@@ -244,8 +244,8 @@ def test_every_plane_keeps_the_box_one_point_spectra(evolving_runs):
     k3 = 2 * math.pi * np.fft.fftfreq(SHAPE[2], SPACING[2])
     K1, K2, K3 = np.meshgrid(rows * exp.k1_k[1], k2, k3, indexing="ij")
     phi = spectral_tensor(K1, K2, K3, P)
-    # two-sided periodogram along x, averaged over the (y, z) lines, from the 3-D FFT (Parseval in y, z)
-    norm = SPACING[0] / (2 * math.pi * SHAPE[0] * (SHAPE[1] * SHAPE[2]) ** 2)
+    # one-sided periodogram along x (as F_k4), averaged over the (y, z) lines, from the 3-D FFT (Parseval in y, z)
+    norm = SPACING[0] / (math.pi * SHAPE[0] * (SHAPE[1] * SHAPE[2]) ** 2)
     for plane in range(3):
         specs = [_spectra(run[plane]) for run in evolving_runs]
         for ci in range(3):

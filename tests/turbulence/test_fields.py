@@ -37,15 +37,20 @@ def _mult(n):
     return m
 
 
+def _one_sided(n):
+    """Weights of a one-sided spectrum's rfft bins in a variance: 1, the k = 0 and Nyquist bins 1/2."""
+    return _mult(n) / 2.0
+
+
 def test_line_spectra_sum_to_tensor_variance_without_lateral_truncation():
     n, dx = 4096, 2.0
-    k, F = line_spectra(P, n, dx)
+    k, F = line_spectra(P, n, dx)  # one-sided: the variance is their integral over k1 >= 0
     dk = k[1]
-    tot = (F * _mult(n)[:, None, None]).sum(axis=0) * dk
+    tot = (F * _one_sided(n)[:, None, None]).sum(axis=0) * dk
     ref = covariances(P, (dx, TINY, TINY))
-    # The zero-mean line lacks the k1 cell around 0: integral of F over |k1| < dk/2.
+    # The zero-mean line lacks the k1 cell around 0: integral of the one-sided F over 0 <= k1 < dk/2.
     x = np.linspace(-dk / 2, dk / 2, 41)[1:-1]
-    mean_cell = np.array(one_point_spectra(x, P)).mean(axis=1) * dk
+    mean_cell = np.array(one_point_spectra(x, P)).mean(axis=1) * dk / 2.0
     for i, (a, b) in enumerate([(tot[0, 0], ref.uu), (tot[1, 1], ref.vv), (tot[2, 2], ref.ww), (tot[0, 2], ref.uw)]):
         assert (a + mean_cell[i]) / b == pytest.approx(1.0, abs=5e-3)
 
@@ -53,7 +58,7 @@ def test_line_spectra_sum_to_tensor_variance_without_lateral_truncation():
 def test_line_statistics_over_seeds():
     n, dx = 2048, 2.0
     k, F = line_spectra(P, n, dx)
-    exp = (F * _mult(n)[:, None, None]).sum(axis=0) * k[1]
+    exp = (F * _one_sided(n)[:, None, None]).sum(axis=0) * k[1]
     mean, sem = _seed_moments(generate_line(P, n, dx, seed, dtype=np.float64) for seed in range(12))
     e = np.array([exp[0, 0], exp[1, 1], exp[2, 2], exp[0, 2]])
     # Four standard errors of the seed-to-seed scatter (Student t, 11 dof: p < 0.002).
@@ -68,7 +73,7 @@ def test_line_periodogram_matches_cross_spectra():
         line = generate_line(P, n, dx, seed, dtype=np.float64)
         X = [np.fft.rfft(line[c].values) for c in "uvw"]
         per.append([np.abs(X[0]) ** 2, np.abs(X[2]) ** 2, (X[0] * X[2].conj()).real])
-    per = np.array(per) / (n**2 * k[1])  # seed, quantity, k
+    per = 2.0 * np.array(per) / (n**2 * k[1])  # one-sided periodogram: seed, quantity, k
     band = slice(20, 200)
     est = per[:, :, band].mean(axis=2)
     exp = np.array([F[band, 0, 0].mean(), F[band, 2, 2].mean(), F[band, 0, 2].mean()])

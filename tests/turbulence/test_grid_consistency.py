@@ -133,10 +133,12 @@ def test_noise_counters_are_keyed_by_the_signed_wavenumber_indices():
     ls = np.random.SeedSequence(7, spawn_key=(1,)).generate_state(2, dtype=np.uint64)
     line = generate_line(P, 8, 1.0, 7, dtype=np.float64)
     z = np.array([reference.box_normal(int(ls[0]), int(ls[1]), c) for c in range(6 * 5)]).reshape(5, 3, 2)
-    # Mode s = 1 of u: sqrt(dk) * (M z)_0 / sqrt(2), M the symmetric square root of F(k1).
+    # Mode s = 1 of u: sqrt(dk) * (M z)_0 / sqrt(2), M the symmetric square root of F(k1), Mann's
+    # two-sided matrix (half of line_spectra's one-sided one).
     from cwlidar_sim.turbulence import line_spectra
 
     k, F = line_spectra(P, 8, 1.0)
+    F = F / 2.0
     lam, vec = np.linalg.eigh(F[1])
     M = vec @ np.diag(np.sqrt(np.clip(lam, 0, None))) @ vec.T
     c1 = math.sqrt(k[1]) * (M @ (z[1, :, 0] + 1j * z[1, :, 1]))[0] / math.sqrt(2.0)

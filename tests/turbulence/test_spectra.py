@@ -70,9 +70,10 @@ def test_grid_resolved_less_than_full_and_consistent_with_spectra():
     # at the origin, so a uniform grid converges only at first order).
     k = np.concatenate([[0.0], np.geomspace(1e-8, math.pi / 2.0, 600)])
     F11, _, F33, _ = one_point_spectra(k, p, k2_max=math.pi / 2, k3_max=math.pi / 2)
-    # Trapezoid error ~ h^2/12 relative with h = ln(1.6e8)/600 = 0.031: ~1e-4.
-    assert 2 * np.trapezoid(F33, k) == pytest.approx(grid.ww, rel=5e-4)
-    assert 2 * np.trapezoid(F11, k) == pytest.approx(grid.uu, rel=5e-4)
+    # Trapezoid error ~ h^2/12 relative with h = ln(1.6e8)/600 = 0.031: ~1e-4.  One-sided spectra:
+    # the variance is their integral over k1 >= 0.
+    assert np.trapezoid(F33, k) == pytest.approx(grid.ww, rel=5e-4)
+    assert np.trapezoid(F11, k) == pytest.approx(grid.uu, rel=5e-4)
 
 
 def test_against_mannrs_analytic_spectra():
@@ -80,8 +81,8 @@ def test_against_mannrs_analytic_spectra():
     p = MannParameters(1.0, 33.6, 3.9)
     k = np.logspace(-3, 1, 9)
     ours = np.array(one_point_spectra(k, p))
-    theirs = np.array(mannrs.mann_spectra(k, 1.0, 33.6, 3.9), dtype=float)
-    ratio = theirs / ours
+    theirs = np.array(mannrs.mann_spectra(k, 1.0, 33.6, 3.9), dtype=float)  # two-sided
+    ratio = 2.0 * theirs / ours
     # mannrs agrees in shape to 0.2 % and is offset by a constant ~0.5 %
     # (a normalisation constant of its own; our Gamma = 0 spectra match the
     # closed forms to 1e-6).
@@ -125,7 +126,7 @@ def test_one_point_quadrature_is_shared_across_alpha_eps_and_split_free():
         _config.set_num_threads(n0)
     for par, F in ((p, Fp), (q, Fq)):
         pre = par.alpha_eps / (4.0 * math.pi) * par.length_scale ** (17.0 / 3.0)
-        assert np.array_equal(F, (rows[:, :4] * pre).T)
+        assert np.array_equal(F, 2.0 * (rows[:, :4] * pre).T)  # one-sided: twice Mann's two-sided quadrature
     # and F scales with alpha_eps (the reason the quadrature may be shared)
     np.testing.assert_allclose(Fq, Fp * (q.alpha_eps / p.alpha_eps), rtol=1e-14)
     # a kept result is read-only: a caller cannot change what the next call gets
@@ -142,19 +143,19 @@ def test_sheared_one_point_spectra_against_an_independent_quadrature(gamma, kl):
     """
     L = 18.76
     k1 = kl / L
-    ref = reference.mann_one_point(k1, 1.0, L, gamma)
+    ref = reference.mann_one_point(k1, 1.0, L, gamma)  # two-sided
     got = one_point_spectra(np.array([k1]), MannParameters(1.0, L, gamma))[:3]
     for g, r in zip(got, ref):
-        assert g[0] == pytest.approx(r, rel=1e-6)
+        assert g[0] == pytest.approx(2.0 * r, rel=1e-6)
 
 
 @pytest.mark.parametrize("gamma, kl", [(0.0, 0.3), (3.9, 0.03), (8.0, 0.3), (8.0, 1.0)])
 def test_coarse_rule_is_within_its_stated_accuracy(gamma, kl):
     L = 18.76
     k1 = kl / L
-    ref = reference.mann_one_point(k1, 1.0, L, gamma)
+    ref = reference.mann_one_point(k1, 1.0, L, gamma)  # two-sided
     got = one_point_spectra(np.array([k1]), MannParameters(1.0, L, gamma), rule="coarse")[:3]
     for g, r in zip(got, ref):
-        assert g[0] == pytest.approx(r, rel=2.5e-4)
+        assert g[0] == pytest.approx(2.0 * r, rel=2.5e-4)
     with pytest.raises(ValueError, match="rule"):
         one_point_spectra(np.array([k1]), MannParameters(1.0, L, gamma), rule="fast")

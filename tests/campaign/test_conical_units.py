@@ -145,7 +145,7 @@ def test_a_period_takes_the_meteorological_direction_or_the_direction_toward_not
     assert (b.wind_from_deg, b.toward_deg) == (None, 30.0) and c.toward_deg == 0.0
     back = type(sc).from_dict(sc.as_dict())
     assert back == sc and "wind_direction_deg" not in sc.as_dict()["period"][0]
-    with pytest.raises(ValueError, match=r"period\[a\] gives both wind_direction_deg=0.0 .* and wind_from_deg=270.0 "
+    with pytest.raises(ValueError, match=r"period\[0\] \('a'\): gives both wind_direction_deg=0.0 .* and wind_from_deg=270.0 "
                                          r".*allowed: one of them"):
         scene(period("a", direction=0.0, wind_from=270.0))
     with pytest.raises(ValueError, match=r"wind_from_deg=nan is not finite"):

@@ -9,8 +9,8 @@ periods per height, ``[scan] periods_per_height``), resuming the units already s
 ``DIR`` (so a finished ``reproduce cs --out DIR`` is summarised without recomputing anything),
 and writes per height and scan length the lidar/cup std ratio, its standard error, CS's filter
 model (Kaimal and Mann spectra), the radial-variance ratio, the mean-speed bias and the periods
-selected (``--json``, the numbers the README's CS table quotes; tests/campaign/
-test_cs_reproduce_numbers.py holds the README to them) and the CS figures (``--figures``).
+selected (``--json``, the numbers the CS page's table quotes, docs/reproductions/cs.md; tests/campaign/
+test_cs_reproduce_numbers.py holds the page to them, tests/test_readme.py the README's summary) and the CS figures (``--figures``).
 
 The JSON's ``cost`` is the units' own wall time (each unit's stage timings as the run stored
 them, summed per height); ``run`` is this process's wall and CPU time and load average when it

@@ -152,15 +152,15 @@ def _add_campaign(sub):
                  "Run a bundled scene and write its results and figures. a2012: Angelou et al. "
                  "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods. "
                  "cs: a conically scanning ZephIR against a cup, 40-100 m, 1 s and 3 s scans, "
-                 "18-42 10-min periods per height (each std ratio to a standard error of 0.01). nacelle: a nacelle lidar's REWS preview coherence at "
+                 "18-48 10-min periods per height (each std ratio to a standard error of 0.01). nacelle: a nacelle lidar's REWS preview coherence at "
                  "three focus distances, frozen and evolving turbulence, against the analytic coherence."
                  "\n\n" + _DASK_TRUST,
-                 ["cwlidar-sim reproduce a2012 --out results            # about a minute on 2 cores",
+                 ["cwlidar-sim reproduce a2012 --out results            # under a minute on 2 cores",
                   "cwlidar-sim reproduce cs --quick --out results       # two periods per height",
-                  "cwlidar-sim reproduce nacelle --quick --out results  # 5-min periods, under 3 min"])
+                  "cwlidar-sim reproduce nacelle --quick --out results  # 5-min periods, under a minute"])
     p.add_argument("paper", choices=("a2012", "cs", "nacelle"))
     p.add_argument("--quick", action="store_true",
-                   help="a2012: shortened periods; cs: two periods per height (about a minute each); "
+                   help="each under a minute on 2 cores: a2012: 20-min periods; cs: two periods per height; "
                         "nacelle: 5-min periods")
     p.add_argument("--out", default="results", metavar="DIR", help="output folder (default: results)")
     _add_dask_options(p, "dask", "the periods")

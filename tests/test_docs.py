@@ -147,7 +147,7 @@ def test_pages_include_readme_sections_that_exist():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     headings = set(re.findall(r"^#{1,6} +(.+?) *$", sitetools.mark_headings(readme), flags=re.M))
     found = list(_include_markers())
-    assert len(found) >= 10
+    assert {page.as_posix() for page, _, _ in found} >= {"index.md", "getting_started.md"}
     for page, kind, title in found:
         assert title in headings, f"docs/{page} includes the README section {title!r}, which README.md lacks"
 

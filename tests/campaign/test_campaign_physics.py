@@ -201,7 +201,7 @@ def test_misalignment_lifts_both_ratios_and_splits_them(aligned_los):
 def test_noise_lifts_T1_at_high_k_but_not_T2(aligned_spectral):
     """A2012 Fig. 4: estimator noise (uncorrelated with the sonic) gives T1 a floor.
 
-    README: method 1's minimum lies near 1.1 rad/m.  Over five seeds of this
+    docs/reproductions/a2012.md: method 1's minimum lies near 1.1 rad/m.  Over five seeds of this
     reduced run (7-11) the minimum fell in the bin at 1.12 or at 1.41 rad/m
     (mean 1.26, sd 0.17 rad/m), so the bins from 0.89 to 1.41 rad/m are allowed.
     """
@@ -225,11 +225,11 @@ def test_raised_threshold_lifts_T1_more_than_T2(aligned_spectral):
     the probe volume's Lorentzian tails out of the Doppler spectrum, so the
     estimate averages over a shorter volume.  A2012 saw no change of T2.)
 
-    The README's lifts (full run): 5/10/20 % raise lifts T1 by 9/19/41 % over
+    The A2012 page's lifts (full run): 5/10/20 % raise lifts T1 by 9/19/41 % over
     1-2.5 rad/m and T2 by 4/8/14 % over 0.02-0.3 rad/m.  Over five seeds of
     this reduced run (20 min, one aligned period) the lifts were
     10.5/21.4/46 % (seed sd 1.8/2.4/5.5 %) and 3.9/7.5/13.9 % (sd 0.2/0.5/1.1 %):
-    the README's values are held to 3 seed sd.
+    the page's values are held to 3 seed sd.
     """
     ds = aligned_spectral
     k = ds.k.values

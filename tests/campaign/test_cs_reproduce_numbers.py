@@ -1,8 +1,9 @@
-"""The README's CS numbers are those ``cwlidar-sim reproduce cs`` wrote (docs/cs_reproduce.json), at their stated rounding.
+"""The CS page's numbers are those ``cwlidar-sim reproduce cs`` wrote (docs/cs_reproduce.json), at their stated rounding.
 
-benchmarks/cs_reproduce.py summarises the run (138 ten-minute units: minutes, too long for the suite);
-these tests hold the README's table and its claims about the standard errors to the JSON, and the
-bundled scene's plan of periods per height to the plan the JSON was run with.
+benchmarks/cs_reproduce.py summarises the run (minutes, too long for the suite); these tests hold the
+table of docs/reproductions/cs.md and its claims about the standard errors to the JSON, and the bundled
+scene's plan of periods per height to the plan the JSON was run with (the README's summary of it is
+generated: tests/test_readme.py).
 """
 
 import json
@@ -19,15 +20,15 @@ ROW = re.compile(rf"^\| (\d+) m \| (\d+) \| {CELL} \| {CELL} \| ([\d.]+) ± ([\d
 def _load():
     with open(os.path.join(ROOT, "docs", "cs_reproduce.json")) as f:
         res = json.load(f)
-    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
-        readme = f.read()
-    return res, readme
+    with open(os.path.join(ROOT, "docs", "reproductions", "cs.md"), encoding="utf-8") as f:
+        page = f.read()
+    return res, page
 
 
-def test_readme_table_is_the_run():
-    """Every number of the README's CS table (3 decimals) is the JSON's, and every height is there."""
-    res, readme = _load()
-    rows = {m.group(1): m.groups()[1:] for m in ROW.finditer(readme)}
+def test_page_table_is_the_run():
+    """Every number of the CS page's table (3 decimals) is the JSON's, and every height is there."""
+    res, page = _load()
+    rows = {m.group(1): m.groups()[1:] for m in ROW.finditer(page)}
     assert sorted(rows, key=float) == sorted(res["heights"], key=float) == ["40", "60", "80", "100"]
     for z, cells in rows.items():
         h = res["heights"][z]
@@ -40,15 +41,15 @@ def test_readme_table_is_the_run():
         assert [float(c) for c in cells[1:]] == [round(w, 3) for w in want], z
 
 
-def test_standard_errors_are_as_the_readme_says():
+def test_standard_errors_are_as_the_page_says():
     """The acceptance: every std ratio's standard error <= 0.01, over every period of the plan."""
-    res, readme = _load()
+    res, page = _load()
     assert not res["quick"] and res["se_target"] == 0.01
     worst = max(max(h["std_ratio_1s_se"], h["std_ratio_3s_se"]) for h in res["heights"].values())
     assert worst == res["largest_std_ratio_se"]
     assert res["se_target_met"] == (worst <= 0.01)
-    assert f"largest {worst:.4f}" in readme
-    assert ("every standard error is at most 0.01" in readme.lower()) == res["se_target_met"]
+    assert f"largest {worst:.4f}" in page
+    assert ("every standard error is at most 0.01" in page.lower()) == res["se_target_met"]
     for h in res["heights"].values():  # every period passed CS's selection, so the errors are over all of them
         assert h["n_selected_1s"] == h["n_selected_3s"] == h["periods"]
 

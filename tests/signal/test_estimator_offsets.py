@@ -7,7 +7,7 @@ than a bin are pulled toward the nearest bin centre; the pull vanishes at the ce
 the half-bin point (symmetric cases) and stays below a quarter bin.  Peak (refined with the
 window's own line shape) and ml are unbiased with either window.
 
-The README's numbers are tested as stated: Hann within 0.05 bin (every estimator except
+The numbers of docs/guide/signal.md are tested as stated: Hann within 0.05 bin (every estimator except
 the parabolic peak, which a parabola through three samples of the Hann line biases by up
 to 0.11 bin, see test_estimators), rectangular median pulled by up to 0.21 bin
 (0.016 m/s) and centroid by less, peak and ml within 0.01 bin.  Tolerance: 200 estimates
@@ -50,7 +50,7 @@ def test_rect_window_pulls_median_and_centroid_toward_the_bin_centre(est):
     b = np.array([bias_bins(P, est, d) for d in OFFSETS])
     assert abs(b[0]) < 0.01 and abs(b[-1]) < 0.01          # symmetric cases
     assert np.all(b[1:-1] < -0.1)                           # toward the centre below
-    if est == "median":  # README: "by up to 0.21 bin (0.016 m/s)"
+    if est == "median":  # docs/guide/signal.md: "by up to 0.21 bin (0.016 m/s)"
         assert -b.min() == pytest.approx(0.21, abs=0.005)
         assert -b.min() * P.bin_speed == pytest.approx(0.016, abs=0.0005)
     else:

@@ -41,13 +41,13 @@ def test_expected_covariance_is_grid_resolved_integral(shape, spacing):
 
 def test_uncorrected_riemann_sum_is_far_off_for_thin_boxes():
     # Documented failure of correction="none": Phi33 ~ 1/|k|^2 near k = 0.
-    # README: "sigma_w^2 over ten times too large for 4096x32x32" (deterministic sums: 14.2).
+    # docs/guide/turbulence.md: "sigma_w^2 over ten times too large for 4096x32x32" (deterministic sums: 14.2).
     e = expected_box_covariance(P, (4096, 32, 32), (2.0, 2.0, 2.0), correction="none")
     assert e.covariances.ww / covariances(P, (2.0, 2.0, 2.0)).ww > 10
 
 
 def test_box_mean_cell_holds_about_8_percent_of_u_variance():
-    # README: the box-mean cell of a 64 m wide box holds about 8 % of sigma_u^2 (the Mann
+    # docs/guide/turbulence.md: the box-mean cell of a 64 m wide box holds about 8 % of sigma_u^2 (the Mann
     # u spectrum keeps rising as k1 -> 0); w, blocked by the ground, far less.  The cell
     # integral is deterministic (7.9 % of the grid-resolved sigma_u^2, 7.7 % of the full one).
     e = expected_box_covariance(P, (4096, 32, 32), (2.0, 2.0, 2.0))

@@ -34,7 +34,7 @@ import numpy as np
 STARING = """
 name = "cmp_staring"
 seed = 3
-duration = 300.0
+duration = {duration}
 [turbulence]
 alpha_eps = 0.06
 length_scale = 20.0
@@ -42,7 +42,7 @@ gamma = 3.9
 [lidar]
 tier = "{tier}"
 [analysis]
-segment_duration = 150.0
+segment_duration = {segment}
 fit = false
 [[period]]
 name = "aligned"
@@ -57,7 +57,7 @@ CONICAL = """
 name = "cmp_conical"
 kind = "conical"
 seed = 4
-duration = 60.0
+duration = {duration}
 [scan]
 heights = [40.0]
 scan_revs = [1]
@@ -77,13 +77,13 @@ NACELLE = """
 name = "cmp_nacelle"
 kind = "nacelle"
 seed = 3
-duration = 60.0
+duration = {duration}
 [scan]
 half_angle_deg = 15.0
 focus_distances = [40.0, 80.0]
 rotor_radius = 20.0
 spacing = 8.0
-segment_duration = 15.0
+segment_duration = {segment}
 k_min = 0.04
 k_max = 0.3
 n_k = 5
@@ -101,12 +101,21 @@ mean_speed = 10.0
 
 KINDS = {"staring": STARING, "conical": CONICAL, "nacelle": NACELLE}
 TIERS = ("los", "spectral", "signal")
+#: (duration, segment duration) [s] of each kind's scene: the signal tier (the 50 MHz heterodyne signal
+#: itself) runs the shortest scene each kind accepts, the others a few minutes of wind.
+DURATIONS = {("staring", "signal"): (60.0, 30.0), ("staring", None): (300.0, 150.0),
+             ("conical", "signal"): (10.0, None), ("conical", None): (60.0, None),
+             ("nacelle", "signal"): (30.0, 10.0), ("nacelle", None): (60.0, 15.0)}
 #: Attributes that differ between any two runs (clocks) or revisions (the version string).
 VOLATILE_ATTRS = ("timing", "wall_time", "created", "cwlidar_sim_version", "history")
 
 
 def cases(only=None):
-    out = {f"{k}-{t}": text.format(tier=t) for k, text in KINDS.items() for t in TIERS}
+    out = {}
+    for k, text in KINDS.items():
+        for t in TIERS:
+            duration, segment = DURATIONS.get((k, t), DURATIONS[(k, None)])
+            out[f"{k}-{t}"] = text.format(tier=t, duration=duration, segment=segment)
     if only:
         missing = sorted(set(only) - set(out))
         if missing:

@@ -89,7 +89,7 @@ def _cis(x):
 # ---------------------------------------------------------------------------
 # the protocol
 # ---------------------------------------------------------------------------
-class Weighting(abc.ABC):
+class Weighting(metaclass=abc.ABCMeta):
     """A weighting along the beam: what the cells, averages and theories need of it (module notes).
 
     Subclasses implement :meth:`density`, :meth:`primitive` and

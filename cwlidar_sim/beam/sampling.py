@@ -457,7 +457,7 @@ def los_average(
     """Probe-volume weighted line-of-sight speed (tier 1, A2012 Eq. 2).
 
     ``v_r(t) = sum_s w_s n(t) . u(origin + (r + s_s) n(t), t)`` with the range
-    cells and weights of :func:`~cwlidar_sim.beam.optics.weight_truncated`:
+    cells and weights of :func:`~cwlidar_sim.beam.weight_truncated`:
     each ``w_s`` is the exact integral of the weighting over its cell, the cell
     centres ``s_s`` are sampled by trilinear interpolation, and the field is
     advected at ``U`` along +x (see :func:`sample_los`).

@@ -57,7 +57,7 @@ Z95 = 1.959963984540054
 
 
 def _cells_weighting(lid, r):
-    from cwlidar_sim.beam.optics import RangeCells
+    from cwlidar_sim.beam import RangeCells
 
     c = lid.cells(r)
     w = np.repeat(c.weight_s, np.diff(c.ptr_s)) * c.fraction_p

@@ -176,8 +176,9 @@ def _line_cells(instrument, weighting: str = "exact", span: float = 20.0, cell_l
     cwlidar_sim.beam.cells.ProbeCells
     """
     from ..beam.cells import probe_cells
+    from ..beam.probe import get_weighting
 
-    check_choice("weighting", weighting, ("exact", "lorentzian"))
+    get_weighting(weighting)  # a registered name, checked first
     span = check_real("span", span, lo=0.0, hi=1000.0, lo_open=True)
     cell_length = check_real("cell_length", cell_length, lo=0.0, hi=1000.0, lo_open=True)
     return probe_cells(instrument.optics(), weighting, span, cell_length, growth=growth, tail=tail)

@@ -62,15 +62,15 @@ phase on a loaded 2-core machine.  Box-discrete (``box_grid``): the sum over a b
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 
 import numpy as np
 
 from .._validation import check_choice, check_int, check_real
+from ..beam import BeamOptics, ConicalScanGeometry, ProbeVolume, RangeCells
 from .rews import RotorDisc
 
-__all__ = ["LidarBeams", "circular_scan", "beam_transfer", "RewsSpectra", "rews_spectra", "rotor_spectrum",
+__all__ = ["LidarBeams", "circular_scan", "scan_beams", "beam_transfer", "RewsSpectra", "rews_spectra", "rotor_spectrum",
            "estimated_spectra"]
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(6)
@@ -158,13 +158,11 @@ def circular_scan(n_beams: int, half_angle_deg: float, focus, *, revolution_time
                   azimuth0_deg: float = 0.0, all_phases: bool = True, origin=(0.0, 0.0, 0.0)) -> LidarBeams:
     """A forward-looking circular scan discretised into N beams, averaged over one revolution.
 
-    Beam b looks upwind at ``half_angle`` from the rotor axis, azimuth
+    :func:`scan_beams` of the :class:`~cwlidar_sim.beam.ConicalScanGeometry`
+    ``(half_angle_deg, 'upwind', revolution_time, azimuth0_deg)``: beam b
+    looks upwind at ``half_angle`` from the rotor axis, azimuth
     ``azimuth0 + 360 b / N`` (from +y toward +z):
-    ``n_b = (-cos a, sin a cos phi_b, sin a sin phi_b)``.  Its sample enters
-    the estimate ``tau = ((m - b) mod N) revolution_time / N`` old when the
-    newest sample is beam m; ``all_phases`` averages the spectra over the N
-    phases m (a full-rate moving average), otherwise only m = N - 1.
-    ``revolution_time = 0`` is a multi-beam lidar sampling all beams at once.
+    ``n_b = (-cos a, sin a cos phi_b, sin a sin phi_b)``.
 
     Parameters
     ----------
@@ -181,11 +179,41 @@ def circular_scan(n_beams: int, half_angle_deg: float, focus, *, revolution_time
     origin : (x, y, z)
         Lidar position relative to the hub [m].
     """
+    geometry = ConicalScanGeometry(half_angle_deg=half_angle_deg, axis="upwind", revolution_time=revolution_time,
+                                   azimuth0_deg=azimuth0_deg)
+    return scan_beams(geometry, n_beams, focus, all_phases=all_phases, origin=origin)
+
+
+def scan_beams(geometry: ConicalScanGeometry, n_beams: int, focus, *, all_phases: bool = True,
+               origin=(0.0, 0.0, 0.0)) -> LidarBeams:
+    """The beams of a conical scan discretised into N beams evenly over one revolution.
+
+    Beam b points at azimuth ``azimuth0 + 360 b / N`` of ``geometry``
+    (:meth:`~cwlidar_sim.beam.ConicalScanGeometry.direction`).  Its sample
+    enters the estimate ``tau = ((m - b) mod N) revolution_time / N`` old
+    when the newest sample is beam m; ``all_phases`` averages the spectra
+    over the N phases m (a full-rate moving average), otherwise only
+    m = N - 1.  ``revolution_time = 0`` is a multi-beam lidar sampling all
+    beams at once.
+
+    Parameters
+    ----------
+    geometry : ConicalScanGeometry
+        The cone, its azimuth convention, revolution time and first azimuth.
+    n_beams : int
+        N >= 1.
+    focus : float or array_like
+        Focus distance(s) [m].
+    all_phases : bool
+    origin : (x, y, z)
+        Lidar position relative to the hub [m].
+    """
+    if not isinstance(geometry, ConicalScanGeometry):
+        raise TypeError(f"geometry must be a ConicalScanGeometry, got {type(geometry).__name__}")
     n = check_int("n_beams", n_beams, lo=1, hi=100_000)
-    a = math.radians(check_real("half_angle_deg", half_angle_deg, lo=0.0, hi=90.0, hi_open=True))
-    T = check_real("revolution_time", revolution_time, lo=0.0)
-    phi = np.radians(check_real("azimuth0_deg", azimuth0_deg)) + 2.0 * math.pi * np.arange(n) / n
-    dirs = np.stack([-math.cos(a) * np.ones(n), math.sin(a) * np.cos(phi), math.sin(a) * np.sin(phi)], axis=1)
+    T = geometry.revolution_time
+    phi = np.radians(geometry.azimuth0_deg) + 2.0 * math.pi * np.arange(n) / n
+    dirs = geometry.direction_rad(phi)
     b = np.arange(n)
     phases = np.arange(n) if all_phases else np.array([n - 1])
     delays = ((phases[:, None] - b[None, :]) % n) * (T / n)
@@ -203,14 +231,16 @@ def beam_transfer(focus: float, weighting="exact", *, wavelength=None, radius=No
     ----------
     focus : float
         Focus distance r [m].
-    weighting : {"exact", "lorentzian", "point"} or RangeCells
-        "exact": the focused-beam weighting of :func:`cwlidar_sim.beam.weight_exact`
+    weighting : str or Weighting or RangeCells
+        A weighting of the registry :data:`cwlidar_sim.beam.WEIGHTINGS`
+        or an instance (its :meth:`~cwlidar_sim.beam.Weighting.fourier`):
+        "exact", the focused-beam weighting of :func:`cwlidar_sim.beam.weight_exact`
         (Cauchy centred ``s0`` with half-width ``gamma``, cut at the
         telescope): ``(exp(-i q s0 - gamma |q|) - tail(q)) / (1 - eps)`` with
         the part behind the telescope in closed form through the complex
         exponential integral (checked against :func:`cwlidar_sim.beam.fourier_exact`);
         "lorentzian": ``exp(-z_R |q|)`` (A2012 Eq. 4); "point": 1 (z_R -> 0);
-        a :class:`~cwlidar_sim.beam.RangeCells`: its discrete weights (what
+        or a :class:`~cwlidar_sim.beam.RangeCells`: its discrete weights (what
         :func:`cwlidar_sim.beam.los_average` applies), tabulated on a grid of
         q and interpolated (error below 1e-4).
     wavelength, radius : float, optional
@@ -221,90 +251,11 @@ def beam_transfer(focus: float, weighting="exact", *, wavelength=None, radius=No
     callable
         ``q [rad/m] -> phi_hat(q)`` (complex ndarray); ``phi_hat(-q) = conj(phi_hat(q))``.
     """
-    from ..beam import BeamOptics, RangeCells
-
     kw = {k: v for k, v in (("wavelength", wavelength), ("radius", radius)) if v is not None}
     opt = BeamOptics(focus=focus, **kw)
     if isinstance(weighting, RangeCells):
         return _cells_transfer(weighting)
-    if weighting == "point":
-        return lambda q: np.ones(np.shape(q), dtype=complex)
-    if weighting == "lorentzian":
-        zR = opt.rayleigh_length
-        return lambda q: np.exp(-zR * np.abs(np.asarray(q, dtype=float))).astype(complex)
-    if weighting == "exact":
-        return _exact_transfer(opt)
-    raise ValueError(f"weighting={weighting!r} is not allowed; allowed: 'exact', 'lorentzian', 'point' "
-                     "or a RangeCells")
-
-
-def _exp_e1(z):
-    """``exp(z) E1(z)`` for complex z off the negative real axis, without overflow.
-
-    Direct for ``|z| <= 40``; beyond, the asymptotic series
-    ``sum_n (-1)^n n! / z^(n+1)`` to n = 12 (error below 12! / 40^13 = 7e-12).
-    """
-    from scipy.special import exp1
-
-    z = np.asarray(z, dtype=complex)
-    out = np.empty(z.shape, dtype=complex)
-    near = np.abs(z) <= 40.0
-    out[near] = np.exp(z[near]) * exp1(z[near])
-    zf = z[~near]
-    term = 1.0 / zf
-    acc = term.copy()
-    for n in range(1, 13):
-        term = -term * n / zf
-        acc += term
-    out[~near] = acc
-    return out
-
-
-#: Nodes per decade of q of the table of the telescope-cut term's smooth part, linear
-#: interpolation in log q (error below 5e-9 against the direct evaluation, tested).
-_TAIL_NODES_PER_DECADE = 2000
-
-
-@functools.lru_cache(maxsize=64)
-def _exact_parts(r, wavelength, radius):
-    """(s0, gamma, eps, a, table of the smooth part of the telescope-cut term) of the exact weighting."""
-    from ..beam.optics import _cauchy_exact
-
-    s0, g, eps = _cauchy_exact(r, wavelength, radius)
-    a = r + s0  # Cauchy centre to the telescope [m]
-    lq = np.linspace(math.log(1e-6 / a), math.log(1e4), int(math.log10(1e10 * a) * _TAIL_NODES_PER_DECADE) + 1)
-    sm = _tail_smooth(np.exp(lq), a, g)
-    for arr in (lq, sm):
-        arr.setflags(write=False)
-    return s0, g, eps, a, lq, sm
-
-
-def _tail_smooth(q, a, g):
-    # integral_{s < -r} of the real-line Cauchy density times exp(-i q s) is exp(i q r) times
-    # integral_0^inf g / (pi ((a + v)^2 + g^2)) exp(i q v) dv, and by partial fractions and
-    # integral_0^inf exp(i q v) / (v + c) dv = exp(-i q c) E1(-i q c) that is
-    # sum_(c = a -+ i g) (+-) exp(z) E1(z) / (2 i pi), z = -i q c: smooth in q (-> eps at 0).
-    return (_exp_e1(-1j * q * (a - 1j * g)) - _exp_e1(-1j * q * (a + 1j * g))) / (2j * math.pi)
-
-
-def _exact_transfer(opt):
-    r = opt.focus
-    s0, g, eps, a, lq_tab, sm_tab = _exact_parts(r, opt.wavelength, opt.radius)
-
-    def phi_hat(q):
-        q = np.asarray(q, dtype=float)
-        qa = np.abs(q)
-        smooth = np.full(qa.shape, eps, dtype=complex)
-        with np.errstate(divide="ignore"):
-            lq = np.log(qa)
-        mid = (lq >= lq_tab[0]) & (lq <= lq_tab[-1])
-        smooth[mid] = np.interp(lq[mid], lq_tab, sm_tab.real) + 1j * np.interp(lq[mid], lq_tab, sm_tab.imag)
-        hi = lq > lq_tab[-1]
-        smooth[hi] = _tail_smooth(qa[hi], a, g)
-        val = (np.exp(-g * qa) * _cis(-qa * s0) - _cis(qa * r) * smooth) / (1.0 - eps)
-        return np.where(q < 0, np.conj(val), val)
-
-    return phi_hat
+    return ProbeVolume(opt, weighting).fourier
 
 
 def _cells_transfer(cells):

@@ -5,6 +5,17 @@
     Lorentzian weightings along the beam (Eqs. 3, 4), their transfer functions
     (Eq. 9) and finite range-cell discretisations with the truncated tail
     weight reported.
+``probe``
+    :class:`ProbeVolume`: a :class:`Weighting` bound to the optics, and the
+    registry :data:`WEIGHTINGS` of weightings (exact, Lorentzian, truncated
+    aperture, point; a new one is one class and :func:`register_weighting`).
+``cells``
+    Range cells of the probe volume, their weights and the tail rule.
+``aperture``
+    The weighting of a beam clipped by the telescope's aperture.
+``geometry``
+    :class:`ConicalScanGeometry`: one description of a conical scan (half
+    angle, axis, azimuths, revolution) for the sensors and the theories.
 ``sampling``
     Beam geometry (staring, conical scan) and sampling of box, plane or line
     fields along the beam under Taylor's frozen turbulence, point by point
@@ -14,11 +25,12 @@
 Importing this package does not import numba; kernels compile on first use.
 """
 
+from .cells import RangeCells, weight_truncated
+from .geometry import ConicalScanGeometry
 from .optics import (
     TELESCOPE_RADIUS,
     WAVELENGTH,
     BeamOptics,
-    RangeCells,
     cdf_exact,
     cdf_lorentzian,
     fourier_exact,
@@ -28,8 +40,8 @@ from .optics import (
     truncated_fraction_lorentzian,
     weight_exact,
     weight_lorentzian,
-    weight_truncated,
 )
+from .probe import WEIGHTINGS, ProbeVolume, Weighting, get_weighting, register_weighting
 from .sampling import (
     ConicalScan,
     LosAverage,
@@ -55,6 +67,12 @@ __all__ = [
     "fourier_exact",
     "transfer_exact",
     "weight_truncated",
+    "Weighting",
+    "ProbeVolume",
+    "WEIGHTINGS",
+    "register_weighting",
+    "get_weighting",
+    "ConicalScanGeometry",
     "direction_from_angles",
     "staring_direction",
     "ConicalScan",

@@ -118,6 +118,7 @@ __all__ = [
     "ApertureRayleigh",
     "pupil_function",
     "weight_aperture",
+    "cdf_aperture",
     "fourier_aperture",
     "transfer_aperture",
     "effective_rayleigh_length",
@@ -358,16 +359,90 @@ def _normaliser(aperture, m_inf, m_max):
     edges = np.linspace(a, m_max, max(8, math.ceil((m_max - a) / 0.25)) + 1)
     x, wq = _gl_on_edges(edges)
     total = float(wq @ _w_spline(spl, x))
-
-    def tail(c, lo, hi):
-        # integral over lo < |M| < hi of (g + c / |M|) / (32 (1 + M^2))
-        log_part = 0.5 * (math.log1p(1.0 / (lo * lo)) - (math.log1p(1.0 / (hi * hi)) if hi < math.inf else 0.0))
-        return (g * (math.atan(hi) - math.atan(lo)) + c * log_part) / 32.0
-
-    total += tail(c_hi, m_max, math.inf)
+    total += _tail_integral(g, c_hi, m_max, math.inf)
     if m_inf < -m_max:
-        total += tail(c_lo, m_max, -m_inf)
+        total += _tail_integral(g, c_lo, m_max, -m_inf)
     return total
+
+
+def _tail_integral(g, c, lo, hi):
+    """Integral over lo < |M| < hi of the continuation (g + c / |M|) / (32 (1 + M^2)), 0 < lo <= hi."""
+    log_part = 0.5 * (math.log1p(1.0 / (lo * lo)) - (math.log1p(1.0 / (hi * hi)) if hi < math.inf else 0.0))
+    return (g * (math.atan(hi) - math.atan(lo)) + c * log_part) / 32.0
+
+
+#: Panel width in M of the cumulative table of :func:`cdf_aperture` (16-point Gauss-Legendre).
+_CDF_PANEL = 0.25
+
+
+@functools.lru_cache(maxsize=16)
+def _upper_table(truncation, spherical, m_max):
+    """(panel edges G_j on [-m_max, m_max], integral of W from G_j to infinity) of one pupil."""
+    spl, g, c_lo, c_hi = _pupil_spline(truncation, spherical, m_max)
+    n = math.ceil(2.0 * m_max / _CDF_PANEL)
+    edges = np.linspace(-m_max, m_max, n + 1)
+    x, wq = _gl_on_edges(edges)
+    panel = (wq * _w_spline(spl, x)).reshape(n, -1).sum(axis=1)
+    upper = np.concatenate([np.cumsum(panel[::-1])[::-1], [0.0]]) + _tail_integral(g, c_hi, m_max, math.inf)
+    for a in (edges, upper):
+        a.setflags(write=False)
+    return edges, upper
+
+
+def _upper_integral(M, aperture, m_max):
+    """Integral of W from M to infinity [-], vectorised (tabulated panels, a partial panel, closed-form tails)."""
+    spl, g, c_lo, c_hi = _pupil_spline(aperture.truncation, aperture.spherical_waves, m_max)
+    edges, upper = _upper_table(aperture.truncation, aperture.spherical_waves, m_max)
+    M = np.asarray(M, dtype=float)
+    out = np.empty(M.shape)
+    hi = M >= m_max
+    out[hi] = [_tail_integral(g, c_hi, m, math.inf) for m in M[hi]]
+    lo = M < -m_max
+    out[lo] = [upper[0] + _tail_integral(g, c_lo, m_max, -m) for m in M[lo]]
+    mid = ~(hi | lo)
+    if np.any(mid):
+        m = M[mid]
+        j = np.clip(np.searchsorted(edges, m, side="right") - 1, 0, edges.size - 2)
+        b = edges[j + 1]
+        h = 0.5 * (b - m)
+        x = (0.5 * (b + m))[:, None] + h[:, None] * _GL_X
+        out[mid] = (h[:, None] * _GL_W * _w_spline(spl, x)).sum(axis=1) + upper[j + 1]
+    return out
+
+
+def cdf_aperture(s, optics: BeamOptics, aperture: TruncatedAperture, *, m_max: float = 20.0):
+    """Cumulative weight of :func:`weight_aperture` from the telescope (s = -r) to ``s`` [-].
+
+    With ``M(z) = z_ap (1/z - 1/r)`` decreasing from +inf at the telescope to
+    ``M_inf = -z_ap / r`` far away, the weight up to ``z = r + s`` is
+    ``integral_{M(z)}^inf W dM / integral_{M_inf}^inf W dM`` (module notes,
+    Eq. 3): panels of 0.25 in M by 16-point Gauss-Legendre, the tails beyond
+    ``|M| = m_max`` in closed form.  Equal to
+    :func:`~cwlidar_sim.beam.optics.cdf_exact` for ``truncation=inf``.
+
+    Parameters
+    ----------
+    s : float or array_like
+        Distance from the focus along the beam [m].
+    optics, aperture, m_max
+        As for :func:`weight_aperture`.
+
+    Returns
+    -------
+    float or ndarray
+        In [0, 1]; 0 behind the telescope.
+    """
+    _check_optics(optics)
+    _check_aperture(aperture)
+    m_max = check_real("m_max", m_max, lo=5.0, hi=80.0)
+    s = _as_array("s", s)
+    r, zap = optics.focus, optics.aperture_rayleigh_length
+    z = r + s
+    ok = z > 0
+    M = zap * (1.0 / np.where(ok, z, 1.0) - 1.0 / r)
+    total = float(_upper_integral(np.array([-zap / r]), aperture, m_max)[0])
+    out = np.where(ok, np.clip(_upper_integral(M, aperture, m_max) / total, 0.0, 1.0), 0.0)
+    return float(out) if out.ndim == 0 else out
 
 
 def _weight(s, optics, aperture, m_max):

@@ -49,8 +49,7 @@ import math
 
 import numpy as np
 
-from .._repr import summary_repr
-from .._validation import check_choice, check_int, check_keys, check_real
+from .._validation import check_keys, check_real
 
 #: Laser wavelength of the ZephIR prototype [m] (A2012).
 WAVELENGTH = 1547.615e-9
@@ -61,7 +60,6 @@ __all__ = [
     "WAVELENGTH",
     "TELESCOPE_RADIUS",
     "BeamOptics",
-    "RangeCells",
     "rayleigh_length",
     "weight_exact",
     "weight_lorentzian",
@@ -71,7 +69,6 @@ __all__ = [
     "transfer_lorentzian",
     "fourier_exact",
     "transfer_exact",
-    "weight_truncated",
 ]
 
 
@@ -367,138 +364,3 @@ def transfer_exact(k, focus: float, wavelength: float = WAVELENGTH, radius: floa
     """
     ph = np.asarray(fourier_exact(k, focus, wavelength, radius))
     return _ret((ph * np.conj(ph)).real)
-
-
-# ---------------------------------------------------------------------------
-# range cells
-# ---------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
-class RangeCells:
-    """Discretised weighting over a finite span of the beam.
-
-    Attributes
-    ----------
-    s_s : ndarray, shape (n_cells,)
-        Cell centres, distance from the focus [m] (positive away from the lidar).
-    weight_s : ndarray, shape (n_cells,)
-        Cell weights [-]: the integral of phi over each cell (exact, from the
-        analytic cumulative weight), divided by ``kept_fraction`` when
-        ``renormalised``.
-    edges : ndarray, shape (n_cells + 1,)
-        Cell edges [m].
-    kept_fraction : float
-        Integral of phi over the span [-] (before any renormalisation).
-    truncated_fraction : float
-        ``1 - kept_fraction``: the weight of the tails outside the span [-].
-    renormalised : bool
-        True if ``weight_s`` sums to 1; False if it sums to ``kept_fraction``
-        and the missing tail weight is left for the caller to account for.
-    weighting : str
-        'exact' or 'lorentzian'.
-    rayleigh_length : float
-        z_R of the optics [m] (A2012 Eq. 1).
-    """
-
-    __repr__ = summary_repr
-
-    s_s: np.ndarray
-    weight_s: np.ndarray
-    edges: np.ndarray
-    kept_fraction: float
-    truncated_fraction: float
-    renormalised: bool
-    weighting: str
-    rayleigh_length: float
-
-    def transfer(self, k):
-        """Fourier transform of the discrete weights, sum_s w_s exp(-i k s_s) [-], k in rad/m."""
-        k = _as_float_array("k", k)
-        return np.exp(-1j * np.multiply.outer(k, self.s_s)) @ self.weight_s
-
-
-def weight_truncated(
-    optics: BeamOptics,
-    weighting: str = "exact",
-    span: float = 20.0,
-    n_cells: int = 201,
-    renormalise: bool = True,
-) -> RangeCells:
-    """Range cells and weights of the probe volume over a finite span.
-
-    The Lorentzian tails are heavy (``phi ~ z_R / (pi s^2)``): a span of
-    +/- N z_R misses ``1 - (2/pi) arctan(N)`` of the weight (3.2 % for N = 20,
-    0.64 % for N = 100).  This function reports that missing fraction, and
-    either
-
-    * ``renormalise=True`` (default): divides the weights by the kept
-      fraction, so a uniform wind is returned exactly; the fluctuations of the
-      kept cells are then over-weighted by ``1 / kept_fraction``, which is the
-      right choice when the far tail sees mostly the mean wind; or
-    * ``renormalise=False``: keeps the weights as the exact integrals of phi
-      over the cells (summing to ``kept_fraction``) and leaves the missing
-      weight explicit in ``truncated_fraction``, e.g. for a caller that adds
-      ``truncated_fraction * n.U`` for the mean flow seen by the tails.
-
-    Parameters
-    ----------
-    optics : BeamOptics
-        Beam optics; sets r and z_R.
-    weighting : {'exact', 'lorentzian'}
-        'exact': :func:`weight_exact` (asymmetric about the focus, zero behind
-        the telescope); 'lorentzian': A2012 Eq. 4.
-    span : float
-        Half-width of the kept span in Rayleigh lengths [-]; > 0.  The cells
-        cover ``[-span z_R, +span z_R]`` around the focus, clipped at the
-        telescope (s = -r) for both weightings (no aerosol lies behind the
-        telescope).  A clipped Lorentzian span is asymmetric, so its
-        truncated fraction is then ``1 - kept_fraction`` rather than
-        :func:`truncated_fraction_lorentzian`.
-    n_cells : int
-        Number of equal cells over the span; >= 1.
-    renormalise : bool
-        See above.
-
-    Returns
-    -------
-    RangeCells
-        Cell centres ``s_s`` [m], weights ``weight_s`` [-] and the kept and
-        truncated weight fractions.
-    """
-    if not isinstance(optics, BeamOptics):
-        raise TypeError(f"optics must be a BeamOptics, got {type(optics).__name__}")
-    weighting = check_choice("weighting", weighting, ("exact", "lorentzian"))
-    span = check_real("span", span, lo=0.0, hi=1e6, lo_open=True)
-    n_cells = check_int("n_cells", n_cells, lo=1, hi=10**7)
-    if not isinstance(renormalise, (bool, np.bool_)):
-        raise TypeError(f"renormalise must be a bool, got {type(renormalise).__name__}")
-    zR = optics.rayleigh_length
-    r = optics.focus
-    half = span * zR
-    if weighting == "exact":
-        lo = max(-half, -r)
-        edges = np.linspace(lo, half, n_cells + 1)
-        cdf = np.asarray(cdf_exact(edges, r, optics.wavelength, optics.radius))
-    else:
-        edges = np.linspace(max(-half, -r), half, n_cells + 1)
-        # cumulative weight via arctan differences; exact for the Lorentzian
-        cdf = np.arctan(edges / zR) / math.pi
-    w = np.diff(cdf)
-    kept = float(cdf[-1] - cdf[0])
-    if weighting == "lorentzian" and half <= r:
-        # symmetric span: the analytic form keeps full precision for wide spans
-        truncated = truncated_fraction_lorentzian(half, zR)
-    else:
-        truncated = max(0.0, 1.0 - kept)
-    s = 0.5 * (edges[:-1] + edges[1:])
-    if renormalise:
-        w = w / kept
-    return RangeCells(
-        s_s=s,
-        weight_s=w,
-        edges=edges,
-        kept_fraction=kept,
-        truncated_fraction=truncated,
-        renormalised=bool(renormalise),
-        weighting=weighting,
-        rayleigh_length=zR,
-    )

@@ -42,14 +42,16 @@ Field types
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
 from .._repr import summary_repr
 from .._config import apply_numba_threads
-from .._validation import check_bool, check_choice, check_int, check_memory, check_real
-from .optics import BeamOptics, RangeCells, weight_truncated
+from .._validation import check_bool, check_int, check_memory, check_real
+from .cells import RangeCells, weight_truncated
+from .geometry import ConicalScanGeometry
+from .optics import BeamOptics
+from .probe import get_weighting
 
 __all__ = [
     "direction_from_angles",
@@ -118,8 +120,8 @@ class ConicalScan:
         Focus distance r = z / cos(half_angle) [m].
     height : float
         Measurement height above the lidar z [m].
-    half_angle_deg : float
-        Cone half-angle from the vertical [deg].
+    geometry : ConicalScanGeometry
+        The cone (axis 'up'), its half angle, revolution time and first azimuth.
     circle_diameter : float
         Diameter of the scanned circle at the measurement height, 2 z tan(half_angle) [m].
     """
@@ -131,7 +133,7 @@ class ConicalScan:
     n_tc: np.ndarray
     focus: float
     height: float
-    half_angle_deg: float
+    geometry: ConicalScanGeometry
     circle_diameter: float
 
 
@@ -140,8 +142,8 @@ def conical_scan(
     n_rev: int = 1,
     *,
     half_angle_deg: float = 30.0,
-    rev_per_s: float = 1.0,
-    points_per_rev: int = 50,
+    revolution_time: float = 1.0,
+    estimates_per_rev: int = 50,
     azimuth0_deg: float = 0.0,
     start_time: float = 0.0,
 ) -> ConicalScan:
@@ -155,9 +157,9 @@ def conical_scan(
         Number of revolutions; >= 1.
     half_angle_deg : float
         Cone half-angle Phi from the vertical [deg]; in (0, 90).
-    rev_per_s : float
-        Revolutions per second [1/s]; > 0.
-    points_per_rev : int
+    revolution_time : float
+        Time of one revolution [s]; > 0.
+    estimates_per_rev : int
         Line-of-sight samples per revolution; >= 1.
     azimuth0_deg : float
         Azimuth of the first sample [deg], from +x toward +y.
@@ -167,32 +169,31 @@ def conical_scan(
     Returns
     -------
     ConicalScan
-        Sample ``j`` is at ``t_j = start_time + j / (points_per_rev rev_per_s)``
-        and azimuth ``azimuth0 + 360 j / points_per_rev``; the beam direction is
+        Sample ``j`` is at ``t_j = start_time + j revolution_time / estimates_per_rev``
+        and azimuth ``azimuth0 + 360 j / estimates_per_rev``; the beam direction is
         ``(sin Phi cos az, sin Phi sin az, cos Phi)`` and the focus is
-        ``z / cos Phi``.  Each sample is taken as instantaneous (the beam
-        sweeps 360/points_per_rev degrees during a real 20 ms estimate).
+        ``z / cos Phi`` (:class:`~cwlidar_sim.beam.ConicalScanGeometry`, axis
+        'up').  Each sample is taken as instantaneous (the beam
+        sweeps 360/estimates_per_rev degrees during a real 20 ms estimate).
     """
     z = check_real("height", height, lo=0.0, lo_open=True)
     n_rev = check_int("n_rev", n_rev, lo=1, hi=10**8)
     phi = check_real("half_angle_deg", half_angle_deg, lo=0.0, hi=90.0, lo_open=True, hi_open=True)
-    rps = check_real("rev_per_s", rev_per_s, lo=0.0, lo_open=True)
-    ppr = check_int("points_per_rev", points_per_rev, lo=1, hi=10**7)
-    az0 = check_real("azimuth0_deg", azimuth0_deg)
+    T = check_real("revolution_time", revolution_time, lo=0.0, lo_open=True)
+    ppr = check_int("estimates_per_rev", estimates_per_rev, lo=1, hi=10**7)
     t0 = check_real("start_time", start_time)
+    geo = ConicalScanGeometry(half_angle_deg=phi, axis="up", revolution_time=T, azimuth0_deg=azimuth0_deg)
     j = np.arange(n_rev * ppr)
-    time_t = t0 + j / (ppr * rps)
-    azimuth_t = az0 + 360.0 * j / ppr
-    n_tc = direction_from_angles(azimuth_t, 90.0 - phi)
-    phr = math.radians(phi)
+    time_t = t0 + j * T / ppr
+    azimuth_t = geo.azimuth0_deg + 360.0 * j / ppr
     return ConicalScan(
         time_t=time_t,
         azimuth_t=azimuth_t,
-        n_tc=n_tc,
-        focus=z / math.cos(phr),
+        n_tc=geo.direction(azimuth_t),
+        focus=geo.focus_at(z),
         height=z,
-        half_angle_deg=phi,
-        circle_diameter=2.0 * z * math.tan(phr),
+        geometry=geo,
+        circle_diameter=geo.circle_diameter(z),
     )
 
 
@@ -456,7 +457,7 @@ def los_average(
     """Probe-volume weighted line-of-sight speed (tier 1, A2012 Eq. 2).
 
     ``v_r(t) = sum_s w_s n(t) . u(origin + (r + s_s) n(t), t)`` with the range
-    cells and weights of :func:`~cwlidar_sim.beam.optics.weight_truncated`:
+    cells and weights of :func:`~cwlidar_sim.beam.weight_truncated`:
     each ``w_s`` is the exact integral of the weighting over its cell, the cell
     centres ``s_s`` are sampled by trilinear interpolation, and the field is
     advected at ``U`` along +x (see :func:`sample_los`).
@@ -475,9 +476,10 @@ def los_average(
         Sample times [s].
     U : float
         Advection speed along +x [m/s].
-    weighting : {'exact', 'lorentzian'}
-        Weighting along the beam (A2012 Eq. 3 as corrected in
-        :mod:`cwlidar_sim.beam.optics`, or Eq. 4).
+    weighting : str or Weighting
+        Weighting along the beam, a name of :data:`cwlidar_sim.beam.WEIGHTINGS`
+        ('exact': A2012 Eq. 3 as corrected in :mod:`cwlidar_sim.beam.optics`,
+        'lorentzian': Eq. 4, ...) or a :class:`~cwlidar_sim.beam.Weighting`.
     span : float
         Half-width of the kept span in Rayleigh lengths [-]; the Lorentzian
         misses ``1 - (2/pi) arctan(span)`` of its weight (3.2 % for 20).
@@ -499,7 +501,7 @@ def los_average(
     """
     if not isinstance(optics, BeamOptics):
         raise TypeError(f"optics must be a BeamOptics, got {type(optics).__name__}")
-    weighting = check_choice("weighting", weighting, ("exact", "lorentzian"))
+    weighting = get_weighting(weighting)
     renormalise = check_bool("renormalise", renormalise)
     cells = weight_truncated(optics, weighting, span=span, n_cells=n_cells, renormalise=renormalise)
     range_s = np.maximum(optics.focus + cells.s_s, 0.0)

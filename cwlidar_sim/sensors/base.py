@@ -34,8 +34,9 @@ import math
 
 import numpy as np
 
-from .._validation import check_bool, check_choice, check_keys, check_real, check_seed
-from ..beam.cells import TAIL_RULES, WEIGHTINGS, ProbeCells, interval_weight, probe_cells
+from .._validation import check_bool, check_choice, check_keys, check_real, check_seed, check_str
+from ..beam.cells import TAIL_RULES, ProbeCells, interval_weight, probe_cells
+from ..beam.probe import get_weighting
 from ..beam.sampling import _check_extent, _prepare_field
 from ..signal.chain import ChainSettings
 from ..signal.instrument import PRESETS, PROTOTYPE_2003, Instrument
@@ -110,9 +111,11 @@ class LidarBase:
         is accepted by ``from_dict``).
     tier : {'los', 'spectral', 'signal'}
         Signal-chain tier (:mod:`cwlidar_sim.signal.chain`).
-    weighting : {'exact', 'lorentzian'}
-        Probe-volume weighting (A2012 Eq. 3 as corrected in
-        :mod:`cwlidar_sim.beam.optics`, or Eq. 4).
+    weighting : str
+        Probe-volume weighting, a name of the registry
+        :data:`cwlidar_sim.beam.WEIGHTINGS`: 'exact' (A2012 Eq. 3 as
+        corrected in :mod:`cwlidar_sim.beam.optics`), 'lorentzian' (Eq. 4),
+        'aperture', 'point' or one registered by the user.
     span : float
         Half-width of the simulated span [z_R]; in (0, 10000].
     cell_length : float
@@ -192,7 +195,7 @@ class LidarBase:
         put("cnr_variation_db", float(self.cnr_variation_db))
         put("cnr_time_scale", float(self.cnr_time_scale))
         put("line_broadening", float(self.line_broadening))
-        check_choice("weighting", self.weighting, WEIGHTINGS)
+        get_weighting(check_str("weighting", self.weighting))  # a registered name
         put("span", check_real("span", self.span, lo=0.0, hi=1e4, lo_open=True))
         put("cell_length", check_real("cell_length", self.cell_length, lo=0.0, hi=1000.0, lo_open=True))
         put("cell_growth", check_real("cell_growth", self.cell_growth, lo=0.0, hi=1.0))

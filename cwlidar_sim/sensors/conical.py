@@ -79,6 +79,7 @@ import numpy as np
 
 from .._repr import summary_repr
 from .._validation import check_bool, check_int, check_real, check_tuple
+from ..beam.geometry import ConicalScanGeometry
 from ..signal.chain import DRAW_BLOCK, SIGNAL_MAX_ESTIMATES, TIERS, FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.spectral import speckle_looks
@@ -229,13 +230,18 @@ class ConicalLidar(LidarBase):
     def _phi(self) -> float:
         return math.radians(self.half_angle_deg)
 
+    @property
+    def geometry(self) -> ConicalScanGeometry:
+        """The scan's cone (:class:`cwlidar_sim.beam.ConicalScanGeometry`, axis 'up')."""
+        return ConicalScanGeometry(self.half_angle_deg, "up", self.revolution_time, self.azimuth0_deg)
+
     def focus(self, height: float) -> float:
         """Focus distance r = z / cos Phi [m]."""
-        return float(height) / math.cos(self._phi)
+        return self.geometry.focus_at(height)
 
     def circle_diameter(self, height: float) -> float:
         """Diameter of the scanned circle D = 2 z tan Phi [m]."""
-        return 2.0 * float(height) * math.tan(self._phi)
+        return self.geometry.circle_diameter(height)
 
     def instrument_at(self, height: float) -> Instrument:
         """The instrument focused at height z."""
@@ -243,7 +249,7 @@ class ConicalLidar(LidarBase):
 
     def spot_speed(self, height: float) -> float:
         """Speed of the focal spot along the circle, 2 pi r sin Phi / revolution_time [m/s]."""
-        return 2.0 * math.pi * self.focus(height) * math.sin(self._phi) / self.revolution_time
+        return self.geometry.spot_speed(self.focus(height))
 
     def transverse_speed_at(self, height: float) -> float:
         """The speckle's transverse speed at height z [m/s]: ``transverse_speed`` or the spot's speed."""
@@ -283,9 +289,7 @@ class ConicalLidar(LidarBase):
 
     def direction(self, azimuth_deg) -> np.ndarray:
         """Unit beam directions at the given azimuths [deg], shape (..., 3)."""
-        az = np.radians(np.asarray(azimuth_deg, dtype=np.float64))
-        s, c = math.sin(self._phi), math.cos(self._phi)
-        return np.stack([s * np.cos(az), s * np.sin(az), np.full(az.shape, c)], axis=-1)
+        return self.geometry.direction(azimuth_deg)
 
     def schedule(self, duration: float, start: float = 0.0) -> "ScanSchedule":
         """Estimate times, azimuths and heights over ``[start, start + duration)`` (module notes).
@@ -322,7 +326,7 @@ class ConicalLidar(LidarBase):
             time_e = start + b * block_t + (j + 0.5) * dt
             hidx = b % nh
             scan_e = b * self.revs_per_height + j // epr
-        az = self.azimuth0_deg + 360.0 * time_e / self.revolution_time
+        az = self.geometry.azimuth_at(time_e)
         return ScanSchedule(time_e=time_e, azimuth_e=az, height_index_e=hidx, revolution_e=scan_e,
                             heights=self.heights)
 

@@ -88,6 +88,7 @@ import numpy as np
 
 from .._repr import summary_repr
 from .._validation import check_bool, check_int, check_real, check_tuple
+from ..beam.geometry import ConicalScanGeometry
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.processing import Flag, usable_fraction
@@ -277,25 +278,26 @@ class NacelleLidar(LidarBase):
         """Range cells at ``focus`` (:class:`cwlidar_sim.beam.cells.ProbeCells`)."""
         return self.probe_cells(self.instrument_at(focus))
 
+    @property
+    def geometry(self) -> ConicalScanGeometry:
+        """The scan's cone in the nacelle frame (:class:`cwlidar_sim.beam.ConicalScanGeometry`, axis 'upwind')."""
+        return ConicalScanGeometry(self.half_angle_deg, "upwind", self.revolution_time, self.azimuth0_deg)
+
     def preview_distance(self, focus: float) -> float:
         """Upwind distance of the focus from the lidar, ``r cos a`` [m]."""
-        return float(focus) * math.cos(math.radians(self.half_angle_deg))
+        return self.geometry.axial_distance(focus)
 
     def transverse_speed_at(self, focus: float, U: float) -> float:
         """The speckle's transverse speed [m/s] (module notes)."""
         if self.transverse_speed is not None:
             return self.transverse_speed
-        s = math.sin(math.radians(self.half_angle_deg))
         if self.circle:
-            return 2.0 * math.pi * float(focus) * s / self.revolution_time
-        return max(abs(U) * s, 1e-3)
+            return self.geometry.spot_speed(focus)
+        return max(abs(U) * math.sin(math.radians(self.half_angle_deg)), 1e-3)
 
     def nacelle_direction(self, azimuth_deg) -> np.ndarray:
         """Unit beam directions in the nacelle frame at rest, shape (..., 3)."""
-        phi = np.radians(np.asarray(azimuth_deg, dtype=np.float64))
-        a = math.radians(self.half_angle_deg)
-        return np.stack([np.full(phi.shape, -math.cos(a)), math.sin(a) * np.cos(phi), math.sin(a) * np.sin(phi)],
-                        axis=-1)
+        return self.geometry.direction(azimuth_deg)
 
     def yaw_matrix(self) -> np.ndarray:
         """``Rz(gamma)``: the nacelle frame's axes in the field frame."""

@@ -31,7 +31,8 @@ import math
 import numpy as np
 
 from .._validation import check_choice, check_int, check_real, check_seed
-from ..beam.optics import weight_exact, weight_truncated
+from ..beam.cells import weight_truncated
+from ..beam.optics import weight_exact
 from .chain import TIERS, ChainSettings, FocusGroup, run_chain
 from .instrument import PROTOTYPE_2003, Instrument
 from .processing import DopplerEstimates, check_estimator

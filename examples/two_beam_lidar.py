@@ -25,7 +25,7 @@ import numpy as np
 
 from cwlidar_sim.beam import direction_from_angles
 from cwlidar_sim.sensors import BeamSampler, LidarBase
-from cwlidar_sim.sensors.base import seed_sequence
+from cwlidar_sim._seeding import seed_sequence
 from cwlidar_sim.signal.chain import FocusGroup, run_chain
 
 

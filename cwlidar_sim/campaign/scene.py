@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from .._seeding import seed_int
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
 from .conical_scene import ConicalScene
 from .lidar_spec import CHAIN_TIERS, LidarSpecBase, lidar_schema
@@ -363,7 +364,7 @@ class Scene(SceneSpec):
         if p.seed is not None:
             return p.seed
         child = np.random.SeedSequence(self.seed, spawn_key=(index,))
-        return int(child.generate_state(2, np.uint64)[0] >> np.uint64(1))
+        return seed_int(child)
 
     def as_dict(self) -> dict:
         """Plain dict (TOML-shaped; round-trips through :meth:`from_dict`)."""

@@ -34,13 +34,13 @@ import math
 
 import numpy as np
 
-from .._validation import check_bool, check_choice, check_keys, check_real, check_seed
+from .._validation import check_bool, check_choice, check_keys, check_real
 from ..beam.cells import TAIL_RULES, WEIGHTINGS, ProbeCells, interval_weight, probe_cells
 from ..beam.sampling import _check_extent, _prepare_field
 from ..signal.chain import ChainSettings
 from ..signal.instrument import PRESETS, PROTOTYPE_2003, Instrument
 
-__all__ = ["LidarBase", "BeamSampler", "instrument_from_spec", "field_subcell_spread", "seed_sequence",
+__all__ = ["LidarBase", "BeamSampler", "instrument_from_spec", "field_subcell_spread",
            "CLOUD_BASE_MAX", "CLOUD_STRENGTH_MAX"]
 
 #: Highest cloud base [m] (the troposphere).
@@ -69,13 +69,6 @@ def instrument_from_spec(spec) -> Instrument:
         check_choice("instrument preset", name, tuple(_PRESET_ALIASES))
         return Instrument.from_dict(d, base=PRESETS[_PRESET_ALIASES[name]])
     return Instrument.from_dict(d)
-
-
-def seed_sequence(seed):
-    """The record's root SeedSequence from an int seed or a numpy Generator."""
-    if isinstance(seed, np.random.Generator):
-        return np.random.SeedSequence(int(seed.integers(0, 2**63 - 1)))
-    return np.random.SeedSequence(check_seed("seed", seed))
 
 
 def field_subcell_spread(field):

@@ -49,6 +49,7 @@ import dataclasses
 import numpy as np
 
 from .._repr import summary_repr
+from .._seeding import seed_sequence
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..beam.sampling import _prepare_beam, direction_from_angles
 from ..signal.chain import (
@@ -63,7 +64,7 @@ from ..signal.chain import (
 )
 from ..signal.exact import expected_spectrum_exact
 from ..signal.instrument import PROTOTYPE_2003, Instrument
-from .base import BeamSampler, LidarBase, field_subcell_spread, instrument_from_spec, seed_sequence
+from .base import BeamSampler, LidarBase, field_subcell_spread, instrument_from_spec
 
 __all__ = [
     "StaringLidar",

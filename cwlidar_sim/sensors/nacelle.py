@@ -87,11 +87,12 @@ import math
 import numpy as np
 
 from .._repr import summary_repr
+from .._seeding import seed_sequence
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.processing import Flag, usable_fraction
-from .base import BeamSampler, LidarBase, field_subcell_spread, seed_sequence
+from .base import BeamSampler, LidarBase, field_subcell_spread
 from .platform import PlatformMotion, rotation_matrices
 
 __all__ = ["NacelleLidar", "NacelleRecord", "PlatformMotion", "measure_nacelle", "nacelle_field",

@@ -32,12 +32,11 @@ from __future__ import annotations
 import dataclasses
 
 from .._validation import check_choice, check_keys
+from ..signal.chain import TIERS
 from .spec import Spec, Table, at_path, entry_label, set_field, spec_table
 
-__all__ = ["LidarSpecBase", "ConicalLidarSpec", "CHAIN_TIERS", "SENSOR_KEYS", "lidar_schema"]
+__all__ = ["LidarSpecBase", "ConicalLidarSpec", "SENSOR_KEYS", "lidar_schema"]
 
-#: Tiers a scene may name ('auto' only where the scene kind resolves it).
-CHAIN_TIERS = ("los", "spectral", "signal")
 #: Keys of the table that are :class:`cwlidar_sim.sensors.LidarBase` fields (the rest: preset, instrument,
 #: variants, and the kind's geometry).
 SENSOR_KEYS = ("tier", "cnr_db", "cnr_variation_db", "cnr_time_scale", "weighting", "span", "cell_length",
@@ -108,7 +107,7 @@ class LidarSpecBase(Spec):
     variants: tuple = ()
 
     #: Tiers this kind of scene accepts.
-    _tiers = CHAIN_TIERS
+    _tiers = TIERS
 
     def __post_init__(self):
         from ..sensors.base import LidarBase

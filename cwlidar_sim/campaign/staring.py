@@ -119,7 +119,7 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     # a fitted tensor (turbulence.fit_to) is known only now: the same check as the scene's, before any field
     check_frozen_turbulence(params, U, entry_label("period", index, period.name))
     if scene.lidar.tier == "signal":
-        from ..sensors import SIGNAL_MAX_ESTIMATES
+        from ..signal.chain import SIGNAL_MAX_ESTIMATES
 
         longest = SIGNAL_MAX_ESTIMATES / scene.lidar.build_instrument().estimate_rate
         if T > longest:

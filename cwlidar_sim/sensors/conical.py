@@ -80,11 +80,10 @@ import numpy as np
 from .._repr import summary_repr
 from .._seeding import seed_sequence
 from .._validation import check_bool, check_int, check_real, check_tuple
-from ..signal.chain import DRAW_BLOCK, SIGNAL_MAX_ESTIMATES, TIERS, FocusGroup, run_chain
+from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.spectral import speckle_looks
-from ..turbulence.surface_layer import surface_layer_parameters
-from .base import CLOUD_BASE_MAX, CLOUD_STRENGTH_MAX, BeamSampler, LidarBase, field_subcell_spread
+from .base import BeamSampler, LidarBase, field_subcell_spread
 
 __all__ = [
     "conical_box_yz",
@@ -93,14 +92,8 @@ __all__ = [
     "ScanSchedule",
     "measure_conical",
     "conical_field",
-    "surface_layer_parameters",
     "HALF_ANGLE_RANGE",
     "FOCUS_RANGE",
-    "TIERS",
-    "DRAW_BLOCK",
-    "SIGNAL_MAX_ESTIMATES",
-    "CLOUD_BASE_MAX",
-    "CLOUD_STRENGTH_MAX",
 ]
 
 #: Allowed cone half-angle from the vertical [deg]: the VAD needs both sin Phi

@@ -52,34 +52,11 @@ from .._repr import summary_repr
 from .._seeding import seed_sequence
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..beam.sampling import _prepare_beam, direction_from_angles
-from ..signal.chain import (
-    DRAW_BLOCK,
-    SIGNAL_MAX_ESTIMATES,
-    SPECKLE_MODELS,
-    TIERS,
-    VARIANT_KEYS,
-    FocusGroup,
-    cnr_series,
-    run_chain,
-)
-from ..signal.exact import expected_spectrum_exact
+from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import PROTOTYPE_2003, Instrument
-from .base import BeamSampler, LidarBase, field_subcell_spread, instrument_from_spec
+from .base import BeamSampler, LidarBase, field_subcell_spread
 
-__all__ = [
-    "StaringLidar",
-    "LidarRecord",
-    "measure_staring",
-    "expected_spectrum_exact",
-    "instrument_from_spec",
-    "field_subcell_spread",
-    "cnr_series",
-    "TIERS",
-    "VARIANT_KEYS",
-    "SIGNAL_MAX_ESTIMATES",
-    "DRAW_BLOCK",
-    "SPECKLE_MODELS",
-]
+__all__ = ["StaringLidar", "LidarRecord", "measure_staring"]
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

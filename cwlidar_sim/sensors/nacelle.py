@@ -95,8 +95,8 @@ from ..signal.processing import Flag, usable_fraction
 from .base import BeamSampler, LidarBase, field_subcell_spread
 from .platform import PlatformMotion, rotation_matrices
 
-__all__ = ["NacelleLidar", "NacelleRecord", "PlatformMotion", "measure_nacelle", "nacelle_field",
-           "rotation_matrices", "NACELLE_HALF_ANGLE_RANGE", "NACELLE_FOCUS_RANGE"]
+__all__ = ["NacelleLidar", "NacelleRecord", "measure_nacelle", "nacelle_field", "NACELLE_HALF_ANGLE_RANGE",
+           "NACELLE_FOCUS_RANGE"]
 
 #: Allowed half-angle of the scan cone from the rotor axis [deg].
 NACELLE_HALF_ANGLE_RANGE = (0.0, 45.0)

@@ -33,8 +33,7 @@ A whole period (field, sensors and their analysis) is the campaign layer's:
 Importing this package does not import numba; kernels compile on first use.
 """
 
-from .base import BeamSampler, LidarBase
-from .base import instrument_from_spec
+from .base import BeamSampler, LidarBase, instrument_from_spec
 from .lidar import LidarRecord, StaringLidar, measure_staring
 from .conical import ConicalLidar, ConicalRecord, conical_field, measure_conical
 from .nacelle import NacelleLidar, NacelleRecord, measure_nacelle, nacelle_field

@@ -83,7 +83,7 @@ from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.spectral import speckle_looks
-from .base import BeamSampler, LidarBase, field_subcell_spread
+from .base import BeamSampler, LidarBase
 
 __all__ = [
     "conical_box_yz",
@@ -447,9 +447,7 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
         if seed is None:
             raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
         height_seqs = seed_sequence(seed).spawn(len(lidar.heights))
-    spread = 0.0
-    if lidar.tier != "los" and lidar.speckle == "continuum":
-        spread = lidar.subcell_spread if lidar.subcell_spread is not None else (field_subcell_spread(field) or 0.0)
+    spread, _ = lidar.subcell_spread_in(field)
     # look offsets within a dwell, in units of the dwell: (j + 1/2) / nsub - 1/2
     off_j = (np.arange(nsub) + 0.5) / nsub - 0.5
     ring = lidar.direction(np.linspace(0.0, 360.0, 73))

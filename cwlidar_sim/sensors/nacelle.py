@@ -92,7 +92,7 @@ from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.processing import Flag, usable_fraction
-from .base import BeamSampler, LidarBase, field_subcell_spread
+from .base import BeamSampler, LidarBase
 from .platform import PlatformMotion, rotation_matrices
 
 __all__ = ["NacelleLidar", "NacelleRecord", "measure_nacelle", "nacelle_field", "NACELLE_HALF_ANGLE_RANGE",
@@ -109,7 +109,7 @@ class NacelleLidar(LidarBase):
     """A forward-looking cw lidar on a turbine's nacelle (module notes).
 
     Geometry fields below; the shared fields (instrument, tier, probe volume,
-    chain, cloud) are :class:`cwlidar_sim.sensors.base.LidarBase`'s, with the
+    chain; no cloud: refused) are :class:`cwlidar_sim.sensors.base.LidarBase`'s, with the
     defaults of a scanning lidar (``instrument = CS_SERIES``, the ZephIR
     optics of the nacelle lidars, ``tier = 'los'``, ``span = 5``,
     ``cell_length = 2`` m, ``speckle = 'independent'``).  The instrument's
@@ -245,6 +245,13 @@ class NacelleLidar(LidarBase):
                              f"of {self.dwell_time:g} s; allowed: <= {math.floor(fit + 1e-9)}")
         for r in self.focus_distances:
             check_int("number of range cells", self.cells(r).n_cells, lo=1, hi=100_000)
+        if self.cloud_base is not None:
+            # a cloud's weight follows the beam's vertical component (sensors.base), which changes look by look
+            # around a nacelle lidar's circle and with the platform's attitude: the chain's one cloud weight
+            # per focus group cannot hold it, so the field is refused rather than ignored
+            raise ValueError(f"cloud_base={self.cloud_base!r}: the nacelle lidar does not model a cloud layer (its "
+                             "beams' vertical component, and so the cloud's weight, changes look by look); "
+                             "allowed: cloud_base None (no cloud)")
 
     def as_dict(self) -> dict:
         d = super().as_dict()
@@ -415,7 +422,8 @@ def _look_geometry(lidar: NacelleLidar, t_l, az_l):
 
 
 def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=None, *, start: float = 0.0,
-                    wrap: bool = False, variants=None, chunk: int = 4096) -> NacelleRecord:
+                    wrap: bool = False, variants=None, chunk: int = 4096,
+                    calibration_time: float = 0.0) -> NacelleRecord:
     """Simulate a nacelle lidar's record in a turbulence field (module notes).
 
     Parameters
@@ -443,6 +451,9 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
         Extra processings of the same spectra (:data:`cwlidar_sim.signal.chain.VARIANT_KEYS`).
     chunk : int
         Estimates processed at a time (memory only); in [1, 10**6].
+    calibration_time : float
+        Time of t = 0 on the background-calibration clock [s] (background
+        gain mismatch and drift, the pauses of ``background_pause``).
 
     Returns
     -------
@@ -452,6 +463,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
         raise TypeError(f"lidar must be a NacelleLidar, got {type(lidar).__name__}")
     U = check_real("U", U, lo=-1000.0, hi=1000.0)
     wrap = check_bool("wrap", wrap)
+    calibration_time = check_real("calibration_time", calibration_time)
     nf = len(lidar.focus_distances)
     fields = list(field) if isinstance(field, (list, tuple)) else [field] * nf
     if len(fields) != nf:
@@ -479,10 +491,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
         sampler = BeamSampler(fields[i], pos, r, cells, U, wrap)
         if origin0 is None:
             sampler.check_extent(n_elc[idx].reshape(-1, 3)[:: max(1, nsub)] if idx.size else n_elc[:0, 0])
-        spread = 0.0
-        if lidar.tier != "los" and lidar.speckle == "continuum":
-            spread = lidar.subcell_spread if lidar.subcell_spread is not None else (
-                field_subcell_spread(fields[i]) or 0.0)
+        spread, _ = lidar.subcell_spread_in(fields[i])
 
         def sample(lo, hi, idx=idx, sampler=sampler):
             sel = idx[lo:hi]
@@ -499,7 +508,8 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
 
         groups.append(FocusGroup(instrument=inst, index_e=idx, time_e=time_e[idx], weight_c=cells.weight_c,
                                  tail=cells.tail_weight > 0.0, n_looks=nsub, sample=sample, seed=seqs[i],
-                                 transverse_speed=lidar.transverse_speed_at(r, U), subcell_spread=spread))
+                                 transverse_speed=lidar.transverse_speed_at(r, U), subcell_spread=spread,
+                                 calibration_time=calibration_time))
         finfo[float(r)] = {"preview_distance": lidar.preview_distance(r), "rayleigh_length": inst.rayleigh_length,
                            "n_cells": cells.n_cells, "truncated_fraction": cells.truncated_fraction,
                            "transverse_speed": lidar.transverse_speed_at(r, U), "n_estimates": int(idx.size)}

@@ -99,6 +99,7 @@ from typing import Callable
 
 import numpy as np
 
+from .._lidar_fields import LidarFields
 from .._repr import summary_repr
 from .._validation import check_bool, check_choice, check_int, check_memory, check_real
 from .instrument import Instrument
@@ -143,6 +144,9 @@ CNR_DB_RANGE = (-100.0, 100.0)
 class ChainSettings:
     """What a lidar's signal chain does, the same for every sensor.
 
+    Its fields are a lidar's (their defaults declared once, in
+    ``cwlidar_sim._lidar_fields.LidarFields``); this class validates them for the chain.
+
     Parameters
     ----------
     tier : {'los', 'spectral', 'signal'}
@@ -173,14 +177,14 @@ class ChainSettings:
         speckle, tiers 2 and 3).
     """
 
-    tier: str = "spectral"
-    cnr_db: float = -10.0
-    speckle: str = "continuum"
-    exact_background: bool = False
-    cnr_variation_db: float = 0.0
-    cnr_time_scale: float = 600.0
-    background_pause: bool = False
-    line_broadening: float = 0.0
+    tier: str = LidarFields.tier
+    cnr_db: float = LidarFields.cnr_db
+    speckle: str = LidarFields.speckle
+    exact_background: bool = LidarFields.exact_background
+    cnr_variation_db: float = LidarFields.cnr_variation_db
+    cnr_time_scale: float = LidarFields.cnr_time_scale
+    background_pause: bool = LidarFields.background_pause
+    line_broadening: float = LidarFields.line_broadening
 
     def __post_init__(self):
         put = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731

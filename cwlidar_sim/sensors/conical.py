@@ -78,7 +78,7 @@ import math
 import numpy as np
 
 from .._repr import summary_repr
-from .._seeding import seed_sequence
+from .._seeding import focus_seeds
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
@@ -446,7 +446,7 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
     if lidar.tier != "los":
         if seed is None:
             raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
-        height_seqs = seed_sequence(seed).spawn(len(lidar.heights))
+        height_seqs = focus_seeds(seed, len(lidar.heights))
     spread, _ = lidar.subcell_spread_in(field)
     # look offsets within a dwell, in units of the dwell: (j + 1/2) / nsub - 1/2
     off_j = (np.arange(nsub) + 0.5) / nsub - 0.5

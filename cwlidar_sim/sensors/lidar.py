@@ -49,7 +49,7 @@ import dataclasses
 import numpy as np
 
 from .._repr import summary_repr
-from .._seeding import seed_sequence
+from .._seeding import focus_seeds
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..beam.sampling import _prepare_beam, direction_from_angles
 from ..signal.chain import FocusGroup, run_chain
@@ -240,7 +240,7 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed=None, *,
         spread, spread_src = lidar.subcell_spread_in(field)
     group = FocusGroup(instrument=inst, index_e=np.arange(ne), time_e=time_e, weight_c=cells.weight_c,
                        tail=cells.tail_weight > 0.0, n_looks=1,
-                       sample=sample, seed=None if lidar.tier == "los" else seed_sequence(seed),
+                       sample=sample, seed=None if lidar.tier == "los" else focus_seeds(seed, None)[0],
                        transverse_speed=vt, subcell_spread=spread, cloud_weight=wc,
                        calibration_time=calibration_time)
     rec = run_chain(settings, [group], ne, variants=variants, chunk=chunk)

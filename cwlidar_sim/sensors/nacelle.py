@@ -87,7 +87,7 @@ import math
 import numpy as np
 
 from .._repr import summary_repr
-from .._seeding import seed_sequence
+from .._seeding import focus_seeds
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
@@ -482,7 +482,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
     blocked_e = _blocked(lidar, t_el, az_el).mean(axis=1) if ne else np.zeros(0)
     if lidar.tier != "los" and seed is None:
         raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
-    seqs = seed_sequence(seed).spawn(nf) if lidar.tier != "los" else [None] * nf
+    seqs = focus_seeds(seed, nf) if lidar.tier != "los" else [None] * nf
     groups, finfo = [], {}
     pos = np.asarray(lidar.position, dtype=np.float64)
     for i, r in enumerate(lidar.focus_distances):

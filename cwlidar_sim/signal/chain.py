@@ -80,9 +80,11 @@ spectra: :data:`VARIANT_KEYS`).
 
 Randomness (one rule for every sensor)
 --------------------------------------
-A group draws from one ``SeedSequence`` (the sensor passes the record's
-root for a single focus, and the root's children in focus order for
-several).  It spawns the background measurement and the simulation, then
+A group draws from one ``SeedSequence``, by one rule for every sensor
+(``cwlidar_sim._seeding.focus_seeds``): a sensor with a focus list (the
+conical lidar's heights, the nacelle lidar's focus distances, a list of one
+included) passes the record root's children in list order; a sensor with
+one fixed focus (the staring lidar) passes the root.  It spawns the background measurement and the simulation, then
 (with a CNR variation) the variation's stream.  Tier 2's speckle gains come
 in fixed blocks of :data:`DRAW_BLOCK` estimates, block ``b`` from the child
 ``SeedSequence`` with spawn key ``(..., b)``, the per-bin normals from the

@@ -25,7 +25,7 @@ import numpy as np
 
 from cwlidar_sim.beam import direction_from_angles
 from cwlidar_sim.sensors import BeamSampler, LidarBase
-from cwlidar_sim.sensors.base import seed_sequence
+from cwlidar_sim._seeding import focus_seeds
 from cwlidar_sim.signal.chain import FocusGroup, run_chain
 
 
@@ -48,7 +48,7 @@ def measure_two_beams(field, lidar: TwoBeamLidar, duration: float, U: float, see
     beam_e = np.arange(n) % 2
     cells = lidar.probe_cells(inst)  # both beams share the focus: one set of cells
     sampler = BeamSampler(field, lidar.position, inst.focus, cells, U, wrap=True)
-    seeds = None if lidar.tier == "los" else seed_sequence(seed).spawn(2)  # one stream per beam
+    seeds = None if lidar.tier == "los" else focus_seeds(seed, 2)  # one stream per beam (the focus list's rule)
     groups = []
     for b, n3 in enumerate(lidar.directions()):
         idx = np.flatnonzero(beam_e == b)

@@ -65,6 +65,7 @@ import time
 
 import numpy as np
 
+from .._seeding import seed_int
 from .._repr import summary_repr
 from .._validation import check_choice, check_int, check_real, check_seed
 
@@ -308,9 +309,9 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
     streams = np.random.SeedSequence(seed).spawn(n_lines)
     for j, ssj in enumerate(streams):
         s_line, s_speckle, s_mod = ssj.spawn(3)
-        line_seed = int(s_line.generate_state(1, np.uint64)[0] >> np.uint64(1))
+        line_seed = seed_int(s_line)
         u_x = np.asarray(generate_line(params, n_points, dx, line_seed).u.values, dtype=np.float64)
-        key = np.uint64(int(s_speckle.generate_state(1, np.uint64)[0] >> np.uint64(1)))
+        key = np.uint64(seed_int(s_speckle))
         mod_x = None
         if modulation is not None:
             mod_x = np.asarray(modulation(np.random.default_rng(s_mod), n_points, dx), dtype=np.float64)

@@ -91,6 +91,7 @@ import time
 
 import numpy as np
 
+from .._seeding import seed_int
 from .._validation import check_choice, check_int, check_real, check_seed, check_tuple
 from ..signal.processing import usable_fraction
 
@@ -339,7 +340,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
                                   cloud_strength=0.0)
     box_kw = _box_options(box_options, d)
     field = conical_field(box_lidar, U, duration, params,
-                          int(box_seq.generate_state(1, np.uint64)[0] >> np.uint64(1)),
+                          seed_int(box_seq),
                           lateral_doubling=lateral_doubling, condition=condition, **box_kw)
     cost["box"] = time.perf_counter() - t0
     t0 = time.perf_counter()

@@ -85,6 +85,7 @@ import dataclasses
 
 import numpy as np
 
+from .._seeding import seed_int
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
 from ._labels import wind_from_toward
 from .conical_period import default_spacing
@@ -466,7 +467,7 @@ class ConicalScene(SceneSpec):
                 child = np.random.SeedSequence(self.seed, spawn_key=(index,))
             else:  # a template with its own seed: one stream per height, and per pass after the first
                 child = np.random.SeedSequence(p.seed, spawn_key=(self.scan.heights.index(z),) + ((c,) if c else ()))
-        return int(child.generate_state(2, np.uint64)[0] >> np.uint64(1))
+        return seed_int(child)
 
     # -- interchange ------------------------------------------------------
     def as_dict(self) -> dict:

@@ -31,24 +31,34 @@ from __future__ import annotations
 
 import dataclasses
 
+from .._lidar_fields import LIDAR_KEYS, LidarFields
 from .._validation import check_choice, check_keys
+from ..signal.chain import TIERS
 from .spec import Spec, Table, at_path, entry_label, set_field, spec_table
 
-__all__ = ["LidarSpecBase", "ConicalLidarSpec", "CHAIN_TIERS", "SENSOR_KEYS", "lidar_schema"]
+__all__ = ["LidarSpecBase", "ConicalLidarSpec", "SENSOR_KEYS", "lidar_schema"]
 
-#: Tiers a scene may name ('auto' only where the scene kind resolves it).
-CHAIN_TIERS = ("los", "spectral", "signal")
 #: Keys of the table that are :class:`cwlidar_sim.sensors.LidarBase` fields (the rest: preset, instrument,
-#: variants, and the kind's geometry).
-SENSOR_KEYS = ("tier", "cnr_db", "cnr_variation_db", "cnr_time_scale", "weighting", "span", "cell_length",
-               "cell_growth", "tail", "transverse_speed", "speckle", "subcell_spread", "exact_background",
-               "background_pause", "line_broadening", "cloud_base", "cloud_strength", "cloud_depth", "cloud_speed",
-               "cloud_direction_deg")
+#: variants, and the kind's geometry): the one declaration of a lidar's shared fields.
+SENSOR_KEYS = LIDAR_KEYS
 
 
 @dataclasses.dataclass(frozen=True)
-class LidarSpecBase(Spec):
+class _LidarTableHead(Spec):
+    """The table's first keys: the instrument's preset and overrides."""
+
+    preset: str = "prototype"
+    instrument: dict = dataclasses.field(default_factory=dict)
+
+
+@dataclasses.dataclass(frozen=True)
+class LidarSpecBase(LidarFields, _LidarTableHead):
     """The lidar of a scene (module notes); every key as :class:`cwlidar_sim.sensors.LidarBase`.
+
+    The keys shared with the sensors and their defaults are declared once
+    (``cwlidar_sim._lidar_fields.LidarFields``); the table declares its own
+    ``preset``, ``instrument`` and ``variants``, and ``cell_length`` again
+    (None: the field's spacing).
 
     Parameters
     ----------
@@ -83,32 +93,11 @@ class LidarSpecBase(Spec):
         estimator = "peak"}``).
     """
 
-    preset: str = "prototype"
-    instrument: dict = dataclasses.field(default_factory=dict)
-    tier: str = "spectral"
-    cnr_db: float = -10.0
-    cnr_variation_db: float = 0.0
-    cnr_time_scale: float = 600.0
-    weighting: str = "exact"
-    span: float = 20.0
     cell_length: float | None = None
-    cell_growth: float = 0.0
-    tail: str = "mean_wind"
-    transverse_speed: float | None = None
-    speckle: str = "continuum"
-    subcell_spread: float | None = None
-    exact_background: bool = False
-    background_pause: bool = False
-    line_broadening: float = 0.0
-    cloud_base: float | None = None
-    cloud_strength: float = 0.0
-    cloud_depth: float = 30.0
-    cloud_speed: float | None = None
-    cloud_direction_deg: float = 0.0
     variants: tuple = ()
 
     #: Tiers this kind of scene accepts.
-    _tiers = CHAIN_TIERS
+    _tiers = TIERS
 
     def __post_init__(self):
         from ..sensors.base import LidarBase

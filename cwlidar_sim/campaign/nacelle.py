@@ -57,6 +57,7 @@ import time
 
 import numpy as np
 
+from .._seeding import seed_int
 from .._version import __version__
 from ..signal.processing import usable_mask
 from .nacelle_scene import NacelleScene
@@ -139,7 +140,7 @@ def period_records(scene: NacelleScene, index: int, *, status=None):
             status(f"{p.name}: lidar at {r:g} m")
         lid = scene.sensor(p, (r,))
         fld = rotor_box if evolution is None else boxes[1 + i]
-        seed = int(seeds[i].generate_state(1, np.uint64)[0] >> np.uint64(1))
+        seed = seed_int(seeds[i])
         recs[r] = measure_nacelle(fld, lid, dur, U, seed=None if lid.tier == "los" else seed,
                                   variants=scene.lidar.variant_list)
     cost["lidar"] = time.perf_counter() - t0

@@ -53,6 +53,7 @@ import os
 
 import numpy as np
 
+from .._seeding import seed_int
 from .._validation import check_bool, check_int, check_real, check_seed, check_str
 from .lidar_spec import LidarSpecBase, lidar_schema
 from .turbulence_spec import TurbulenceSpec
@@ -444,7 +445,7 @@ class NacelleScene(SceneSpec):
         if p.seed is not None:
             return p.seed
         child = np.random.SeedSequence(self.seed, spawn_key=(index,))
-        return int(child.generate_state(2, np.uint64)[0] >> np.uint64(1))
+        return seed_int(child)
 
     # -- interchange ------------------------------------------------------
     def as_dict(self) -> dict:

@@ -49,9 +49,11 @@ from __future__ import annotations
 
 import dataclasses
 
+from .._seeding import seed_int
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
 from .conical_scene import ConicalScene
-from .lidar_spec import CHAIN_TIERS, LidarSpecBase, lidar_schema
+from .lidar_spec import LidarSpecBase, lidar_schema
+from ..signal.chain import TIERS
 from .spec import (SceneSpec, SCENE_KINDS, Spec, Table, check_periods, check_scene_keys, check_scene_name,
                    entry_label, parse_toml, periods_from_dict, read_text_file, resolve_path, set_field, spec_table,
                    table_from_dict, turbulence_schema)
@@ -59,7 +61,6 @@ from .turbulence_spec import TurbulenceSpec
 
 __all__ = [
     "FIELD_KINDS",
-    "TIERS",
     "SCENE_KINDS",
     "TurbulenceSpec",
     "LidarSpec",
@@ -76,7 +77,6 @@ __all__ = [
 FIELD_KINDS = ("auto", "line", "plane", "box")
 #: The staring lidar's output rate [Hz] (A2012's 50 Hz; :mod:`cwlidar_sim.campaign.staring` runs on it).
 STARING_RATE = 50.0
-TIERS = CHAIN_TIERS
 _set = set_field
 
 
@@ -100,7 +100,7 @@ class LidarSpec(LidarSpecBase):
 
     elevation_deg: float = 0.0
 
-    _tiers = CHAIN_TIERS + ("auto",)
+    _tiers = TIERS + ("auto",)
 
     def __post_init__(self):
         super().__post_init__()
@@ -363,7 +363,7 @@ class Scene(SceneSpec):
         if p.seed is not None:
             return p.seed
         child = np.random.SeedSequence(self.seed, spawn_key=(index,))
-        return int(child.generate_state(2, np.uint64)[0] >> np.uint64(1))
+        return seed_int(child)
 
     def as_dict(self) -> dict:
         """Plain dict (TOML-shaped; round-trips through :meth:`from_dict`)."""

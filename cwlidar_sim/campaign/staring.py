@@ -29,6 +29,7 @@ import time
 
 import numpy as np
 
+from .._seeding import seed_int
 from .._version import __version__
 from ..signal.processing import usable_fraction, usable_speeds
 from ..turbulence.limits import check_frozen_turbulence
@@ -118,14 +119,14 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
     # a fitted tensor (turbulence.fit_to) is known only now: the same check as the scene's, before any field
     check_frozen_turbulence(params, U, entry_label("period", index, period.name))
     if scene.lidar.tier == "signal":
-        from ..sensors import SIGNAL_MAX_ESTIMATES
+        from ..signal.chain import SIGNAL_MAX_ESTIMATES
 
         longest = SIGNAL_MAX_ESTIMATES / scene.lidar.build_instrument().estimate_rate
         if T > longest:
             raise ValueError(f"lidar.tier = 'signal' simulates every 50 MHz sample; {entry_label('period', index, period.name)} lasts "
                              f"{T} s, allowed: <= {longest:g} s (use 'spectral' for campaigns)")
     seeds = np.random.SeedSequence(scene.period_seed(index)).spawn(3)
-    s_field, s_sonic, s_lidar = (int(s.generate_state(1, np.uint64)[0] >> np.uint64(1)) for s in seeds)
+    s_field, s_sonic, s_lidar = (seed_int(s) for s in seeds)
     t0 = time.perf_counter()
     plan = plan_field(scene, index, params)
     say(f"{period.name}: {plan.kind} field {plan.shape}")

@@ -49,6 +49,7 @@ import json
 import math
 import os
 
+from .._seeding import seed_int
 from .._validation import check_bool, check_int, check_seed, did_you_mean
 from . import conical, nacelle
 from .auto import resolve
@@ -257,7 +258,7 @@ def _task_seed(campaign_seed: int, identity) -> int:
 
     words = [int(_digest(identity)[i:i + 8], 16) for i in range(0, 32, 8)]
     ss = np.random.SeedSequence([campaign_seed, *words])
-    return int(ss.generate_state(2, np.uint64)[0] >> np.uint64(1))
+    return seed_int(ss)
 
 
 def expand(spec: CampaignSpec) -> list[Task]:

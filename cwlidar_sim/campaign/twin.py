@@ -87,6 +87,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from .._seeding import seed_int
 from .._dask import DEFAULT_WORKER_TIMEOUT, completed
 from .._times import ns_text
 from ._labels import HOMODYNE, TOWARD_LIDAR, duration_phrase
@@ -234,7 +235,7 @@ def twin_period_scene(scene: Scene, tp: TwinPeriod, twin: int) -> Scene:
     tmpl = scene.periods[0]
     T = tp.duration
     seq = np.random.SeedSequence(scene.seed, spawn_key=(_TWIN_TAG, tp.index, int(twin)))
-    seed = int(seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
+    seed = seed_int(seq)
     p = PeriodSpec(name=f"P{tp.index:03d}", mean_speed=tp.U, misalignment_deg=tmpl.misalignment_deg, duration=T,
                    start=tmpl.start + tp.index * T, seed=seed)
     return scene.replace(periods=(p,), duration=T)

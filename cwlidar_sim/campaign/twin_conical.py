@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from .._seeding import seed_int
 from ._twin_common import _TWIN_TAG, TWIN_VERSION, clock_attrs, record_statistics
 from .conical_scene import ConicalPeriodSpec, ConicalScene
 
@@ -86,7 +87,7 @@ def conical_twin_scene(scene: ConicalScene, tp, h: int, twin: int, U: float) -> 
     """
     tmpl = scene.periods[0]
     seq = np.random.SeedSequence(scene.seed, spawn_key=(_TWIN_TAG, tp.index, int(h), int(twin)))
-    seed = int(seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
+    seed = seed_int(seq)
     p = ConicalPeriodSpec(name=f"P{tp.index:03d}", mean_speed=U, wind_direction_deg=tmpl.wind_direction_deg,
                           wind_from_deg=tmpl.wind_from_deg, duration=tp.duration, seed=seed)
     s = scene.scan

@@ -18,7 +18,7 @@
     ZephIR of CS (sweep within each 20 ms dwell as looks, the spot's speed
     for the speckle, dwell or height cycle as focus groups),
     :func:`conical_field` (a Mann box holding the cone, optionally laterally
-    doubled) and :func:`surface_layer_parameters`.
+    doubled).
 ``nacelle``
     :class:`NacelleLidar` and :func:`measure_nacelle`: a forward-looking
     nacelle lidar for turbine control (circular scan or fixed beams, focus
@@ -33,20 +33,11 @@ A whole period (field, sensors and their analysis) is the campaign layer's:
 Importing this package does not import numba; kernels compile on first use.
 """
 
-from .base import BeamSampler, LidarBase
-from .lidar import (
-    DRAW_BLOCK,
-    SIGNAL_MAX_ESTIMATES,
-    TIERS,
-    VARIANT_KEYS,
-    LidarRecord,
-    StaringLidar,
-    expected_spectrum_exact,
-    instrument_from_spec,
-    measure_staring,
-)
-from .conical import ConicalLidar, ConicalRecord, conical_field, measure_conical, surface_layer_parameters
-from .nacelle import NacelleLidar, NacelleRecord, PlatformMotion, measure_nacelle, nacelle_field
+from .base import BeamSampler, LidarBase, instrument_from_spec
+from .lidar import LidarRecord, StaringLidar, measure_staring
+from .conical import ConicalLidar, ConicalRecord, conical_field, measure_conical
+from .nacelle import NacelleLidar, NacelleRecord, measure_nacelle, nacelle_field
+from .platform import PlatformMotion
 from .cup import Cup, cup_response, cup_transfer, sample_cup
 from .sonic import (
     A2012_OUTPUTS,
@@ -64,9 +55,8 @@ __all__ = [
     "Sonic", "sample_sonic", "nearest_node", "project", "resample_a2012", "resample_a2012_times", "block_average",
     "A2012_PARTITION", "A2012_OUTPUTS",
     "LidarBase", "BeamSampler",
-    "StaringLidar", "LidarRecord", "measure_staring", "expected_spectrum_exact", "instrument_from_spec",
-    "TIERS", "VARIANT_KEYS", "SIGNAL_MAX_ESTIMATES", "DRAW_BLOCK",
-    "ConicalLidar", "ConicalRecord", "measure_conical", "conical_field", "surface_layer_parameters",
+    "StaringLidar", "LidarRecord", "measure_staring", "instrument_from_spec",
+    "ConicalLidar", "ConicalRecord", "measure_conical", "conical_field",
     "NacelleLidar", "NacelleRecord", "PlatformMotion", "measure_nacelle", "nacelle_field",
     "Cup", "sample_cup", "cup_response", "cup_transfer",
 ]

@@ -34,14 +34,15 @@ import math
 
 import numpy as np
 
-from .._validation import check_bool, check_choice, check_keys, check_real, check_seed, check_str
+from .._lidar_fields import LidarFields
+from .._validation import check_choice, check_keys, check_real, check_str
 from ..beam.cells import TAIL_RULES, ProbeCells, interval_weight, probe_cells
 from ..beam.probe import get_weighting
 from ..beam.sampling import _check_extent, _prepare_field
 from ..signal.chain import ChainSettings
 from ..signal.instrument import PRESETS, PROTOTYPE_2003, Instrument
 
-__all__ = ["LidarBase", "BeamSampler", "instrument_from_spec", "field_subcell_spread", "seed_sequence",
+__all__ = ["LidarBase", "BeamSampler", "instrument_from_spec", "field_subcell_spread",
            "CLOUD_BASE_MAX", "CLOUD_STRENGTH_MAX"]
 
 #: Highest cloud base [m] (the troposphere).
@@ -72,13 +73,6 @@ def instrument_from_spec(spec) -> Instrument:
     return Instrument.from_dict(d)
 
 
-def seed_sequence(seed):
-    """The record's root SeedSequence from an int seed or a numpy Generator."""
-    if isinstance(seed, np.random.Generator):
-        return np.random.SeedSequence(int(seed.integers(0, 2**63 - 1)))
-    return np.random.SeedSequence(check_seed("seed", seed))
-
-
 def field_subcell_spread(field):
     """Sub-cell speed spread [m/s] from a field's Mann parameters and spacing (attributes), or None.
 
@@ -101,8 +95,12 @@ def field_subcell_spread(field):
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
-class LidarBase:
+class LidarBase(LidarFields):
     """The fields every lidar has (module notes); sensors add their geometry.
+
+    The shared fields and their defaults are declared once, in
+    ``cwlidar_sim._lidar_fields.LidarFields`` (the scenes' ``[lidar]`` tables
+    read the same declaration); this class documents and validates them.
 
     Parameters
     ----------
@@ -161,26 +159,6 @@ class LidarBase:
     """
 
     instrument: Instrument = PROTOTYPE_2003
-    tier: str = "spectral"
-    weighting: str = "exact"
-    span: float = 20.0
-    cell_length: float = 0.5
-    cell_growth: float = 0.0
-    tail: str = "mean_wind"
-    cnr_db: float = -10.0
-    speckle: str = "continuum"
-    exact_background: bool = False
-    transverse_speed: float | None = None
-    subcell_spread: float | None = None
-    cnr_variation_db: float = 0.0
-    cnr_time_scale: float = 600.0
-    background_pause: bool = False
-    line_broadening: float = 0.0
-    cloud_base: float | None = None
-    cloud_strength: float = 0.0
-    cloud_depth: float = 30.0
-    cloud_speed: float | None = None
-    cloud_direction_deg: float = 0.0
 
     def _put(self, k, v):
         object.__setattr__(self, k, v)
@@ -249,11 +227,25 @@ class LidarBase:
     # -- the chain and the probe volume ------------------------------------
     def chain_settings(self) -> ChainSettings:
         """The signal chain's settings (:class:`cwlidar_sim.signal.chain.ChainSettings`)."""
-        return ChainSettings(tier=self.tier, cnr_db=self.cnr_db, speckle=self.speckle,
-                             exact_background=check_bool("exact_background", self.exact_background),
-                             cnr_variation_db=self.cnr_variation_db, cnr_time_scale=self.cnr_time_scale,
-                             background_pause=check_bool("background_pause", self.background_pause),
-                             line_broadening=self.line_broadening)
+        return ChainSettings(**{f.name: getattr(self, f.name) for f in dataclasses.fields(ChainSettings)})
+
+    def subcell_spread_in(self, field) -> tuple:
+        """``(spread, source)``: the sub-cell speed spread [m/s] the chain uses in ``field``, and where it comes from.
+
+        The one rule of every lidar: 0 in tier 'los' (source None) and for a
+        speckle model other than 'continuum'; else ``subcell_spread`` if set,
+        else the field's tensor (:func:`field_subcell_spread`), else 0.
+        """
+        if self.tier == "los":
+            return 0.0, None
+        if self.speckle != "continuum":
+            return 0.0, f"not used by speckle {self.speckle!r}"
+        if self.subcell_spread is not None:
+            return self.subcell_spread, "lidar"
+        spread = field_subcell_spread(field)
+        if spread is None:
+            return 0.0, "none (field has no Mann parameters)"
+        return spread, "field tensor"
 
     def probe_cells(self, instrument: Instrument) -> ProbeCells:
         """Range cells of the probe volume of ``instrument`` (focused) with this lidar's span, cells and tail rule."""

@@ -78,13 +78,13 @@ import math
 import numpy as np
 
 from .._repr import summary_repr
+from .._seeding import focus_seeds
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..beam.geometry import ConicalScanGeometry
-from ..signal.chain import DRAW_BLOCK, SIGNAL_MAX_ESTIMATES, TIERS, FocusGroup, run_chain
+from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.spectral import speckle_looks
-from ..turbulence.surface_layer import surface_layer_parameters
-from .base import CLOUD_BASE_MAX, CLOUD_STRENGTH_MAX, BeamSampler, LidarBase, field_subcell_spread, seed_sequence
+from .base import BeamSampler, LidarBase
 
 __all__ = [
     "conical_box_yz",
@@ -93,14 +93,8 @@ __all__ = [
     "ScanSchedule",
     "measure_conical",
     "conical_field",
-    "surface_layer_parameters",
     "HALF_ANGLE_RANGE",
     "FOCUS_RANGE",
-    "TIERS",
-    "DRAW_BLOCK",
-    "SIGNAL_MAX_ESTIMATES",
-    "CLOUD_BASE_MAX",
-    "CLOUD_STRENGTH_MAX",
 ]
 
 #: Allowed cone half-angle from the vertical [deg]: the VAD needs both sin Phi
@@ -456,10 +450,8 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
     if lidar.tier != "los":
         if seed is None:
             raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
-        height_seqs = seed_sequence(seed).spawn(len(lidar.heights))
-    spread = 0.0
-    if lidar.tier != "los" and lidar.speckle == "continuum":
-        spread = lidar.subcell_spread if lidar.subcell_spread is not None else (field_subcell_spread(field) or 0.0)
+        height_seqs = focus_seeds(seed, len(lidar.heights))
+    spread, _ = lidar.subcell_spread_in(field)
     # look offsets within a dwell, in units of the dwell: (j + 1/2) / nsub - 1/2
     off_j = (np.arange(nsub) + 0.5) / nsub - 0.5
     ring = lidar.direction(np.linspace(0.0, 360.0, 73))

@@ -49,36 +49,14 @@ import dataclasses
 import numpy as np
 
 from .._repr import summary_repr
+from .._seeding import focus_seeds
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..beam.sampling import _prepare_beam, direction_from_angles
-from ..signal.chain import (
-    DRAW_BLOCK,
-    SIGNAL_MAX_ESTIMATES,
-    SPECKLE_MODELS,
-    TIERS,
-    VARIANT_KEYS,
-    FocusGroup,
-    cnr_series,
-    run_chain,
-)
-from ..signal.exact import expected_spectrum_exact
+from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import PROTOTYPE_2003, Instrument
-from .base import BeamSampler, LidarBase, field_subcell_spread, instrument_from_spec, seed_sequence
+from .base import BeamSampler, LidarBase
 
-__all__ = [
-    "StaringLidar",
-    "LidarRecord",
-    "measure_staring",
-    "expected_spectrum_exact",
-    "instrument_from_spec",
-    "field_subcell_spread",
-    "cnr_series",
-    "TIERS",
-    "VARIANT_KEYS",
-    "SIGNAL_MAX_ESTIMATES",
-    "DRAW_BLOCK",
-    "SPECKLE_MODELS",
-]
+__all__ = ["StaringLidar", "LidarRecord", "measure_staring"]
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -259,17 +237,10 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed=None, *,
             vel_tsc, vlos_ts = sampler.velocity_at(time_e, np.broadcast_to(n3, (ne, 3)), [inst.focus])
             perp = vel_tsc[:, 0, :] - vlos_ts[:, :1] * n3[None, :]
             vt, src = float(np.sqrt(np.mean(np.sum(perp * perp, axis=1)))), "field rms at the focus"
-        if lidar.subcell_spread is not None:
-            spread, spread_src = lidar.subcell_spread, "lidar"
-        else:
-            spread = field_subcell_spread(field)
-            spread_src = "field tensor" if spread is not None else "none (field has no Mann parameters)"
-            spread = spread or 0.0
-        if lidar.speckle != "continuum":
-            spread, spread_src = 0.0, f"not used by speckle {lidar.speckle!r}"
+        spread, spread_src = lidar.subcell_spread_in(field)
     group = FocusGroup(instrument=inst, index_e=np.arange(ne), time_e=time_e, weight_c=cells.weight_c,
                        tail=cells.tail_weight > 0.0, n_looks=1,
-                       sample=sample, seed=None if lidar.tier == "los" else seed_sequence(seed),
+                       sample=sample, seed=None if lidar.tier == "los" else focus_seeds(seed, None)[0],
                        transverse_speed=vt, subcell_spread=spread, cloud_weight=wc,
                        calibration_time=calibration_time)
     rec = run_chain(settings, [group], ne, variants=variants, chunk=chunk)

@@ -87,16 +87,17 @@ import math
 import numpy as np
 
 from .._repr import summary_repr
+from .._seeding import focus_seeds
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..beam.geometry import ConicalScanGeometry
 from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.processing import Flag, usable_fraction
-from .base import BeamSampler, LidarBase, field_subcell_spread, seed_sequence
+from .base import BeamSampler, LidarBase
 from .platform import PlatformMotion, rotation_matrices
 
-__all__ = ["NacelleLidar", "NacelleRecord", "PlatformMotion", "measure_nacelle", "nacelle_field",
-           "rotation_matrices", "NACELLE_HALF_ANGLE_RANGE", "NACELLE_FOCUS_RANGE"]
+__all__ = ["NacelleLidar", "NacelleRecord", "measure_nacelle", "nacelle_field", "NACELLE_HALF_ANGLE_RANGE",
+           "NACELLE_FOCUS_RANGE"]
 
 #: Allowed half-angle of the scan cone from the rotor axis [deg].
 NACELLE_HALF_ANGLE_RANGE = (0.0, 45.0)
@@ -109,7 +110,7 @@ class NacelleLidar(LidarBase):
     """A forward-looking cw lidar on a turbine's nacelle (module notes).
 
     Geometry fields below; the shared fields (instrument, tier, probe volume,
-    chain, cloud) are :class:`cwlidar_sim.sensors.base.LidarBase`'s, with the
+    chain; no cloud: refused) are :class:`cwlidar_sim.sensors.base.LidarBase`'s, with the
     defaults of a scanning lidar (``instrument = CS_SERIES``, the ZephIR
     optics of the nacelle lidars, ``tier = 'los'``, ``span = 5``,
     ``cell_length = 2`` m, ``speckle = 'independent'``).  The instrument's
@@ -245,6 +246,13 @@ class NacelleLidar(LidarBase):
                              f"of {self.dwell_time:g} s; allowed: <= {math.floor(fit + 1e-9)}")
         for r in self.focus_distances:
             check_int("number of range cells", self.cells(r).n_cells, lo=1, hi=100_000)
+        if self.cloud_base is not None:
+            # a cloud's weight follows the beam's vertical component (sensors.base), which changes look by look
+            # around a nacelle lidar's circle and with the platform's attitude: the chain's one cloud weight
+            # per focus group cannot hold it, so the field is refused rather than ignored
+            raise ValueError(f"cloud_base={self.cloud_base!r}: the nacelle lidar does not model a cloud layer (its "
+                             "beams' vertical component, and so the cloud's weight, changes look by look); "
+                             "allowed: cloud_base None (no cloud)")
 
     def as_dict(self) -> dict:
         d = super().as_dict()
@@ -416,7 +424,8 @@ def _look_geometry(lidar: NacelleLidar, t_l, az_l):
 
 
 def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=None, *, start: float = 0.0,
-                    wrap: bool = False, variants=None, chunk: int = 4096) -> NacelleRecord:
+                    wrap: bool = False, variants=None, chunk: int = 4096,
+                    calibration_time: float = 0.0) -> NacelleRecord:
     """Simulate a nacelle lidar's record in a turbulence field (module notes).
 
     Parameters
@@ -444,6 +453,9 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
         Extra processings of the same spectra (:data:`cwlidar_sim.signal.chain.VARIANT_KEYS`).
     chunk : int
         Estimates processed at a time (memory only); in [1, 10**6].
+    calibration_time : float
+        Time of t = 0 on the background-calibration clock [s] (background
+        gain mismatch and drift, the pauses of ``background_pause``).
 
     Returns
     -------
@@ -453,6 +465,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
         raise TypeError(f"lidar must be a NacelleLidar, got {type(lidar).__name__}")
     U = check_real("U", U, lo=-1000.0, hi=1000.0)
     wrap = check_bool("wrap", wrap)
+    calibration_time = check_real("calibration_time", calibration_time)
     nf = len(lidar.focus_distances)
     fields = list(field) if isinstance(field, (list, tuple)) else [field] * nf
     if len(fields) != nf:
@@ -471,7 +484,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
     blocked_e = _blocked(lidar, t_el, az_el).mean(axis=1) if ne else np.zeros(0)
     if lidar.tier != "los" and seed is None:
         raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
-    seqs = seed_sequence(seed).spawn(nf) if lidar.tier != "los" else [None] * nf
+    seqs = focus_seeds(seed, nf) if lidar.tier != "los" else [None] * nf
     groups, finfo = [], {}
     pos = np.asarray(lidar.position, dtype=np.float64)
     for i, r in enumerate(lidar.focus_distances):
@@ -480,10 +493,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
         sampler = BeamSampler(fields[i], pos, r, cells, U, wrap)
         if origin0 is None:
             sampler.check_extent(n_elc[idx].reshape(-1, 3)[:: max(1, nsub)] if idx.size else n_elc[:0, 0])
-        spread = 0.0
-        if lidar.tier != "los" and lidar.speckle == "continuum":
-            spread = lidar.subcell_spread if lidar.subcell_spread is not None else (
-                field_subcell_spread(fields[i]) or 0.0)
+        spread, _ = lidar.subcell_spread_in(fields[i])
 
         def sample(lo, hi, idx=idx, sampler=sampler):
             sel = idx[lo:hi]
@@ -500,7 +510,8 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
 
         groups.append(FocusGroup(instrument=inst, index_e=idx, time_e=time_e[idx], weight_c=cells.weight_c,
                                  tail=cells.tail_weight > 0.0, n_looks=nsub, sample=sample, seed=seqs[i],
-                                 transverse_speed=lidar.transverse_speed_at(r, U), subcell_spread=spread))
+                                 transverse_speed=lidar.transverse_speed_at(r, U), subcell_spread=spread,
+                                 calibration_time=calibration_time))
         finfo[float(r)] = {"preview_distance": lidar.preview_distance(r), "rayleigh_length": inst.rayleigh_length,
                            "n_cells": cells.n_cells, "truncated_fraction": cells.truncated_fraction,
                            "transverse_speed": lidar.transverse_speed_at(r, U), "n_estimates": int(idx.size)}

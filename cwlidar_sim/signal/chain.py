@@ -80,9 +80,11 @@ spectra: :data:`VARIANT_KEYS`).
 
 Randomness (one rule for every sensor)
 --------------------------------------
-A group draws from one ``SeedSequence`` (the sensor passes the record's
-root for a single focus, and the root's children in focus order for
-several).  It spawns the background measurement and the simulation, then
+A group draws from one ``SeedSequence``, by one rule for every sensor
+(``cwlidar_sim._seeding.focus_seeds``): a sensor with a focus list (the
+conical lidar's heights, the nacelle lidar's focus distances, a list of one
+included) passes the record root's children in list order; a sensor with
+one fixed focus (the staring lidar) passes the root.  It spawns the background measurement and the simulation, then
 (with a CNR variation) the variation's stream.  Tier 2's speckle gains come
 in fixed blocks of :data:`DRAW_BLOCK` estimates, block ``b`` from the child
 ``SeedSequence`` with spawn key ``(..., b)``, the per-bin normals from the
@@ -99,6 +101,7 @@ from typing import Callable
 
 import numpy as np
 
+from .._lidar_fields import LidarFields
 from .._repr import summary_repr
 from .._validation import check_bool, check_choice, check_int, check_memory, check_real
 from .instrument import Instrument
@@ -143,6 +146,9 @@ CNR_DB_RANGE = (-100.0, 100.0)
 class ChainSettings:
     """What a lidar's signal chain does, the same for every sensor.
 
+    Its fields are a lidar's (their defaults declared once, in
+    ``cwlidar_sim._lidar_fields.LidarFields``); this class validates them for the chain.
+
     Parameters
     ----------
     tier : {'los', 'spectral', 'signal'}
@@ -173,14 +179,14 @@ class ChainSettings:
         speckle, tiers 2 and 3).
     """
 
-    tier: str = "spectral"
-    cnr_db: float = -10.0
-    speckle: str = "continuum"
-    exact_background: bool = False
-    cnr_variation_db: float = 0.0
-    cnr_time_scale: float = 600.0
-    background_pause: bool = False
-    line_broadening: float = 0.0
+    tier: str = LidarFields.tier
+    cnr_db: float = LidarFields.cnr_db
+    speckle: str = LidarFields.speckle
+    exact_background: bool = LidarFields.exact_background
+    cnr_variation_db: float = LidarFields.cnr_variation_db
+    cnr_time_scale: float = LidarFields.cnr_time_scale
+    background_pause: bool = LidarFields.background_pause
+    line_broadening: float = LidarFields.line_broadening
 
     def __post_init__(self):
         put = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731

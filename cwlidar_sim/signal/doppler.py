@@ -38,7 +38,7 @@ from .instrument import PROTOTYPE_2003, Instrument
 from .processing import DopplerEstimates, check_estimator
 from .spectral import speckle_looks
 
-__all__ = ["TIERS", "simulate_uniform", "uniform_report"]
+__all__ = ["simulate_uniform", "uniform_report"]
 
 
 def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PROTOTYPE_2003, tier: str = "spectral",

@@ -77,6 +77,7 @@ import math
 
 import numpy as np
 
+from .._seeding import seed_int
 from .._validation import check_choice, check_keys, check_real, check_seed
 from .parameters import MannParameters
 from .tensor import _check_params
@@ -331,7 +332,7 @@ def _chain(x):
 
 def _plane_seed(seed, p):
     # 63 bits: generate_box takes seeds below 2**63.
-    return int(np.random.SeedSequence(seed, spawn_key=(p,)).generate_state(1, dtype=np.uint64)[0] >> np.uint64(1))
+    return seed_int(np.random.SeedSequence(seed, spawn_key=(p,)))
 
 
 def iter_evolving_boxes(params: MannParameters, shape, spacing, seed: int, evolution: EddyLifetimeEvolution,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cwlidar_sim.sensors import StaringLidar, measure_staring
-from cwlidar_sim.sensors.lidar import cnr_series
+from cwlidar_sim.signal.chain import cnr_series
 from cwlidar_sim.turbulence import MannParameters, generate_line
 
 

@@ -12,8 +12,8 @@ from cwlidar_sim.sensors.conical import (
     ConicalLidar,
     conical_field,
     measure_conical,
-    surface_layer_parameters,
 )
+from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
 from cwlidar_sim.signal import CS_SERIES, Flag
 from cwlidar_sim.turbulence import MannParameters
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cwlidar_sim import _config
-from cwlidar_sim.sensors import expected_spectrum_exact
+from cwlidar_sim.signal import expected_spectrum_exact
 from cwlidar_sim.signal import PROTOTYPE_2003, expected_spectrum, fejer, window_samples
 
 import reference  # noqa: E402

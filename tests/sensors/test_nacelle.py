@@ -214,3 +214,20 @@ def test_bad_input_is_named():
         NacelleLidar.from_dict({"focus": 3.0})
     d = NacelleLidar(motion=PlatformMotion(time=[0.0, 5.0], surge=[0.0, 1.0])).as_dict()
     assert NacelleLidar.from_dict(d).motion.surge.tolist() == [0.0, 1.0]
+
+
+def test_calibration_clock_sets_the_pauses_like_the_other_lidars():
+    """``calibration_time`` puts the record on the background-calibration clock: estimates inside a pause are lost."""
+    lid = NacelleLidar(focus_distances=(60.0,), background_pause=True)
+    inst = lid.instrument
+    field = calm_box(lid, 2.0)
+    # the record's t = 1 s is the start of a calibration pause: from there on every estimate is paused
+    rec = measure_nacelle(field, lid, 2.0, U, calibration_time=inst.background_interval - 1.0)
+    paused = (rec.flags_e & np.uint8(Flag.PAUSED)) > 0
+    np.testing.assert_array_equal(paused, rec.time_e >= 1.0)
+    assert np.all(np.isnan(rec.speed_e[paused])) and np.all(np.isfinite(rec.speed_e[~paused]))
+
+
+def test_a_cloud_is_refused_at_construction_not_ignored():
+    with pytest.raises(ValueError, match=r"cloud_base=1500.0: the nacelle lidar does not model a cloud layer"):
+        NacelleLidar(cloud_base=1500.0, cloud_strength=1e4)

@@ -8,7 +8,8 @@ import xarray as xr
 
 from cwlidar_sim import _config
 from cwlidar_sim.beam import sample_los
-from cwlidar_sim.sensors import DRAW_BLOCK, SIGNAL_MAX_ESTIMATES, StaringLidar, measure_staring
+from cwlidar_sim.sensors import StaringLidar, measure_staring
+from cwlidar_sim.signal.chain import DRAW_BLOCK, SIGNAL_MAX_ESTIMATES
 from cwlidar_sim.signal import FAIL_FLAGS, PROTOTYPE_2003, Flag
 from cwlidar_sim.signal.processing import SUSPECT_FLAGS
 from cwlidar_sim.turbulence import MannParameters, generate_line

@@ -128,12 +128,12 @@ class SceneKind(Protocol):
 class KindBase:
     """A convenient base of a kind: the members most kinds share, for a subclass to override.
 
-    Nothing automatic (:meth:`resolve` returns the scene as it is), no shared
-    tensor (:meth:`scene_params`: None, each unit takes its own), the units
-    joined as they are (:meth:`summarise`), no figures, no quick rule (a
+    Nothing automatic (``resolve`` returns the scene as it is), no shared
+    tensor (``scene_params``: None, each unit takes its own), the units
+    joined as they are (``summarise``), no figures, no quick rule (a
     ValueError naming the kind) and no twin.  A subclass sets ``name`` and
-    ``scene_class`` and defines :meth:`run_unit`, :meth:`estimate_bytes`,
-    :meth:`estimate_unit` and :meth:`summary` (:class:`SceneKind`).
+    ``scene_class`` and defines ``run_unit``, ``estimate_bytes``,
+    ``estimate_unit`` and ``summary`` (:class:`SceneKind`).
     """
 
     twin = None

@@ -405,7 +405,7 @@ class Scene(SceneSpec):
 
 
 def loads_scene(text: str, *, base_dir: str = "."):
-    """Parse a scene from TOML text: the scene class of its ``kind`` (:func:`scene_from_dict`)."""
+    """Parse a scene from TOML text: the scene class of its ``kind`` (:func:`cwlidar_sim.campaign.scene.scene_from_dict`)."""
     return scene_from_dict(parse_toml(text, "scene"), base_dir=base_dir)
 
 

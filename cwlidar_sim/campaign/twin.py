@@ -368,10 +368,10 @@ def _staring_period(scene: Scene, tp: TwinPeriod, rows, params):
 class StaringTwin:
     """The virtual twin of a staring scene: the staring kind's ``twin`` (:mod:`cwlidar_sim.campaign.registry`).
 
-    Each hook takes the scene first: :meth:`reference` (the record T1/T2 are
-    taken against: the first sonic, -1 for none), :meth:`prepare` (before
-    anything is computed: the tensor shared by the twins), :meth:`task` (one
-    twin, plain data) and :meth:`assemble` (a period's Dataset from its twins).
+    Each hook takes the scene first: ``reference`` (the record T1/T2 are
+    taken against: the first sonic, -1 for none), ``prepare`` (before
+    anything is computed: the tensor shared by the twins), ``task`` (one
+    twin, plain data) and ``assemble`` (a period's Dataset from its twins).
     """
 
     def reference(self, scene) -> int:

@@ -115,7 +115,7 @@ def preflight(out_dir, need_bytes: float = 0.0, *, scheduler=None, engine: bool 
     out_dir : str or path or None
         Output folder (created); None: nothing is written, only ``scheduler`` is checked.
     need_bytes : float
-        Estimated size of what the run writes [bytes] (see :func:`estimate_bytes`).
+        Estimated size of what the run writes [bytes] (a scene kind's ``estimate_bytes``, :class:`cwlidar_sim.campaign.registry.SceneKind`).
     scheduler : str, optional
         Dask scheduler address.
     engine : bool

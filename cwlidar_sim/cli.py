@@ -193,9 +193,7 @@ def _run_and_report(scene, args, figures):
     from . import _config
     from .campaign import run_scene
     from .campaign import folder
-    from .campaign._labels import wind_from_toward
-    from .campaign.figures import make_figures
-    from .campaign.runner import _sensor
+    from .campaign.registry import kind_of
     from .campaign.store import preflight
 
     if args.threads is not None:
@@ -207,7 +205,8 @@ def _run_and_report(scene, args, figures):
     # every check before the first period: names, folder, engine, disk, scheduler (reachable, with a worker)
     timeout = _worker_timeout(args)
     folder.check_file_names(scene)
-    preflight(args.out, _sensor(scene)[1](scene), scheduler=args.dask)
+    kind = kind_of(scene)
+    preflight(args.out, kind.estimate_bytes(scene), scheduler=args.dask)
     with folder.locked(args.out):  # held across the run and its figures
         client = _client(args.dask, timeout)
         try:
@@ -221,7 +220,7 @@ def _run_and_report(scene, args, figures):
         finally:
             if client is not None:
                 client.close()
-        figs = make_figures(ds, args.out) if figures else None
+        figs = kind.figures(ds, args.out) if figures else None
         if figs:
             folder.record_figures(args.out, figs)
     summary = {
@@ -229,18 +228,7 @@ def _run_and_report(scene, args, figures):
         "wall_time_s": round(ds.attrs["wall_time"], 2),
         "periods_reused": json.loads(ds.attrs["periods_reused"]),
     }
-    if scene.kind == "conical":
-        summary["std_ratio"] = {f"{float(z):g} m": [round(float(x), 3) for x in row]
-                                for z, row in zip(ds.height.values, ds.std_ratio.values)}
-        summary["scan_s"] = [float(s) for s in ds.scan_s.values]
-        summary["wind_from_deg"] = {p.name: wind_from_toward(p.toward_deg) for p in scene.periods}
-    elif scene.kind == "nacelle":
-        from .campaign.nacelle import summary as nacelle_summary
-
-        summary.update(nacelle_summary(ds))
-    else:
-        summary["rayleigh_length_m"] = ds.attrs["rayleigh_length"]
-        summary["availability"] = {str(p): round(float(a), 4) for p, a in zip(ds.period.values, ds.availability.values)}
+    summary.update(kind.summary(scene, ds))
     if figures:
         summary["figures"] = figs
     print(_json(summary))

@@ -187,3 +187,12 @@ def test_the_checks_find_a_circle_an_upward_import_and_a_hidden_one(tmp_path):
     (pkg / "signal" / "chain.py").write_text("import cwlidar_sim.campaign.a\n")
     assert upward(import_edges(modules(pkg)))[0] == "cwlidar_sim.analysis.vad -> cwlidar_sim.sensors.lidar"
     assert "cwlidar_sim.signal.chain -> cwlidar_sim.campaign.a" in upward(import_edges(modules(pkg)))
+
+
+def test_the_scene_kinds_are_reached_only_through_the_registry(graph):
+    """The registry imports nothing of the campaign layer (it loads the kinds by name, as plugins), and nothing
+    imports the built-in kinds' module: every caller asks the registry (docs/architecture.md, Scene kinds)."""
+    _, edges = graph
+    registry, kinds = "cwlidar_sim.campaign.registry", "cwlidar_sim.campaign.kinds"
+    assert sorted(t for t in edges[registry] if t.startswith("cwlidar_sim.campaign")) == []
+    assert sorted(m for m, targets in edges.items() if kinds in targets) == []

@@ -61,7 +61,7 @@ def _slow(x):
     return x
 
 
-_REAL_PERIOD = staring.run_period
+_REAL_PERIOD = staring.run_unit
 
 
 def _held_period(scene, index, params, status=None):
@@ -117,7 +117,7 @@ def test_worker_timeout_is_checked(bad):
 
 
 def test_run_scene_checks_the_worker_timeout_before_anything(tmp_path, monkeypatch):
-    monkeypatch.setattr(staring, "run_period", None)  # computing anything would fail otherwise
+    monkeypatch.setattr(staring, "run_unit", None)  # computing anything would fail otherwise
     with pytest.raises(ValueError, match=r"worker_timeout \(--worker-timeout\) -1"):
         run_scene(loads_scene(SCENE), tmp_path / "o", worker_timeout=-1)
     assert not (tmp_path / "o").exists()
@@ -140,7 +140,7 @@ def test_a_run_whose_workers_die_stops_and_resumes(tmp_path, monkeypatch, alarm)
     """Period A finishes on the cluster, then the last worker goes: a clear error; the rerun reuses A."""
     RELEASE.clear()
     scene = loads_scene(SCENE)
-    monkeypatch.setattr(staring, "run_period", _held_period)
+    monkeypatch.setattr(staring, "run_unit", _held_period)
     out = tmp_path / "out"
     stored = out / "w.periods"
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
@@ -178,7 +178,7 @@ def test_a_campaign_whose_workers_die_stops_and_resumes(tmp_path, monkeypatch, a
     (tmp_path / "base.toml").write_text(SCENE.split("[[period]]\nname = \"B\"")[0])
     spec = loads_campaign('name = "c"\nseed = 3\nbase = "base.toml"\npaired = false\n'
                           '[[sweep]]\n"lidar.cnr_db" = [-10.0, -12.0]', base_dir=str(tmp_path))
-    monkeypatch.setattr(staring, "run_period", _held_cnr12)
+    monkeypatch.setattr(staring, "run_unit", _held_cnr12)
     out = tmp_path / "out"
 
     def done_tasks():

@@ -3,15 +3,18 @@
 Modules, bottom to top (each imports only those above it in this list, and
 the stages below the campaign layer):
 
-``spec``
+``spec``, ``registry``
     Scene-spec machinery shared by every scene kind (TOML interchange, key
-    checks, ``RESULTS_VERSION``).
+    checks, ``RESULTS_VERSION``); the registry of scene kinds and the
+    :class:`~cwlidar_sim.campaign.registry.SceneKind` protocol, through which
+    everything that depends on a scene's kind finds it (built-in kinds and
+    those of the entry-point group ``cwlidar_sim.scene_kinds``, loaded by name).
 ``turbulence_spec``
     The ``[turbulence]`` table of every scene kind.
 ``conical_scene``, ``nacelle_scene``, ``scene``
     The scene files: conical (:class:`ConicalScene`), nacelle
     (:class:`NacelleScene`) and staring (:class:`Scene`); :func:`load_scene`
-    reads any by ``kind``.
+    reads any registered kind by ``kind``.
 ``planning``, ``auto``, ``folder``, ``store``, ``results_file``
     A staring period's field and tensor; the automatic fidelity choice;
     a results folder's lock, owner (manifest, ``overwrite``), orphaned
@@ -23,9 +26,11 @@ the stages below the campaign layer):
     (field, lidar, cup, sonic, VAD fits, CS's model) and the conical scene's
     units and summary, a nacelle period (REWS, preview, coherence, theory).
 ``runner``
-    :func:`run_scene`: dispatches by scene kind, keeps every finished unit.
-``reproduce``, ``sweep``, ``batch``, ``figures``, ``figures_cs``, ``figures_nacelle``
-    The bundled reproductions, campaign files and their Dask runs, figures.
+    :func:`run_scene`: runs a scene's units through its kind, keeps every finished unit.
+``reproduce``, ``sweep``, ``batch``, ``figures``, ``figures_cs``, ``figures_nacelle``, ``twin``
+    The bundled reproductions, campaign files and their Dask runs, figures, the virtual twin.
+``kinds``
+    The built-in scene kinds (staring, conical, nacelle) as registry objects.
 """
 
 from .conical_period import simulate_conical_cycle, simulate_conical_period

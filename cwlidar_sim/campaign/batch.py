@@ -50,6 +50,7 @@ from .._atomic import atomic_open, atomic_path
 from .._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed, connect_scheduler
 from .._preflight import preflight
 from . import folder, runner
+from .registry import kind_of
 from .results_file import open_results
 from .spec import open_regular_file
 from .store import write_results
@@ -152,7 +153,7 @@ class CampaignIndex:
 def _run_unit(scene, index, params, threads):
     """Worker side: unit ``index`` of a task's scene, in memory (the driver writes it)."""
     _config.set_num_threads(int(threads))
-    return runner._sensor(scene)[0](scene, index, params)
+    return kind_of(scene).run_unit(scene, index, params)
 
 
 def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, client=None, local=False,
@@ -217,7 +218,7 @@ def run_campaign(spec: CampaignSpec, out_dir, *, workers=None, scheduler=None, c
     out_dir = os.fspath(out_dir)
     for t in tasks:  # every file name a task derives, before anything is computed or written
         folder.check_file_names(t.scene)
-    preflight(out_dir, sum(runner._sensor(t.scene)[1](t.scene) for t in tasks),
+    preflight(out_dir, sum(kind_of(t.scene).estimate_bytes(t.scene) for t in tasks),
               scheduler=scheduler if client is None else None)
     if scheduler is not None and client is None and not local:
         # before any task is prepared or written: the scheduler answers and has a worker (a probe, closed;

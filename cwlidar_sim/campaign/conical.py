@@ -56,7 +56,7 @@ from .conical_scene import ConicalPeriodSpec, ConicalScene, ScanSpec, SurfaceTur
 from .spec import RESULTS_VERSION
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "run_unit", "unit_dataset",
-           "summarise", "estimate_unit", "estimate_bytes"]
+           "summarise", "summary", "estimate_unit", "estimate_bytes"]
 
 #: Scalars of one unit (period x height), with units and meaning ('{span}': the period's length, '10-min', '120-s').
 UNIT_VARS = {
@@ -143,8 +143,8 @@ def _tensor_height(scene: ConicalScene, index: int) -> float:
     return cycle_reference_height(z) if scene.scan.cycle else z
 
 
-def estimate_unit(scene: ConicalScene, index: int) -> dict:
-    """Estimated wall time [s] on one core and memory [bytes] of one unit (box + scan + fits)."""
+def estimate_unit(scene: ConicalScene, index: int, params=None) -> dict:
+    """Estimated wall time [s] on one core and memory [bytes] of one unit (box + scan + fits); ``params`` is ignored."""
     points, _ = _box_points(scene, index)
     p, _ = scene.units()[index]
     hours = scene.period_duration(p) / 3600.0
@@ -353,3 +353,11 @@ def summarise(ds):
     # here, not in the units' files: a unit stored before the attribute existed still joins the others
     res.attrs = dict(ds.attrs) | {"wind_direction_convention": WIND_DIRECTION_CONVENTION}
     return res
+
+
+def summary(scene: ConicalScene, ds) -> dict:
+    """The CLI's short report: the std ratio per height and scan length, the scan lengths, the wind directions."""
+    return {"std_ratio": {f"{float(z):g} m": [round(float(x), 3) for x in row]
+                          for z, row in zip(ds.height.values, ds.std_ratio.values)},
+            "scan_s": [float(s) for s in ds.scan_s.values],
+            "wind_from_deg": {p.name: wind_from_toward(p.toward_deg) for p in scene.periods}}

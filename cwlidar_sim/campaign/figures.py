@@ -19,7 +19,7 @@ import numpy as np
 from .._atomic import atomic_path
 
 from ._labels import segment_phrase
-from .figures_cs import make_cs_figures
+from .registry import get_kind
 
 __all__ = [
     "plot_spectra",
@@ -28,6 +28,7 @@ __all__ = [
     "plot_misalignment",
     "plot_variants",
     "plot_estimator_theory",
+    "make_staring_figures",
     "make_figures",
 ]
 
@@ -267,13 +268,17 @@ def plot_estimator_theory(ds, i=None):
 
 
 def make_figures(ds, out_dir) -> list:
-    """Write every figure as PNG into ``out_dir``; returns the paths (conical scenes: :mod:`.figures_cs`)."""
-    if ds.attrs.get("sensor") == "conical":
-        return make_cs_figures(ds, out_dir)
-    if ds.attrs.get("sensor") == "nacelle":
-        from .figures_nacelle import make_nacelle_figures
+    """Write every figure of a results Dataset as PNG into ``out_dir``; returns the paths.
 
-        return make_nacelle_figures(ds, out_dir)
+    The figures are its scene kind's (``ds.attrs["sensor"]``, :func:`cwlidar_sim.campaign.registry.get_kind`):
+    :func:`make_staring_figures`, :func:`cwlidar_sim.campaign.figures_cs.make_cs_figures`,
+    :func:`cwlidar_sim.campaign.figures_nacelle.make_nacelle_figures`, or a plugin kind's.
+    """
+    return get_kind(ds.attrs.get("sensor"), where="the results' sensor").figures(ds, out_dir)
+
+
+def make_staring_figures(ds, out_dir) -> list:
+    """Write every figure of a staring scene's results as PNG into ``out_dir``; returns the paths."""
     plt = _plt()
     os.makedirs(out_dir, exist_ok=True)
     figs = {

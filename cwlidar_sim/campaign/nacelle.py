@@ -74,7 +74,7 @@ COST_S_PER_SIM_HOUR = {"los": 10.0, "spectral": 80.0, "signal": 50000.0}
 THEORY_S_PER_BEAM2_BIN = 0.012
 
 
-def estimate_unit(scene: NacelleScene, index: int) -> dict:
+def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
     """Estimated wall time [s] on one core and memory [bytes] of one period (boxes, records, theory)."""
     from ..sensors.nacelle import nacelle_field_shape
 
@@ -335,7 +335,7 @@ def summarise(ds):
     return ds
 
 
-def summary(ds) -> dict:
+def summary(scene: NacelleScene, ds) -> dict:
     """The CLI's short report: k at coherence 0.5 per period, focus and estimate, and the theory's."""
     out = {}
     for ip, p in enumerate(ds.period.values):

@@ -1,23 +1,26 @@
 """Bundled reproductions: ``cwlidar-sim reproduce a2012`` and ``reproduce cs``.
 
 The scenes ship with the package (``cwlidar_sim/campaign/scenes/*.toml``).
-Quick mode keeps the physics and the geometry and does less: a2012 shortens
-every period (the low-wavenumber end is noisier), cs keeps the first two
-periods at every height instead of its plan of periods per height (the
-full run's first eight units, seeds and bits alike; the ratios' standard
-errors are larger); the full run is the reproduction.
+Quick mode keeps the physics and the geometry and does less, by the scene
+kind's quick rule (:meth:`cwlidar_sim.campaign.registry.SceneKind.quick`):
+a staring scene (a2012) shortens every period (the low-wavenumber end is
+noisier), a conical one (cs) keeps the first two periods at every height
+instead of its plan of periods per height (the full run's first eight units,
+seeds and bits alike; the ratios' standard errors are larger), a nacelle one
+shortens every period to 5 minutes; the full run is the reproduction.
 """
 
 from __future__ import annotations
 
 from importlib import resources
 
-from .scene import Scene, loads_scene
+from .registry import kind_of
+from .scene import loads_scene
 
 __all__ = ["BUNDLED", "bundled_scene", "bundled_text"]
 
-#: Bundled scenes: name -> (file, quick mode: period duration [s] (staring) or periods kept (conical)).
-BUNDLED = {"a2012": ("a2012.toml", 1200.0), "cs": ("cs.toml", 2), "nacelle": ("nacelle.toml", 300.0)}
+#: Bundled scenes: name -> file.
+BUNDLED = {"a2012": "a2012.toml", "cs": "cs.toml", "nacelle": "nacelle.toml"}
 
 
 def bundled_text(name: str) -> str:
@@ -25,23 +28,10 @@ def bundled_text(name: str) -> str:
     from .._validation import check_choice
 
     check_choice("scene", name, tuple(BUNDLED))
-    return resources.files("cwlidar_sim.campaign").joinpath("scenes", BUNDLED[name][0]).read_text(encoding="utf-8")
+    return resources.files("cwlidar_sim.campaign").joinpath("scenes", BUNDLED[name]).read_text(encoding="utf-8")
 
 
-def bundled_scene(name: str, *, quick: bool = False) -> Scene:
-    """A bundled scene; ``quick`` shortens it (module notes; same seeds and geometry)."""
-    import dataclasses
-
+def bundled_scene(name: str, *, quick: bool = False):
+    """A bundled scene; ``quick``: its kind's quick rule (module notes; same seeds and geometry)."""
     scene = loads_scene(bundled_text(name))
-    if quick:
-        q = BUNDLED[name][1]
-        if scene.kind == "conical":  # the first q templates at every height: the full run's first units
-            scene = scene.replace(periods=scene.periods[:q],
-                                  scan=dataclasses.replace(scene.scan, periods_per_height=()))
-        elif scene.kind == "nacelle":
-            scene = scene.replace(duration=q, periods=tuple(dataclasses.replace(p, duration=None)
-                                                            for p in scene.periods))
-        else:
-            scene = scene.replace(duration=q,
-                                  periods=tuple(dataclasses.replace(p, duration=None) for p in scene.periods))
-    return scene
+    return kind_of(scene).quick(scene) if quick else scene

@@ -18,7 +18,8 @@ import json
 import os
 import re
 
-from .spec import RESULTS_VERSION, SCENE_KINDS, open_regular_file
+from .registry import kind_names
+from .spec import RESULTS_VERSION, open_regular_file
 from .store import ENGINE
 
 __all__ = ["HDF5_SIGNATURE", "check_results_file", "results_problem", "open_results", "lacking"]
@@ -70,8 +71,8 @@ def results_problem(ds) -> str | None:
     if not isinstance(scene, dict):
         return "its 'scene' attribute is not a table"
     sensor = ds.attrs.get("sensor")
-    if sensor not in SCENE_KINDS:
-        return f"its 'sensor' attribute is {sensor!r}, not one of {list(SCENE_KINDS)}"
+    if sensor not in kind_names():
+        return f"its 'sensor' attribute is {sensor!r}, not one of {list(kind_names())}"
     if "period" not in ds.dims:
         return "no 'period' dimension"
     return None
@@ -92,7 +93,7 @@ def open_results(path, *, sensor=None, what: str = "results file"):
     path : str or path
         The file.
     sensor : str or tuple of str, optional
-        The scene kinds the caller can use ('staring', 'conical', 'nacelle');
+        The scene kinds the caller can use (:func:`cwlidar_sim.campaign.registry.kind_names`);
         another is refused by name.
     what : str
         How the file is named in an error.

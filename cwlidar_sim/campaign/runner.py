@@ -1,10 +1,12 @@
 """Run a scene: dispatch its units by scene kind, keep every finished unit, assemble the results.
 
-The runner is the top of the campaign layer and sensor-agnostic: a scene's
-kind names its unit task -- one period of a staring scene
-(:func:`cwlidar_sim.campaign.staring.run_period`), one (period, height) or
-one cycling period of a conical scene (:func:`cwlidar_sim.campaign.conical.run_unit`)
--- which turns one unit into an xarray.Dataset on ``period``.  The runner
+The runner is sensor-agnostic: it asks the scene's kind
+(:func:`cwlidar_sim.campaign.registry.kind_of`) for everything -- its unit
+task (``run_unit``: one period of a staring or a nacelle scene, one
+(period, height) or one cycling period of a conical scene, one unit of a
+plugin kind), which turns one unit into an xarray.Dataset on ``period``, its
+automatic settings (``resolve``), its shared tensor (``scene_params``), its
+size estimate and its finishing step (``summarise``).  The runner
 resolves the scene's automatic settings, checks before computing that the
 results can be written (:func:`cwlidar_sim.campaign.store.preflight`), reuses
 the units an earlier run finished, runs the others here or on a Dask cluster,
@@ -14,7 +16,7 @@ and assembles the scene's file from the unit files.  :func:`prepare_scene` and
 units themselves (the campaign's :mod:`cwlidar_sim.campaign.batch`).
 
 Each unit is independent and seeded from the scene (see
-:meth:`Scene.period_seed`), so a scene gives the same bits whether its units
+:meth:`Scene.unit_seed`), so a scene gives the same bits whether its units
 run one after the other here, on the workers of a Dask cluster, or across an
 interrupted run and its resumption.
 """
@@ -27,34 +29,14 @@ import os
 import time
 
 from .._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed
-from . import conical, folder, nacelle, staring, store
-from .auto import resolve
-from .conical_scene import ConicalScene
-from .nacelle_scene import NacelleScene
+from . import folder
 from .planning import FieldPlan, choose_field, generate_field, plan_field, scene_params
-from .scene import Scene
-from .spec import RESULTS_VERSION
+from .registry import kind_of
+from .spec import RESULTS_VERSION, SceneSpec
 from .store import PeriodStore, combine_periods, preflight, scene_digest, write_results
 
 __all__ = ["FieldPlan", "choose_field", "plan_field", "generate_field", "run_scene", "scene_params",
            "RESULTS_VERSION", "SceneRun", "prepare_scene"]
-
-
-def _sensor(scene):
-    """What the runner needs of a scene kind: (unit task, size estimate, finishing step or None).
-
-    The unit task maps (scene, index, params, status=...) to a one-unit
-    Dataset (dimension ``period``); the finishing step, if any, turns the
-    joined units into the scene's results.  Looked up at call time, so a
-    replaced task (a test's counter) is the one that runs.
-    """
-    if isinstance(scene, ConicalScene):
-        return conical.run_unit, conical.estimate_bytes, conical.summarise
-    if isinstance(scene, NacelleScene):
-        return nacelle.run_unit, nacelle.estimate_bytes, nacelle.summarise
-    if isinstance(scene, Scene):
-        return staring.run_period, store.estimate_bytes, None
-    raise TypeError(f"scene must be a Scene or a ConicalScene, got {type(scene).__name__}")
 
 
 @dataclasses.dataclass
@@ -63,10 +45,10 @@ class SceneRun:
 
     Attributes
     ----------
-    scene : Scene or ConicalScene
+    scene : scene of a registered kind
         The scene with its automatic settings resolved.
     params : MannParameters or None
-        The staring scene's tensor (given or fitted); None for a conical scene.
+        The tensor shared by the units (a staring scene's, given or fitted); None where each unit has its own.
     fit_info : dict or None
         The fit's summary for ``turbulence.fit_to``.
     auto_why : dict
@@ -80,7 +62,7 @@ class SceneRun:
     reused : list of str
         Names of the units taken from disk.
     task, finalise : callable
-        The unit task and the scene kind's finishing step (or None).
+        The scene kind's unit task (``run_unit``) and finishing step (``summarise``).
     """
 
     scene: object
@@ -114,9 +96,7 @@ class SceneRun:
 
     def assemble(self, t0: float):
         """The scene's results from every unit (all must be done), with the run's attributes."""
-        ds = combine_periods([self.done[i] for i in range(len(self.names))])
-        if self.finalise is not None:
-            ds = self.finalise(ds)
+        ds = self.finalise(combine_periods([self.done[i] for i in range(len(self.names))]))
         ds.attrs["wall_time"] = float(time.perf_counter() - t0)
         ds.attrs["periods_reused"] = json.dumps(self.reused)
         ds.attrs["auto_choice"] = json.dumps(self.auto_why)
@@ -130,7 +110,7 @@ def prepare_scene(scene, out_dir=None, *, log=None, check: bool = True) -> Scene
 
     Parameters
     ----------
-    scene : Scene or ConicalScene
+    scene : scene of a registered kind
     out_dir : str or path, optional
         Folder of the unit files ``<scene.name>.periods/`` (None: none).
     log : callable, optional
@@ -140,22 +120,13 @@ def prepare_scene(scene, out_dir=None, *, log=None, check: bool = True) -> Scene
         (a caller that checked the whole output already passes False).
     """
     say = log or (lambda s: None)
-    task, estimate_bytes, finalise = _sensor(scene)
-    auto_why = {}
-    if scene.kind == "staring":  # "auto" tier / field.dx / cell_length: the cheapest sufficient setting
-        scene, auto_why = resolve(scene)
+    kind = kind_of(scene)
+    scene, auto_why = kind.resolve(scene)  # e.g. a staring "auto" tier: the cheapest sufficient setting
     for key, why in auto_why.items():
         say(f"{key} = {why}")
     if check:
-        preflight(out_dir, estimate_bytes(scene))
-    params = fit_info = None
-    if scene.kind == "staring":
-        params, fit_info = scene_params(scene)
-        if fit_info is not None:
-            say(f"turbulence fitted to {fit_info['path']}: {params}")
-        for p in scene.periods:
-            kind, why = choose_field(scene, p)
-            say(f"period {p.name}: {kind} field ({why})")
+        preflight(out_dir, kind.estimate_bytes(scene))
+    params, fit_info = kind.scene_params(scene, say)
     names = scene.unit_names()
     st = PeriodStore(out_dir, scene, params) if out_dir is not None else None
     done = {}
@@ -166,18 +137,20 @@ def prepare_scene(scene, out_dir=None, *, log=None, check: bool = True) -> Scene
                 done[i] = ds
                 say(f"period {name}: reused {st.path(i)}")
     return SceneRun(scene=scene, params=params, fit_info=fit_info, auto_why=auto_why, store=st, names=names,
-                    done=done, reused=[names[i] for i in sorted(done)], task=task, finalise=finalise)
+                    done=done, reused=[names[i] for i in sorted(done)], task=kind.run_unit,
+                    finalise=kind.summarise)
 
 
-def run_scene(scene: Scene, out_dir=None, *, client=None, progress: bool = True, log=None, on_period=None,
+def run_scene(scene: SceneSpec, out_dir=None, *, client=None, progress: bool = True, log=None, on_period=None,
               overwrite: bool = False, worker_timeout: float = DEFAULT_WORKER_TIMEOUT):
     """Run every period of a scene, keep each as it finishes, and assemble the results.
 
     Parameters
     ----------
-    scene : Scene or ConicalScene
-        A staring scene (its units are its periods) or a conical one (its
-        units are period x height, :mod:`cwlidar_sim.campaign.conical`).
+    scene : scene of a registered kind
+        A staring or a nacelle scene (its units are its periods), a conical
+        one (its units are period x height, :mod:`cwlidar_sim.campaign.conical`),
+        or a plugin kind's (:mod:`cwlidar_sim.campaign.registry`).
     out_dir : str or path, optional
         Folder for ``<scene.name>.nc`` and the per-period files
         ``<scene.name>.periods/*.nc`` (created); None: write nothing.  Periods

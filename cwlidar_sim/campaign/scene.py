@@ -51,17 +51,16 @@ import dataclasses
 
 from .._seeding import seed_int
 from .._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
-from .conical_scene import ConicalScene
-from .lidar_spec import LidarSpecBase, lidar_schema
 from ..signal.chain import TIERS
-from .spec import (SceneSpec, SCENE_KINDS, Spec, Table, check_periods, check_scene_keys, check_scene_name,
+from .lidar_spec import LidarSpecBase, lidar_schema
+from .registry import get_kind, kind_names
+from .spec import (SceneSpec, Spec, Table, check_periods, check_scene_keys, check_scene_name,
                    entry_label, parse_toml, periods_from_dict, read_text_file, resolve_path, set_field, spec_table,
                    table_from_dict, turbulence_schema)
 from .turbulence_spec import TurbulenceSpec
 
 __all__ = [
     "FIELD_KINDS",
-    "SCENE_KINDS",
     "TurbulenceSpec",
     "LidarSpec",
     "SonicSpec",
@@ -106,7 +105,7 @@ class LidarSpec(LidarSpecBase):
         super().__post_init__()
         _set(self, "elevation_deg", check_real("lidar.elevation_deg", self.elevation_deg, lo=-89.0, hi=89.0))
         rate = self.build_instrument().estimate_rate
-        if rate != STARING_RATE:  # the runner's 50 Hz clock (staring.run_period): another rate would be mislabelled
+        if rate != STARING_RATE:  # the runner's 50 Hz clock (staring.run_unit): another rate would be mislabelled
             raise ValueError(f"lidar.instrument.estimate_rate={rate:g} Hz: a staring scene samples the lidar at "
                              f"A2012's {STARING_RATE:g} Hz, block-averaged by 5 to the sonic's 10 Hz; allowed: "
                              f"{STARING_RATE:g}")
@@ -332,7 +331,7 @@ class Scene(SceneSpec):
         _set(self, "duration", check_real("duration", self.duration, lo=10.0, hi=86400.0))
         _set(self, "seed", check_seed("seed", self.seed))
         check_str("description", self.description, allow_empty=True)
-        self.turbulence.check_frozen(periods)  # fit_to: checked when the fit is known (staring.run_period)
+        self.turbulence.check_frozen(periods)  # fit_to: checked when the fit is known (staring.run_unit)
         for i, p in enumerate(periods):
             where = entry_label("period", i, p.name)
             dur = self.period_duration(p)
@@ -355,8 +354,8 @@ class Scene(SceneSpec):
         """Simulated time of all units [h]."""
         return sum(self.period_duration(p) for p in self.periods) / 3600.0
 
-    def period_seed(self, index: int) -> int:
-        """Seed of period ``index``: its own, or a child of the scene seed."""
+    def unit_seed(self, index: int) -> int:
+        """Seed of unit (period) ``index``: its own, or a child of the scene seed."""
         import numpy as np
 
         p = self.periods[index]
@@ -387,7 +386,8 @@ class Scene(SceneSpec):
         """Build from a TOML-shaped mapping; unknown keys are rejected by name, every error names its TOML path."""
         check_scene_keys(d, cls.schema(), ("name", "turbulence", "period"), "scene")
         if d.get("kind", "staring") != "staring":
-            raise ValueError(f"kind = {d['kind']!r} is not a staring scene; allowed: {list(SCENE_KINDS)}")
+            raise ValueError(f"kind = {d['kind']!r} is not a staring scene (load_scene reads every kind: "
+                             f"{', '.join(kind_names())})")
         kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
         for key, spec in _TABLES.items():
             if key in d:
@@ -405,24 +405,21 @@ class Scene(SceneSpec):
 
 
 def loads_scene(text: str, *, base_dir: str = "."):
-    """Parse a scene from TOML text (a staring :class:`Scene` or a conical one, by ``kind``)."""
+    """Parse a scene from TOML text: the scene class of its ``kind`` (:func:`cwlidar_sim.campaign.scene.scene_from_dict`)."""
     return scene_from_dict(parse_toml(text, "scene"), base_dir=base_dir)
 
 
 def scene_from_dict(d: dict, *, base_dir: str = "."):
-    """A staring :class:`Scene` or a :class:`~cwlidar_sim.campaign.conical_scene.ConicalScene`, by ``d['kind']``."""
-    if isinstance(d, dict) and d.get("kind", "staring") == "conical":
-        return ConicalScene.from_dict(d, base_dir=base_dir)
-    if isinstance(d, dict) and d.get("kind", "staring") == "nacelle":
-        from .nacelle_scene import NacelleScene
+    """A scene of any registered kind from a TOML-shaped mapping, by ``d['kind']`` (default ``'staring'``).
 
-        return NacelleScene.from_dict(d, base_dir=base_dir)
-    if isinstance(d, dict) and "kind" in d:
-        check_choice("kind", d["kind"], SCENE_KINDS)
-    return Scene.from_dict(d, base_dir=base_dir)
+    The kind is looked up in :mod:`cwlidar_sim.campaign.registry`: an unknown
+    one is a ValueError naming the closest kinds and every registered one.
+    """
+    name = d.get("kind", "staring") if isinstance(d, dict) else "staring"
+    return get_kind(name).scene_class.from_dict(d, base_dir=base_dir)
 
 
 def load_scene(path):
-    """Read a scene TOML file (staring or conical)."""
+    """Read a scene TOML file (of any registered kind)."""
     text, folder = read_text_file(path, "scene")
     return loads_scene(text, base_dir=folder)

@@ -23,7 +23,7 @@ import re
 
 from .._validation import check_keys, check_real, check_str, closest_key
 
-__all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "SceneSpec", "set_path", "select_periods", "spec_as_dict", "set_field", "check_scene_name",
+__all__ = ["RESULTS_VERSION", "Spec", "SceneSpec", "set_path", "select_periods", "spec_as_dict", "set_field", "check_scene_name",
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
            "parse_toml", "open_regular_file", "toml_depth", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "check_distinct_reals",
            "resolve_path", "Table", "spec_table", "table_fields", "turbulence_schema", "entry_label", "prefix_path",
@@ -39,8 +39,6 @@ __all__ = ["RESULTS_VERSION", "SCENE_KINDS", "Spec", "SceneSpec", "set_path", "s
 #: availability, the usable fraction, NEAR_ZERO / NEAR_NYQUIST estimates left out of it and of the averaged
 #: series: a conical period's ``availability`` drops by its zero-crossing loss).
 RESULTS_VERSION = 7
-#: Scene kinds: ``kind`` in a scene file (default 'staring').
-SCENE_KINDS = ("staring", "conical", "nacelle")
 
 
 def set_field(obj, name: str, value) -> None:

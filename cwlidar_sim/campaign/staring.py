@@ -38,13 +38,51 @@ from .planning import generate_field, period_params, plan_field, theory_params
 from .scene import Scene
 from .spec import RESULTS_VERSION, entry_label
 
-__all__ = ["run_period", "period_dataset", "estimator_theory", "fit_probe_length_results", "LIDAR_BLOCK",
+__all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "summary", "COST_S_PER_SIM_HOUR", "VARIANT_COST", "period_dataset", "estimator_theory", "fit_probe_length_results", "LIDAR_BLOCK",
            "SONIC_DELAY"]
 
 #: The lidar's 50 Hz estimates are block-averaged by this to 10 Hz (A2012).
 LIDAR_BLOCK = 5
 #: Sonic sampling starts this late [s] so its 10 Hz centres match the lidar's.
 SONIC_DELAY = 1.0 / 64.0
+#: Wall time per simulated hour of one period on one idle core of the reference machine [s]
+#: (tier 1, 2, 3 with the A2012 scene's line/plane fields; from benchmarks/bench_campaign.py and bench_signal.py).
+COST_S_PER_SIM_HOUR = {"los": 10.0, "spectral": 40.0, "signal": 5000.0}
+#: Extra cost of each processing variant, as a fraction of the spectral tier's [-].
+VARIANT_COST = 0.08
+
+
+def estimate_bytes(scene) -> float:
+    """Rough size of a staring scene's results [bytes]: the raw series dominate.
+
+    Per second of period: sonic 32 Hz x 3 float32, lidar 50 Hz x (float32
+    speed + uint8 flags + float32 ideal), 10 Hz series in float64 (sonic,
+    three components, lidar, ideal, valid counts, one per processing variant).
+    """
+    per_s = 32 * 3 * 4 + 50 * (4 + 1 + 4) + 10 * (8 * (6 + len(scene.lidar.variants)) + 2)
+    return sum(per_s * scene.period_duration(p) for p in scene.periods) + 1e6
+
+
+def estimate_unit(scene: Scene, index: int, params=None) -> dict:
+    """Estimated wall time [s] on one core and peak memory [bytes] of period ``index``.
+
+    ``scene`` with its automatic settings resolved (:func:`cwlidar_sim.campaign.auto.resolve`)
+    and ``params`` its tensor (:func:`cwlidar_sim.campaign.planning.scene_params`).
+    Time: :data:`COST_S_PER_SIM_HOUR` of the tier per simulated hour, plus
+    :data:`VARIANT_COST` per processing variant, plus field generation (about
+    30 ns per field point and component).  Memory: the period's field (3
+    float32 components, twice for a box's transform) and its raw series in
+    float64 (results and analysis copies).
+    """
+    p = scene.periods[index]
+    hours = scene.period_duration(p) / 3600.0
+    plan = plan_field(scene, index, params)
+    points = math.prod(plan.shape)
+    seconds = hours * COST_S_PER_SIM_HOUR[scene.lidar.tier] * (1.0 + VARIANT_COST * len(scene.lidar.variants))
+    seconds += 3 * points * 30e-9
+    field = 3 * 4 * points * (2.0 if plan.kind == "box" else 1.0)
+    series = 3.0 * estimate_bytes(scene.replace(periods=(p,)))
+    return {"seconds": seconds, "memory_bytes": field + series}
 
 
 def _transverse_speed(scene, period, params):
@@ -83,7 +121,7 @@ def _subcell_spread(scene, params):
     return math.sqrt(spread * spread + dv * dv)
 
 
-def run_period(scene: Scene, index: int, params, *, status=None, make_field=None):
+def run_unit(scene: Scene, index: int, params=None, *, status=None, make_field=None):
     """Simulate and analyse one period of a staring scene.
 
     Parameters
@@ -125,7 +163,7 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
         if T > longest:
             raise ValueError(f"lidar.tier = 'signal' simulates every 50 MHz sample; {entry_label('period', index, period.name)} lasts "
                              f"{T} s, allowed: <= {longest:g} s (use 'spectral' for campaigns)")
-    seeds = np.random.SeedSequence(scene.period_seed(index)).spawn(3)
+    seeds = np.random.SeedSequence(scene.unit_seed(index)).spawn(3)
     s_field, s_sonic, s_lidar = (seed_int(s) for s in seeds)
     t0 = time.perf_counter()
     plan = plan_field(scene, index, params)
@@ -222,6 +260,17 @@ def run_period(scene: Scene, index: int, params, *, status=None, make_field=None
                                                   "total": time.perf_counter() - t0},
     }
     return period_dataset(scene, scene_tensor, result)
+
+
+def summarise(ds):
+    """The joined periods as they are (every variable is per period already)."""
+    return ds
+
+
+def summary(scene: Scene, ds) -> dict:
+    """The CLI's short report: the Rayleigh length and each period's availability."""
+    return {"rayleigh_length_m": ds.attrs["rayleigh_length"],
+            "availability": {str(p): round(float(a), 4) for p, a in zip(ds.period.values, ds.availability.values)}}
 
 
 def _empty_transfer(k_edges, U, n10, segment_duration):

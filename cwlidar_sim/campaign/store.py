@@ -42,21 +42,10 @@ from .._preflight import PreflightError, ResultsWriteError, check_scheduler, pre
 from .spec import RESULTS_VERSION
 
 __all__ = ["PreflightError", "ResultsWriteError", "preflight", "check_scheduler", "scene_key", "scene_digest",
-           "estimate_bytes", "PeriodStore", "combine_periods", "write_results", "read_results"]
+           "PeriodStore", "combine_periods", "write_results", "read_results"]
 
 #: The one NetCDF engine the package writes and reads with.
 ENGINE = "h5netcdf"
-
-
-def estimate_bytes(scene) -> float:
-    """Rough size of a staring scene's results [bytes]: the raw series dominate.
-
-    Per second of period: sonic 32 Hz x 3 float32, lidar 50 Hz x (float32
-    speed + uint8 flags + float32 ideal), 10 Hz series in float64 (sonic,
-    three components, lidar, ideal, valid counts, one per processing variant).
-    """
-    per_s = 32 * 3 * 4 + 50 * (4 + 1 + 4) + 10 * (8 * (6 + len(scene.lidar.variants)) + 2)
-    return sum(per_s * scene.period_duration(p) for p in scene.periods) + 1e6
 
 
 def scene_key(scene, params, index: int) -> str:

@@ -51,23 +51,18 @@ import os
 
 from .._seeding import seed_int
 from .._validation import check_bool, check_int, check_seed, did_you_mean
-from . import conical, nacelle
-from .auto import resolve
-from .planning import plan_field, scene_params
+from .registry import kind_of
 from .reproduce import BUNDLED, bundled_scene
 from .scene import Scene, load_scene, scene_from_dict
 from .spec import at_path, check_dotted_key, parse_toml, read_text_file, select_periods, set_path, table_fields
-from .store import estimate_bytes
 
-__all__ = ["CampaignSpec", "Task", "load_campaign", "loads_campaign", "expand", "estimate_task", "COST_S_PER_SIM_HOUR"]
+__all__ = ["CampaignSpec", "Task", "load_campaign", "loads_campaign", "expand", "estimate_task", "TASK_OVERHEAD_S",
+           "INTERPRETER_BYTES"]
 
-#: Wall time per simulated hour of one period on one idle core of the reference machine [s]
-#: (tier 1, 2, 3 with the A2012 scene's line/plane fields; from benchmarks/bench_campaign.py and bench_signal.py).
-COST_S_PER_SIM_HOUR = {"los": 10.0, "spectral": 40.0, "signal": 5000.0}
-#: Extra cost of each processing variant, as a fraction of the spectral tier's [-].
-VARIANT_COST = 0.08
 #: Fixed cost of a task [s]: imports, turbulence set-up, analysis, writing.
 TASK_OVERHEAD_S = 3.0
+#: Memory of the interpreter and the libraries a task holds besides its largest unit [bytes].
+INTERPRETER_BYTES = 250e6
 
 
 def _digest(obj) -> str:
@@ -304,33 +299,18 @@ def expand(spec: CampaignSpec) -> list[Task]:
     return tasks
 
 
-def estimate_task(scene: Scene) -> dict:
+def estimate_task(scene) -> dict:
     """Estimated wall time [s] on one core and peak memory [bytes] of one task.
 
-    Time: :data:`COST_S_PER_SIM_HOUR` of the tier per simulated hour, plus
-    ``VARIANT_COST`` per processing variant, plus field generation (about
-    30 ns per field point and component), plus ``TASK_OVERHEAD_S``.
-    Memory: the largest period's field (3 float32 components, twice for a
-    box's transform), its raw series in float64 (results and analysis
-    copies) and 250 MB of interpreter and libraries.
+    The scene's kind estimates each unit (:meth:`cwlidar_sim.campaign.registry.SceneKind.estimate_unit`,
+    with the scene's automatic settings resolved and its shared tensor, e.g.
+    :func:`cwlidar_sim.campaign.staring.estimate_unit`); the task's time is
+    their sum plus :data:`TASK_OVERHEAD_S` (imports, set-up, writing), its
+    memory the largest unit's plus :data:`INTERPRETER_BYTES`.
     """
-    if scene.kind in ("conical", "nacelle"):
-        mod = conical if scene.kind == "conical" else nacelle
-        per = [mod.estimate_unit(scene, i) for i in range(len(scene.unit_names()))]
-        return {"seconds": TASK_OVERHEAD_S + sum(e["seconds"] for e in per),
-                "memory_bytes": max(e["memory_bytes"] for e in per) + 250e6}
-    scene = resolve(scene)[0]
-    params, _ = scene_params(scene)
-    seconds = TASK_OVERHEAD_S
-    peak = 0.0
-    tier = scene.lidar.tier
-    for i, p in enumerate(scene.periods):
-        hours = scene.period_duration(p) / 3600.0
-        plan = plan_field(scene, i, params)
-        points = math.prod(plan.shape)
-        seconds += hours * COST_S_PER_SIM_HOUR[tier] * (1.0 + VARIANT_COST * len(scene.lidar.variants))
-        seconds += 3 * points * 30e-9
-        field = 3 * 4 * points * (2.0 if plan.kind == "box" else 1.0)
-        series = 3.0 * estimate_bytes(scene.replace(periods=(p,)))
-        peak = max(peak, field + series)
-    return {"seconds": seconds, "memory_bytes": peak + 250e6}
+    kind = kind_of(scene)
+    scene = kind.resolve(scene)[0]
+    params, _ = kind.scene_params(scene, None)
+    per = [kind.estimate_unit(scene, i, params) for i in range(len(scene.unit_names()))]
+    return {"seconds": TASK_OVERHEAD_S + sum(e["seconds"] for e in per),
+            "memory_bytes": max(e["memory_bytes"] for e in per) + INTERPRETER_BYTES}

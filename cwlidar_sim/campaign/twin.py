@@ -8,7 +8,7 @@ records (:func:`cwlidar_sim.turbulence.conditioning.condition_field`,
 Hoffman & Ribak 1991): every twin holds the eddies the records saw, plus
 what they could not see, drawn from the conditional distribution.  The
 lidar and the scene's sonic fly through each twin with the normal sensor
-code (:func:`cwlidar_sim.campaign.staring.run_period`); nothing of the
+code (:func:`cwlidar_sim.campaign.staring.run_unit`); nothing of the
 signal chain is new.
 
 Per period (``DIR/<scene>_twin_<period>.nc``): the twins' 10 Hz lidar and
@@ -92,13 +92,14 @@ from .._dask import DEFAULT_WORKER_TIMEOUT, completed
 from .._times import ns_text
 from ._labels import HOMODYNE, TOWARD_LIDAR, duration_phrase
 from ._twin_common import _TWIN_TAG, TWIN_VERSION, clock_attrs, record_statistics
-from .conical_scene import ConicalScene
+from .registry import get_kind, kind_names, kind_of
 from .scene import PeriodSpec, Scene
 from .twin_conical import conical_twin, conical_twin_period, conical_twin_scene, conical_unit_records
 
 __all__ = ["TwinPeriod", "twin_periods", "twin_period_scene", "twin_line_records", "focus_coherence",
            "record_radial_10hz", "twin_task", "assemble_twin_period", "run_twin_period", "run_twin", "twin_path",
-           "conical_unit_records", "conical_twin_scene", "conical_twin", "TWIN_VERSION"]
+           "conical_unit_records", "conical_twin_scene", "conical_twin", "TWIN_VERSION", "StaringTwin", "ConicalTwin",
+           "twin_of"]
 
 
 
@@ -173,8 +174,7 @@ def twin_periods(scene: Scene, paths=None) -> list:
     """
     from ..analysis.records import read_periods
 
-    if not isinstance(scene, (Scene, ConicalScene)):
-        raise TypeError(f"the twin needs a staring Scene or a ConicalScene, got {type(scene).__name__}")
+    hooks = twin_of(scene)
     T = scene.period_duration(scene.periods[0])
     specs = _record_specs(scene, paths)
     per = [read_periods(s, T) for s in specs]
@@ -183,7 +183,7 @@ def twin_periods(scene: Scene, paths=None) -> list:
         raise ValueError("records hold different numbers of whole periods of "
                          f"{T:g} s: " + ", ".join(f"{s.name}: {c}" for s, c in zip(specs, counts))
                          + "; allowed: records of one campaign covering the same time")
-    ref = _reference(scene) if isinstance(scene, Scene) else -1
+    ref = hooks.reference(scene)
     if ref >= 0:
         fs = per[ref][0].sample_rate
         if not (fs == 32.0 or (fs >= 10.0 and fs / 10.0 == round(fs / 10.0))):
@@ -327,11 +327,11 @@ def record_radial_10hz(scene: Scene, tp: TwinPeriod, direction) -> np.ndarray | 
 
 def _staring_twin(scene: Scene, tp: TwinPeriod, j: int, params, status=None) -> dict:
     """Twin ``j`` of period ``tp`` of a staring scene: its 10 Hz series, seed and field plan (a plain dict)."""
-    from .staring import run_period
+    from .staring import run_unit
 
     sc = twin_period_scene(scene, tp, j)
     plans = []
-    ds = run_period(sc, 0, params, make_field=_make_field(sc, tp, params, plans), status=status)
+    ds = run_unit(sc, 0, params, make_field=_make_field(sc, tp, params, plans), status=status)
     return {"lidar": np.asarray(ds["lidar_10hz"].values[0], dtype=np.float64),
             "sonic": np.asarray(ds["sonic_10hz"].values[0], dtype=np.float64),
             "seed": int(sc.periods[0].seed), "plan": plans[-1]}
@@ -366,6 +366,58 @@ def _staring_period(scene: Scene, tp: TwinPeriod, rows, params):
     return out
 
 
+class StaringTwin:
+    """The virtual twin of a staring scene: the staring kind's ``twin`` (:mod:`cwlidar_sim.campaign.registry`).
+
+    Each hook takes the scene first: ``reference`` (the record T1/T2 are
+    taken against: the first sonic, -1 for none), ``prepare`` (before
+    anything is computed: the tensor shared by the twins), ``task`` (one
+    twin, plain data) and ``assemble`` (a period's Dataset from its twins).
+    """
+
+    def reference(self, scene) -> int:
+        return _reference(scene)
+
+    def prepare(self, scene, tps):
+        from .planning import scene_params
+
+        return scene_params(scene)[0]
+
+    def task(self, scene, tp, j, params, *, status=None):
+        return _staring_twin(scene, tp, j, params, status=status)
+
+    def assemble(self, scene, tp, results, params):
+        return _staring_period(scene, tp, results, params)
+
+
+class ConicalTwin:
+    """The virtual twin of a conical scene: the conical kind's ``twin`` (hooks as :class:`StaringTwin`'s)."""
+
+    def reference(self, scene) -> int:
+        return -1
+
+    def prepare(self, scene, tps):
+        for tp in tps:  # every box's records before anything is computed
+            for h in range(1 if scene.scan.cycle else len(scene.scan.heights)):
+                conical_unit_records(scene, tp, h)
+        return None
+
+    def task(self, scene, tp, j, params, *, status=None):
+        return conical_twin(scene, tp, j, status=status)
+
+    def assemble(self, scene, tp, results, params):
+        return conical_twin_period(scene, tp, results)
+
+
+def twin_of(scene):
+    """The twin hooks of a scene's kind; a ValueError naming the kind if it has none."""
+    kind = kind_of(scene)
+    if kind.twin is None:
+        able = [n for n in kind_names() if get_kind(n).twin is not None]
+        raise ValueError(f"a {kind.name} scene has no virtual twin (kinds with one: {', '.join(able)})")
+    return kind.twin
+
+
 def twin_task(scene, tp: TwinPeriod, j: int, params=None, status=None):
     """Twin ``j`` of period ``tp``: the unit of work (a Dask task); plain data, the same bits wherever it runs.
 
@@ -373,16 +425,12 @@ def twin_task(scene, tp: TwinPeriod, j: int, params=None, status=None):
     turns the N of a period into its Dataset); conical scenes: the twin's
     Dataset on ``height``.
     """
-    if isinstance(scene, ConicalScene):
-        return conical_twin(scene, tp, j, status=status)
-    return _staring_twin(scene, tp, j, params, status=status)
+    return twin_of(scene).task(scene, tp, j, params, status=status)
 
 
 def assemble_twin_period(scene, tp: TwinPeriod, results, params=None):
     """The period's Dataset from its twins' :func:`twin_task` results, in twin order."""
-    if isinstance(scene, ConicalScene):
-        return conical_twin_period(scene, tp, list(results))
-    return _staring_period(scene, tp, list(results), params)
+    return twin_of(scene).assemble(scene, tp, list(results), params)
 
 
 def run_twin_period(scene, tp: TwinPeriod, n_twins: int, params, *, status=None):
@@ -528,15 +576,7 @@ def run_twin(scene, out_dir, *, paths=None, n_twins: int = 8, progress=None, per
         if bad:
             raise ValueError(f"periods {bad} are not in the records' {len(tps)} period(s)")
         tps = [tps[int(i)] for i in periods]
-    params = None
-    if isinstance(scene, Scene):
-        from .planning import scene_params
-
-        params, _ = scene_params(scene)
-    else:  # every box's records before anything is computed
-        for tp in tps:
-            for h in range(1 if scene.scan.cycle else len(scene.scan.heights)):
-                conical_unit_records(scene, tp, h)
+    params = twin_of(scene).prepare(scene, tps)
     os.makedirs(out_dir, exist_ok=True)
     files = {}
     todo = []

@@ -61,7 +61,7 @@ def write_twin_example(out_dir, *, periods: int = 1, duration: float | None = No
     from .._validation import check_int, check_real, check_seed
     from .planning import scene_params
     from .scene import PeriodSpec, loads_scene
-    from .staring import SONIC_DELAY, run_period
+    from .staring import SONIC_DELAY, run_unit
     from .store import write_results
 
     periods = check_int("periods", periods, lo=1, hi=1000)
@@ -79,7 +79,7 @@ def write_twin_example(out_dir, *, periods: int = 1, duration: float | None = No
     for k in range(periods):
         if status:
             status(f"truth period {k + 1}/{periods}")
-        ds = run_period(truth, k, params)
+        ds = run_unit(truth, k, params)
         vel = np.asarray(ds["sonic_velocity"].values[0], dtype=np.float64)
         t_all.append(k * T + SONIC_DELAY + np.arange(vel.shape[0]) / 32.0)
         v_all.append(vel)

@@ -161,8 +161,8 @@ def test_task_seeds_follow_the_campaign_seed(tmp_path):
     assert [t.task_id for t in a] == [t.task_id for t in b]  # same identities ...
     assert not {t.seed for t in a} & {t.seed for t in b}  # ... other seeds
     assert len({t.seed for t in a}) == 2  # paired: one seed per replica
-    assert {t.scene.period_seed(i) for t in a for i in range(2)}.isdisjoint(
-        {t.scene.period_seed(i) for t in b for i in range(2)})
+    assert {t.scene.unit_seed(i) for t in a for i in range(2)}.isdisjoint(
+        {t.scene.unit_seed(i) for t in b for i in range(2)})
 
 
 def sonic_record(path, seed, U=8.0, fs=10.0, n=2**12):

@@ -68,7 +68,7 @@ def test_near_zero_estimates_are_not_available_and_never_averaged():
 
 
 def test_a_fitted_tensor_too_strong_for_the_wind_is_refused_before_the_field(monkeypatch):
-    """With fit_to the tensor is known only when the run starts: run_period checks it before planning a field."""
+    """With fit_to the tensor is known only when the run starts: run_unit checks it before planning a field."""
     import pytest
 
     from cwlidar_sim.campaign import staring
@@ -80,4 +80,4 @@ def test_a_fitted_tensor_too_strong_for_the_wind_is_refused_before_the_field(mon
     monkeypatch.setattr(staring, "plan_field", no_field)
     sc = bundled_scene("a2012", quick=True)
     with pytest.raises(ValueError, match=r"period\[0\] \('A'\): the tensor alpha_eps=1000 .* Taylor"):
-        staring.run_period(sc, 0, MannParameters(1e3, 18.76, 3.9))
+        staring.run_unit(sc, 0, MannParameters(1e3, 18.76, 3.9))

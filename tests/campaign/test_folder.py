@@ -49,13 +49,13 @@ class Stop(Exception):
 
 def counting(monkeypatch):
     calls = []
-    real = staring.run_period
+    real = staring.run_unit
 
-    def run_period(scene, index, params, **kw):
+    def run_unit(scene, index, params, **kw):
         calls.append(index)
         return real(scene, index, params, **kw)
 
-    monkeypatch.setattr(staring, "run_period", run_period)
+    monkeypatch.setattr(staring, "run_unit", run_unit)
     return calls
 
 

@@ -55,13 +55,13 @@ def scene(**change):
 def computed(monkeypatch):
     """Indices of the periods actually computed (not reused), in order."""
     calls = []
-    real = staring.run_period
+    real = staring.run_unit
 
-    def run_period(sc, index, params, **kw):
+    def run_unit(sc, index, params, **kw):
         calls.append(index)
         return real(sc, index, params, **kw)
 
-    monkeypatch.setattr(staring, "run_period", run_period)
+    monkeypatch.setattr(staring, "run_unit", run_unit)
     return calls
 
 

@@ -40,7 +40,7 @@ def test_quick_keeps_geometry_and_seeds():
     full, quick = bundled_scene("a2012"), bundled_scene("a2012", quick=True)
     assert quick.duration < full.duration
     assert [p.misalignment_deg for p in quick.periods] == [p.misalignment_deg for p in full.periods]
-    assert [quick.period_seed(i) for i in range(4)] == [full.period_seed(i) for i in range(4)]
+    assert [quick.unit_seed(i) for i in range(4)] == [full.unit_seed(i) for i in range(4)]
 
 
 @pytest.mark.parametrize("text, match", [
@@ -107,10 +107,10 @@ def test_field_choice():
 
 def test_period_seeds_distinct_and_stable():
     s = bundled_scene("a2012")
-    seeds = [s.period_seed(i) for i in range(4)]
+    seeds = [s.unit_seed(i) for i in range(4)]
     assert len(set(seeds)) == 4
     s2 = s.replace(periods=(dataclasses.replace(s.periods[0], seed=7),) + s.periods[1:])
-    assert s2.period_seed(0) == 7 and s2.period_seed(1) == seeds[1]
+    assert s2.unit_seed(0) == 7 and s2.unit_seed(1) == seeds[1]
     assert isinstance(s.periods[0], PeriodSpec)
 
 

@@ -49,13 +49,13 @@ class Stop(Exception):
 def counting(monkeypatch):
     """Count the periods actually computed."""
     calls = []
-    real = staring.run_period
+    real = staring.run_unit
 
-    def run_period(scene, index, params, **kw):
+    def run_unit(scene, index, params, **kw):
         calls.append(index)
         return real(scene, index, params, **kw)
 
-    monkeypatch.setattr(staring, "run_period", run_period)
+    monkeypatch.setattr(staring, "run_unit", run_unit)
     return calls
 
 
@@ -144,10 +144,10 @@ def test_full_disk_mid_run_keeps_what_was_written(tmp_path, monkeypatch, uninter
 
 
 def no_period(monkeypatch):
-    def run_period(*a, **k):
+    def run_unit(*a, **k):
         raise AssertionError("a period was computed before the checks failed")
 
-    monkeypatch.setattr(staring, "run_period", run_period)
+    monkeypatch.setattr(staring, "run_unit", run_unit)
 
 
 def test_unwritable_folder_fails_before_computing(tmp_path, monkeypatch, capsys):
@@ -183,7 +183,7 @@ def test_small_disk_fails_before_computing(tmp_path, monkeypatch):
 
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10**9, 10**9 - 1000, 1000))
-    need = store.estimate_bytes(loads_scene(TEXT))
+    need = staring.estimate_bytes(loads_scene(TEXT))
     assert need > 1500 * (32 * 12 + 50 * 9)  # the three periods' raw series
     with pytest.raises(PreflightError, match="not enough disk space"):
         run_scene(loads_scene(TEXT), tmp_path, progress=False)

@@ -77,11 +77,11 @@ def test_conditioned_scenes_run_only_as_twins_staring_and_conical():
     from cwlidar_sim.campaign.conical import run_unit
     from cwlidar_sim.campaign.planning import scene_params
     from cwlidar_sim.campaign.scene import scene_from_dict
-    from cwlidar_sim.campaign.staring import run_period
+    from cwlidar_sim.campaign.staring import run_unit as run_staring
 
     s = loads_scene(SCENE.format(path="m.csv"))
     with pytest.raises(ValueError, match="run it with 'cwlidar-sim twin'"):
-        run_period(s, 0, scene_params(s)[0])
+        run_staring(s, 0, scene_params(s)[0])
     d = bundled_scene("cs").as_dict()
     d["turbulence"]["condition_on"] = [{"path": "m.csv", "position": [0.0, 0.0, 40.0]}]
     c = scene_from_dict(d)
@@ -144,7 +144,7 @@ def test_bad_records_give_one_line_errors_before_compute(tmp_path, monkeypatch, 
     def boom(*a, **k):
         raise AssertionError("computed before the records were checked")
 
-    monkeypatch.setattr(staring, "run_period", boom)
+    monkeypatch.setattr(staring, "run_unit", boom)
     with pytest.raises(ValueError, match=match) as e:
         run_twin(s, tmp_path / "out", paths=paths, n_twins=2)
     assert "\n" not in str(e.value)

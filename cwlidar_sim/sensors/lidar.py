@@ -176,7 +176,7 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed=None, *,
         drawn from fresh entropy, the same seed gives the same bits); not used
         by tier 'los', whose record is the field's.
     variants : list of dict, optional
-        Extra processing of the same spectra (:data:`VARIANT_KEYS`), e.g.
+        Extra processing of the same spectra (:data:`cwlidar_sim.signal.chain.VARIANT_KEYS`), e.g.
         ``{'name': 'raise10', 'threshold_raise_percent': 10}`` or
         ``{'name': 'peak', 'estimator': 'peak'}``.
     chunk : int

@@ -255,6 +255,8 @@ class SurfaceTurbulenceSpec(TurbulenceSpec):
     _kind = "conical"
     _default = {"source": "mann1994"}
     _has_height = True
+    _takes_fit_to = False
+    _twin_needs_one_tensor = False
 
 
 @dataclasses.dataclass(frozen=True)

@@ -194,6 +194,8 @@ class NacelleTurbulenceSpec(TurbulenceSpec):
 
     _kind = "nacelle"
     _default = {"alpha_eps": 0.1, "length_scale": 33.6, "gamma": 3.9}
+    _takes_fit_to = False
+    _takes_condition_on = False
 
 
 @dataclasses.dataclass(frozen=True)

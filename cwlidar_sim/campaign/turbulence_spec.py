@@ -211,6 +211,12 @@ class TurbulenceSpec(Spec):
     _default = None
     #: The kind's measurement height is each unit's (conical); False: the scene has none.
     _has_height = False
+    #: The kind fits its tensor to a sonic record (``fit_to``).
+    _takes_fit_to = True
+    #: The kind can be a virtual twin conditioned on records (``condition_on``).
+    _takes_condition_on = True
+    #: The kind's twin needs one tensor for the whole scene (its periods are the records').
+    _twin_needs_one_tensor = True
 
     def __post_init__(self):
         set_field(self, "condition_on", check_condition_on(self.condition_on))
@@ -232,7 +238,7 @@ class TurbulenceSpec(Spec):
             if others:
                 raise ValueError(f"turbulence: fit_to fits the tensor to a record; give either fit_to or "
                                  f"{', '.join(others)}, not both")
-            if self._kind != "staring":
+            if not self._takes_fit_to:
                 raise ValueError(f"turbulence.fit_to = {self.fit_to!r}: only a staring scene fits its tensor to a "
                                  f"sonic record (kinds that take fit_to: staring); give the tensor's keys here")
         elif mode == "known":
@@ -277,10 +283,10 @@ class TurbulenceSpec(Spec):
             set_field(self, "length_scale", p.length_scale)
             set_field(self, "gamma", p.gamma)
         if self.condition_on:
-            if self._kind == "nacelle":
+            if not self._takes_condition_on:
                 raise ValueError("turbulence.condition_on: the virtual twin conditions staring and conical scenes "
                                  "(kinds that take condition_on: staring, conical), not a nacelle scene")
-            if self._kind == "staring" and self.depends_on_speed:
+            if self._twin_needs_one_tensor and self.depends_on_speed:
                 raise ValueError(f"turbulence.condition_on: a staring twin needs one tensor for the scene (its "
                                  f"periods are the records'), but {self._speed_key()} makes it depend on the "
                                  f"period's mean speed; give alpha_eps, length_scale, gamma (or sigma_u) instead")

@@ -42,7 +42,7 @@ def _child(task) -> dict:
     import dataclasses
 
     from cwlidar_sim.campaign import bundled_scene, run_scene
-    from cwlidar_sim.campaign.figures import make_figures
+    from cwlidar_sim.campaign.figures.staring import make_figures
 
     scene = bundled_scene("a2012", quick=quick)
     warm = scene.replace(duration=300.0, periods=scene.periods[:2],

@@ -32,7 +32,7 @@ def _child(task) -> dict:
     quick, threads = task["quick"], task["threads"]
     from cwlidar_sim import _config
     from cwlidar_sim.campaign import bundled_scene, run_scene
-    from cwlidar_sim.campaign.figures import make_figures
+    from cwlidar_sim.campaign.figures.staring import make_figures
 
     _config.set_num_threads(threads)
     scene = bundled_scene("nacelle", quick=quick)

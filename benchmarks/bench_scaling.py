@@ -51,7 +51,7 @@ duration = {duration}
 
 
 def run(spec, out, workers, threads):
-    import cwlidar_sim.campaign.batch as batch
+    import cwlidar_sim.campaign.execution.batch as batch
 
     real = batch.plan_cluster
 
@@ -72,7 +72,7 @@ def run(spec, out, workers, threads):
 
 
 def _child_run(task):
-    from cwlidar_sim.campaign.sweep import loads_campaign
+    from cwlidar_sim.campaign.execution.sweep import loads_campaign
 
     spec = loads_campaign(campaign_text(task["tasks"], task["duration"]))
     wall, _ = run(spec, task["out"], task["workers"], task["threads"])
@@ -113,7 +113,7 @@ def main(argv=None):
     tasks = a.tasks or 4
     duration = a.duration or (600.0 if a.quick else 1800.0)
     cores = len(os.sched_getaffinity(0))
-    from cwlidar_sim.campaign.batch import merge_campaign
+    from cwlidar_sim.campaign.execution.batch import merge_campaign
 
     sim_h = tasks * duration / 3600.0
     rows = []

@@ -6,7 +6,7 @@ Run from the repository root:
     python benchmarks/cs_clouds.py --table out.json      # the Markdown table of docs/cs_clouds.md
 
 Tier 2 (spectral), 10 m/s, 10-minute periods at 40 and 100 m
-(:func:`cwlidar_sim.campaign.conical_period.simulate_conical_period`), for every seed a clear
+(:func:`cwlidar_sim.campaign.periods.conical_simulation.simulate_conical_period`), for every seed a clear
 period and the same period (same box, same random streams) under a cloud layer of base
 300-3000 m, depth 30 m and backscatter 1e3 or 1e4 times the aerosol's, moving
 
@@ -29,7 +29,7 @@ import time
 
 import numpy as np
 
-from cwlidar_sim.campaign.conical_period import simulate_conical_period
+from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
 from cwlidar_sim.signal import Flag
 
 HEIGHTS = (40.0, 100.0)

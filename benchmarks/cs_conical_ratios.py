@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from cwlidar_sim.campaign.conical_period import simulate_conical_period
+from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
 
 HEIGHTS = (40.0, 60.0, 80.0, 100.0)
 

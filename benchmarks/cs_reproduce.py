@@ -104,7 +104,7 @@ def main(argv=None) -> int:
                             "heights": rows, "largest_std_ratio_se": worst, "se_target": SE_TARGET,
                             "se_target_met": bool(met)})
     if a.figures:
-        from cwlidar_sim.campaign.figures_cs import make_cs_figures
+        from cwlidar_sim.campaign.figures.conical import make_cs_figures
 
         make_cs_figures(ds, a.figures)
     return 0 if all(math.isfinite(r["std_ratio_1s"]) for r in rows.values()) and math.isfinite(worst) else 1

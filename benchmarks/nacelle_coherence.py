@@ -8,7 +8,7 @@ rotor (R = 60 m), at 12 m/s; ``--periods`` periods of 620 s, each its own seed.
 
 Simulation (tier 1, the chain's ideal weighted line-of-sight averages): the REWS and the
 lidar's revolution-averaged estimate paired as the campaign pairs them
-(:func:`cwlidar_sim.campaign.nacelle.run_unit`: preview r cos a / U less (T_rev - dt) / 2);
+(:func:`cwlidar_sim.campaign.periods.nacelle.run_unit`: preview r cos a / U less (T_rev - dt) / 2);
 Hann segments (the scene's 60 s, and 600 s), the segment spectra pooled over all periods,
 averaged in the scene's 12 log bins, then the coherence.
 
@@ -111,7 +111,7 @@ class _Pool:
     def add(self, key, rews_t, u_e, lid, U, seg, edges):
         from cwlidar_sim.analysis.rews import align_preview
         from cwlidar_sim.analysis.spectra import bin_average, segment_spectra
-        from cwlidar_sim.campaign.nacelle import _trailing_nanmean
+        from cwlidar_sim.campaign.periods.nacelle import _trailing_nanmean
 
         dt = lid.dwell_time
         shift = max(lid.preview_distance(lid.focus_distances[0]) / U - 0.5 * (lid.revolution_time - dt), 0.0)
@@ -146,8 +146,8 @@ def run(n_periods, chain_periods, threads, n_beams):
     from cwlidar_sim.analysis.rews import RotorDisc, coherence_interval
     from cwlidar_sim.analysis.rews_theory import circular_scan, estimated_spectra, rews_spectra
     from cwlidar_sim.campaign import bundled_scene
-    from cwlidar_sim.campaign import nacelle as N
-    from cwlidar_sim.campaign.nacelle_scene import NacellePeriodSpec
+    from cwlidar_sim.campaign.periods import nacelle as N
+    from cwlidar_sim.campaign.scenes.nacelle import NacellePeriodSpec
 
     _config.set_num_threads(threads)
     base = bundled_scene("nacelle")

@@ -7,14 +7,14 @@ Usage::
 
 Everything goes through the scene path a user runs (``cwlidar-sim twin`` on a conical scene):
 
-1. The truth: per period, the conical scene's own unit (:func:`cwlidar_sim.campaign.conical.run_unit`,
+1. The truth: per period, the conical scene's own unit (:func:`cwlidar_sim.campaign.periods.conical.run_unit`,
    CS's geometry at 40 m, 1-s scans, tier 'los', the surface layer's tensor at 40 m, U = 10 m/s) in an
    unconditioned box of the normal size (x period U T plus the circle: *not* periodic over the
    record, so the record's ends meet unmeasured air as a real mast's do).  A sonic on a mast at the
    circle's centre (0, 0, 40 m) samples that box at U / dx = 5 Hz with 0.05 m/s of white noise; the
    periods' records are written as one CSV.
 2. The twins: the scene with ``[turbulence] condition_on`` naming that CSV, run by
-   :func:`cwlidar_sim.campaign.twin.run_twin` (N twins per period; ``--workers W``: on a local Dask
+   :func:`cwlidar_sim.campaign.twin.run.run_twin` (N twins per period; ``--workers W``: on a local Dask
    cluster of W processes, the same bits).
 3. Per period the truth's 10-minute std of the VAD horizontal speed against the twins'.
 
@@ -75,8 +75,8 @@ def _unit_std(ds):
 
 def truth_and_records(plain, P, seed0, folder, periodic=False):
     """The truth's lidar std per period and the mast's CSV (all periods, one after the other)."""
-    from cwlidar_sim.campaign.conical import run_unit
-    from cwlidar_sim.campaign.conical_scene import ConicalPeriodSpec
+    from cwlidar_sim.campaign.periods.conical import run_unit
+    from cwlidar_sim.campaign.scenes.conical import ConicalPeriodSpec
     from cwlidar_sim.sensors import Sonic, sample_sonic
 
     T = plain.duration
@@ -110,8 +110,8 @@ def truth_and_records(plain, P, seed0, folder, periodic=False):
 
 def prior_spread(plain, P, N, seed0):
     """N unconditioned units per period (other seeds): the spread without the mast."""
-    from cwlidar_sim.campaign.conical import run_unit
-    from cwlidar_sim.campaign.conical_scene import ConicalPeriodSpec
+    from cwlidar_sim.campaign.periods.conical import run_unit
+    from cwlidar_sim.campaign.scenes.conical import ConicalPeriodSpec
 
     out = []
     for p in range(P):
@@ -159,7 +159,7 @@ def main(argv=None):
     N = a.twins or (5 if a.quick else 8)
     T = a.duration or (300.0 if a.quick else 600.0)
     from cwlidar_sim.campaign import read_results
-    from cwlidar_sim.campaign.twin import run_twin
+    from cwlidar_sim.campaign.twin.run import run_twin
 
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:

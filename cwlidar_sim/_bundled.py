@@ -1,5 +1,5 @@
-"""The TOML files that ship with the package: scenes (``campaign/scenes``) and campaign examples
-(``campaign/examples``), found by name for the command line (``cwlidar-sim scenes``, ``run NAME``,
+"""The TOML files that ship with the package: scenes (``campaign/data/scenes``) and campaign examples
+(``campaign/data/examples``), found by name for the command line (``cwlidar-sim scenes``, ``run NAME``,
 ``campaign NAME``).  Imports nothing heavy: the CLI's cold start stays free of compilation."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import os
 
 __all__ = ["bundled_files", "bundled_or_path"]
 
-_BUNDLED_DIRS = (("scene", ("campaign", "scenes")), ("campaign", ("campaign", "examples")))
+_BUNDLED_DIRS = (("scene", ("campaign", "data", "scenes")), ("campaign", ("campaign", "data", "examples")))
 
 
 def bundled_files() -> dict:

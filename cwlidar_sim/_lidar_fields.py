@@ -6,7 +6,7 @@ scene's ``[lidar]`` table: the signal chain's (its settings,
 from here), the probe volume's and a cloud layer's.  The sensors
 (:class:`cwlidar_sim.sensors.LidarBase`, which documents and validates every
 field) and the scenes' ``[lidar]`` tables
-(:class:`cwlidar_sim.campaign.lidar_spec.LidarSpecBase`) derive from it, so a
+(:class:`cwlidar_sim.campaign.scenes.lidar_spec.LidarSpecBase`) derive from it, so a
 field is added, renamed or given another default in one place.  A sensor or
 a scene kind may still give a field its own default by declaring it again
 (the scanning lidars' span and speckle, the scenes' ``cell_length`` that

@@ -192,9 +192,9 @@ def _run_and_report(scene, args, figures):
 
     from . import _config
     from .campaign import run_scene
-    from .campaign import folder
+    from .campaign.execution import folder
     from .campaign.registry import kind_of
-    from .campaign.store import preflight
+    from .campaign.execution.store import preflight
 
     if args.threads is not None:
         _config.set_num_threads(args.threads)
@@ -246,8 +246,8 @@ def _cmd_report(args) -> int:
     import os
 
     from ._preflight import check_writable
-    from .campaign.figures import make_figures
-    from .campaign.results_file import lacking, open_results
+    from .campaign.figures.staring import make_figures
+    from .campaign.execution.results_file import lacking, open_results
 
     if not os.path.isdir(args.dir):
         raise ValueError(f"{args.dir!r} is not a folder; 'report' reads the results (*.nc) of a folder")
@@ -313,8 +313,8 @@ def _cmd_campaign(args) -> int:
 
     from ._dask import WorkersLostError
     from ._preflight import PreflightError, check_scheduler
-    from .campaign.batch import dry_run, plan_cluster, run_campaign
-    from .campaign.sweep import load_campaign
+    from .campaign.execution.batch import dry_run, plan_cluster, run_campaign
+    from .campaign.execution.sweep import load_campaign
 
     spec = load_campaign(_bundled_or_path(args.campaign, "campaign"))
     if args.memory_limit is not None and not args.memory_limit > 0:
@@ -363,8 +363,8 @@ def _cmd_campaign(args) -> int:
 def _cmd_campaign_report(args) -> int:
     import os
 
-    from .campaign.batch import merge_campaign, sweep_figures
-    from .campaign.store import write_results
+    from .campaign.execution.batch import merge_campaign, sweep_figures
+    from .campaign.execution.store import write_results
 
     merged = merge_campaign(args.dir, keep_series=args.keep_series)
     path = os.path.join(args.dir, "campaign.nc")
@@ -395,7 +395,7 @@ def _cmd_probe_length(args) -> int:
 
     from .analysis.estimator_theory import DEFAULT_BAND
     from .campaign import fit_probe_length_results
-    from .campaign.results_file import lacking, open_results
+    from .campaign.execution.results_file import lacking, open_results
 
     path = args.results
     if os.path.isdir(path):
@@ -430,7 +430,7 @@ def _add_twin(sub):
                  "lidar mean and std, std ratio, TP, ... with their spread). Bad records are refused before "
                  "anything is computed; a rerun skips the finished periods whose inputs are unchanged; --dask runs "
                  "every (period, twin) on a cluster with the same result.\n\n" + _DASK_TRUST,
-                 ["python -c 'from cwlidar_sim.campaign.twin_example import write_twin_example as w; "
+                 ["python -c 'from cwlidar_sim.campaign.twin.example import write_twin_example as w; "
                   "w(\"ex\")'   # the bundled example's truth and CSV",
                   "cwlidar-sim twin ex/twin.toml --twins 8 --out results/twin",
                   "cwlidar-sim twin my_scene.toml --records mast_40m.csv --twins 16 --out results/mine"])
@@ -448,7 +448,7 @@ def _add_twin(sub):
 def _cmd_twin(args) -> int:
     from ._preflight import preflight
     from .campaign import load_scene
-    from .campaign.twin import run_twin
+    from .campaign.twin.run import run_twin
 
     def log(line):
         if not args.no_progress:

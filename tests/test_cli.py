@@ -64,7 +64,7 @@ def test_twin_checks_the_disk_before_reading_records(tmp_path, capsys, monkeypat
     import shutil
     from pathlib import Path
 
-    scene = Path(cli.__file__).parent / "campaign" / "examples" / "twin" / "twin.toml"
+    scene = Path(cli.__file__).parent / "campaign" / "data" / "examples" / "twin" / "twin.toml"
     usage = collections.namedtuple("usage", "total used free")
     monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10**9, 10**9 - 10**5, 10**5))
     # the records (mast_sonic.csv) are missing too: the disk is named first, so it was checked first

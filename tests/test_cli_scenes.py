@@ -60,7 +60,7 @@ def test_version_flag_prints_the_version(capsys):
 
 
 def test_scenes_lists_bundled_scenes_and_examples_with_descriptions(capsys):
-    from cwlidar_sim.campaign.reproduce import BUNDLED
+    from cwlidar_sim.campaign.execution.reproduce import BUNDLED
 
     assert cli.main(["scenes", "--json"]) == 0
     rows = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
@@ -84,7 +84,7 @@ def test_scenes_listing_stays_cold():
 
 def test_scenes_write_gives_a_runnable_starting_point_and_never_overwrites(tmp_path, capsys):
     from cwlidar_sim.campaign import bundled_scene, load_scene
-    from cwlidar_sim.campaign.reproduce import bundled_text
+    from cwlidar_sim.campaign.execution.reproduce import bundled_text
 
     path = tmp_path / "sub" / "my_scene.toml"
     # a missing folder is refused with its name, not created silently (it was, before issue 34)
@@ -109,7 +109,7 @@ def test_scenes_write_gives_a_runnable_starting_point_and_never_overwrites(tmp_p
 
 
 def test_scenes_write_campaign_example_loads(tmp_path, capsys):
-    from cwlidar_sim.campaign.sweep import expand, load_campaign
+    from cwlidar_sim.campaign.execution.sweep import expand, load_campaign
 
     path = tmp_path / "sweep.toml"
     assert cli.main(["scenes", "--write", "campaign_quick", str(path)]) == 0

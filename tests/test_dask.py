@@ -16,7 +16,8 @@ import pytest
 
 from cwlidar_sim._dask import WorkersLostError, check_worker_timeout, completed, connect_scheduler
 from cwlidar_sim._preflight import PreflightError, check_scheduler
-from cwlidar_sim.campaign import loads_scene, run_scene, staring
+from cwlidar_sim.campaign import loads_scene, run_scene
+from cwlidar_sim.campaign.periods import staring
 
 SCENE = """
 name = "w"
@@ -171,8 +172,8 @@ def _held_cnr12(scene, index, params, status=None):
 
 def test_a_campaign_whose_workers_die_stops_and_resumes(tmp_path, monkeypatch, alarm):
     """One task finishes on the cluster, then the last worker goes: a clear error; the rerun reuses that task."""
-    from cwlidar_sim.campaign import batch
-    from cwlidar_sim.campaign.sweep import loads_campaign
+    from cwlidar_sim.campaign.execution import batch
+    from cwlidar_sim.campaign.execution.sweep import loads_campaign
 
     RELEASE.clear()
     (tmp_path / "base.toml").write_text(SCENE.split("[[period]]\nname = \"B\"")[0])

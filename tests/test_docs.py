@@ -231,7 +231,7 @@ def test_no_examples_outside_the_package():
     """The campaign examples ship with the package (cwlidar-sim scenes lists them); a top-level
     examples/ folder would not be in the wheel."""
     stray = sorted(os.path.relpath(p, ROOT) for p in (ROOT / "examples").glob("*.toml")) if (ROOT / "examples").is_dir() else []
-    assert not stray, f"{stray}: move them to cwlidar_sim/campaign/examples/ (package data)"
+    assert not stray, f"{stray}: move them to cwlidar_sim/campaign/data/examples/ (package data)"
 
 
 def _mini_site(tmp_path, body: str):

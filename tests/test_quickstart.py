@@ -40,7 +40,7 @@ def binned(C, fn, U):
     """``fn(k)`` averaged over each log bin with the sonic's raw spectrum as weight, as the data are binned.
 
     (exp(-2 k zR) is convex: its bin average is up to 14 % above its value at
-    the bin centre for 10 bins per decade, tests/campaign/test_campaign_physics.py.)
+    the bin centre for 10 bins per decade, tests/campaign/periods/test_campaign_physics.py.)
     """
     seg = segment_spectra(C.sonic_10hz.values, fs=10.0, segment_duration=300.0)
     k_j = 2 * math.pi * seg.f_f / U
@@ -64,7 +64,7 @@ def test_method_2_follows_exp_minus_2_k_zR(quickstart):
     Against the bin-averaged exp(-2 k zR), method 2 may differ by, all told:
     the sampling scatter of a bin (the coherence is > 0.99 here: < 1 %); the
     10 Hz sampling (the sonic's aliasing, the lidar's block average: +-6 %,
-    tests/campaign/test_campaign_physics.py); the simulated probe volume
+    tests/campaign/periods/test_campaign_physics.py); the simulated probe volume
     (exact weighting, clipped at the telescope and at the span) against the
     Lorentzian's exp(-2 k zR): 0 to +9 %; the 1.2 deg misalignment, which
     lifts A2012's method-2 theory (Eq. 14) by < 2 % where exp(-2 k zR) >= 1e-2.

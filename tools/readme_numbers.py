@@ -200,7 +200,7 @@ def measure(repeats: int = 2) -> dict:
     """Wall time of the README's commands: cold (an empty numba cache) and warm (the same cache again),
     each the shortest of ``repeats`` tries (other load on the machine only ever lengthens a run)."""
     sys.path.insert(0, ROOT)
-    from cwlidar_sim.campaign.reproduce import bundled_scene
+    from cwlidar_sim.campaign.execution.reproduce import bundled_scene
 
     cli = [sys.executable, "-m", "cwlidar_sim"]
     runs, load_before = {}, os.getloadavg()

@@ -33,14 +33,14 @@ the stages below the campaign layer):
     The built-in scene kinds (staring, conical, nacelle) as registry objects.
 """
 
-from .conical_period import simulate_conical_cycle, simulate_conical_period
-from .conical_scene import ConicalScene
-from .nacelle_scene import NacelleScene
-from .reproduce import bundled_scene
-from .runner import choose_field, plan_field, run_scene
-from .scene import Scene, load_scene, loads_scene
-from .staring import fit_probe_length_results
-from .store import PreflightError, ResultsWriteError, read_results, write_results
+from .execution.reproduce import bundled_scene
+from .execution.runner import choose_field, plan_field, run_scene
+from .execution.store import PreflightError, ResultsWriteError, read_results, write_results
+from .periods.conical_simulation import simulate_conical_cycle, simulate_conical_period
+from .periods.staring import fit_probe_length_results
+from .scenes.conical import ConicalScene
+from .scenes.nacelle import NacelleScene
+from .scenes.staring import Scene, load_scene, loads_scene
 
 from .._dask import WorkersLostError
 

@@ -2,12 +2,12 @@
 
 ``cwlidar_sim.open_scene``, ``cwlidar_sim.run`` and ``cwlidar_sim.open_results``
 are these functions; a scene's dotted keys change with its own
-:meth:`~cwlidar_sim.campaign.spec.SceneSpec.with_values`.  Each is a thin
+:meth:`~cwlidar_sim.campaign.scenes.spec.SceneSpec.with_values`.  Each is a thin
 front to the campaign layer: the scene loader and the bundled scenes
-(:mod:`cwlidar_sim.campaign.scene`, :mod:`cwlidar_sim.campaign.reproduce`), the
+(:mod:`cwlidar_sim.campaign.scenes.staring`, :mod:`cwlidar_sim.campaign.execution.reproduce`), the
 runner and its results-folder rules (:func:`cwlidar_sim.campaign.run_scene`,
-:mod:`cwlidar_sim.campaign.folder`) and the checked reader of results files
-(:mod:`cwlidar_sim.campaign.results_file`), so a scene run here and by
+:mod:`cwlidar_sim.campaign.execution.folder`) and the checked reader of results files
+(:mod:`cwlidar_sim.campaign.execution.results_file`), so a scene run here and by
 ``cwlidar-sim run`` gives the same files and the same bits.
 """
 
@@ -18,11 +18,11 @@ import os
 from .._bundled import bundled_or_path
 from .._dask import DEFAULT_WORKER_TIMEOUT
 from .._validation import check_bool
-from . import folder, results_file
-from .reproduce import BUNDLED, bundled_scene
-from .runner import run_scene
-from .scene import load_scene
-from .spec import SceneSpec, select_periods
+from .execution import folder, results_file
+from .execution.reproduce import BUNDLED, bundled_scene
+from .execution.runner import run_scene
+from .scenes.staring import load_scene
+from .scenes.spec import SceneSpec, select_periods
 
 __all__ = ["open_scene", "run", "open_results"]
 
@@ -43,7 +43,7 @@ def open_scene(scene, *, periods=None, quick: bool = False):
     quick : bool
         A bundled scene's quick mode (``cwlidar-sim reproduce --quick``: shorter
         periods or fewer units, same physics, see
-        :mod:`cwlidar_sim.campaign.reproduce`); a scene file has none.
+        :mod:`cwlidar_sim.campaign.execution.reproduce`); a scene file has none.
 
     Returns
     -------
@@ -92,7 +92,7 @@ def run(scene, out=None, *, overwrite: bool = False, progress: bool = True, clie
         Results folder: ``<scene name>.nc`` and the per-period files
         ``<scene name>.periods/`` (created).  The folder's rules (one run at a
         time, one scene per folder unless ``overwrite``, see
-        :mod:`cwlidar_sim.campaign.folder`) apply.  None: nothing is written.
+        :mod:`cwlidar_sim.campaign.execution.folder`) apply.  None: nothing is written.
     overwrite : bool
         ``out`` holds another scene's results: remove them and run (default:
         refuse before computing).
@@ -145,7 +145,7 @@ def open_results(path):
     ValueError
         One line naming the path: a folder without finished results, or a
         file that is not a cwlidar_sim results file (empty, truncated,
-        another program's: :func:`cwlidar_sim.campaign.results_file.open_results`).
+        another program's: :func:`cwlidar_sim.campaign.execution.results_file.open_results`).
     """
     path = os.fspath(path)
     if os.path.isdir(path):

@@ -7,7 +7,7 @@ beam's unit vector pointing *away* from the lidar: positive away from the
 lidar (:mod:`cwlidar_sim.beam`, :mod:`cwlidar_sim.sensors`,
 :mod:`cwlidar_sim.signal`, ``cwlidar-sim doppler --speed``).  A homodyne cw
 lidar measures its magnitude only.  A staring campaign's results
-(:mod:`cwlidar_sim.campaign.staring`, the virtual twin) report the speed
+(:mod:`cwlidar_sim.campaign.periods.staring`, the virtual twin) report the speed
 *toward* the lidar, ``-n . (U + u, v, w)``, positive for a lidar looking into
 the wind, so that the lidar's magnitude, its ideal and the sonic compare with
 no sign flip; each such variable says so in its ``sign_convention``

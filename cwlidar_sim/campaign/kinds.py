@@ -2,13 +2,13 @@
 
 Each kind names its scene class and hands every member of the protocol to
 the modules that do the work: its unit of work, estimates, summary and
-summarise in :mod:`~cwlidar_sim.campaign.staring`,
-:mod:`~cwlidar_sim.campaign.conical` or :mod:`~cwlidar_sim.campaign.nacelle`
+summarise in :mod:`~cwlidar_sim.campaign.periods.staring`,
+:mod:`~cwlidar_sim.campaign.periods.conical` or :mod:`~cwlidar_sim.campaign.periods.nacelle`
 (looked up there at call time: a test that replaces ``staring.run_unit`` is
-obeyed), its figures in :mod:`~cwlidar_sim.campaign.figures`,
-:mod:`~cwlidar_sim.campaign.figures_cs` or
-:mod:`~cwlidar_sim.campaign.figures_nacelle`, its twin in
-:mod:`~cwlidar_sim.campaign.twin`.  The registry
+obeyed), its figures in :mod:`~cwlidar_sim.campaign.figures.staring`,
+:mod:`~cwlidar_sim.campaign.figures.conical` or
+:mod:`~cwlidar_sim.campaign.figures.nacelle`, its twin in
+:mod:`~cwlidar_sim.campaign.twin.run`.  The registry
 (:data:`cwlidar_sim.campaign.registry.BUILTIN_KINDS`) finds them here by name.
 """
 
@@ -16,14 +16,15 @@ from __future__ import annotations
 
 import dataclasses
 
-from . import conical, figures, figures_cs, figures_nacelle, nacelle, staring
-from .auto import resolve as resolve_auto
-from .conical_scene import ConicalScene
-from .nacelle_scene import NacelleScene
-from .planning import choose_field, scene_params as staring_params
+from .figures import conical as conical_figures, nacelle as nacelle_figures, staring as staring_figures
+from .periods import conical, nacelle, staring
+from .periods.staring_auto import resolve as resolve_auto
+from .periods.staring_field import choose_field, scene_params as staring_params
 from .registry import KindBase
-from .scene import Scene
-from .twin import ConicalTwin, StaringTwin
+from .scenes.conical import ConicalScene
+from .scenes.nacelle import NacelleScene
+from .scenes.staring import Scene
+from .twin.run import ConicalTwin, StaringTwin
 
 __all__ = ["UnitModuleKind", "StaringKind", "ConicalKind", "NacelleKind", "STARING", "CONICAL", "NACELLE"]
 
@@ -75,7 +76,7 @@ class StaringKind(UnitModuleKind):
         return params, fit_info
 
     def figures(self, ds, out_dir) -> list:
-        return figures.make_staring_figures(ds, out_dir)
+        return staring_figures.make_staring_figures(ds, out_dir)
 
     def quick(self, scene):
         return scene.replace(duration=self.quick_duration,
@@ -93,7 +94,7 @@ class ConicalKind(UnitModuleKind):
     quick_periods = 2
 
     def figures(self, ds, out_dir) -> list:
-        return figures_cs.make_cs_figures(ds, out_dir)
+        return conical_figures.make_cs_figures(ds, out_dir)
 
     def quick(self, scene):
         """The first templates at every height: the full run's first units, seeds and bits alike."""
@@ -111,7 +112,7 @@ class NacelleKind(UnitModuleKind):
     quick_duration = 300.0
 
     def figures(self, ds, out_dir) -> list:
-        return figures_nacelle.make_nacelle_figures(ds, out_dir)
+        return nacelle_figures.make_nacelle_figures(ds, out_dir)
 
     def quick(self, scene):
         return scene.replace(duration=self.quick_duration,

@@ -74,9 +74,9 @@ class SceneKind(Protocol):
         (the units of work in run order), ``unit_seed(index)`` (each unit's
         seed, distinct across units, stable when units are added) and
         ``simulated_hours()`` (:data:`SCENE_MEMBERS`;
-        :class:`cwlidar_sim.campaign.spec.SceneSpec` gives ``with_values``).
+        :class:`cwlidar_sim.campaign.scenes.spec.SceneSpec` gives ``with_values``).
     twin : object or None
-        The virtual twin's hooks (:mod:`cwlidar_sim.campaign.twin`), or None:
+        The virtual twin's hooks (:mod:`cwlidar_sim.campaign.twin.run`), or None:
         a scene of this kind that names ``[turbulence] condition_on`` is
         refused with a message naming the kind.
     """

@@ -28,7 +28,7 @@
     :class:`Cup`: horizontal speed through a first-order response (distance constant).
 
 A whole period (field, sensors and their analysis) is the campaign layer's:
-:mod:`cwlidar_sim.campaign.staring` and :mod:`cwlidar_sim.campaign.conical_period`.
+:mod:`cwlidar_sim.campaign.periods.staring` and :mod:`cwlidar_sim.campaign.periods.conical_simulation`.
 
 Importing this package does not import numba; kernels compile on first use.
 """

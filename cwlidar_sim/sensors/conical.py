@@ -115,7 +115,7 @@ class ConicalLidar(LidarBase):
     ``tier = 'los'``, ``span = 5``, ``cell_length = 2`` m, ``speckle =
     'independent'``).  The sensor's span 5 keeps unit-level boxes small; it
     is not converged for the 10-min std ratio (0.07 low at 40 m): scenes
-    default to span 30 (:class:`cwlidar_sim.campaign.lidar_spec.ConicalLidarSpec`,
+    default to span 30 (:class:`cwlidar_sim.campaign.scenes.lidar_spec.ConicalLidarSpec`,
     docs/convergence.md).  The instrument's ``focus`` is replaced by each
     height's ``z / cos Phi``.
 
@@ -547,7 +547,7 @@ def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: 
     period_x : float, optional
         The box's x period [m], exactly (exclusive with ``extent``): the
         virtual twin's box, whose period is the records' ``U T`` so that each
-        record covers one whole line (:mod:`cwlidar_sim.campaign.twin`).
+        record covers one whole line (:mod:`cwlidar_sim.campaign.twin.run`).
         ``nx`` is ``period_x / spacing[0]`` where that is a whole number
         (the twin's choice: a node per record sample), else the smallest
         FFT-friendly count with ``period_x / nx <= spacing[0]``; dx is

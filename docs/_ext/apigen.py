@@ -38,9 +38,15 @@ def subpackages(package: str = PACKAGE) -> list[str]:
 
 
 def public_modules(subpackage: str) -> list[str]:
-    """The public (not underscore) modules of a subpackage, dotted names."""
+    """The public (not underscore) modules of a subpackage, its sub-packages' too, dotted names."""
     pkg = importlib.import_module(subpackage)
-    return [f"{subpackage}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__) if not m.name.startswith("_")]
+    out = []
+    for m in pkgutil.iter_modules(pkg.__path__):
+        if not m.name.startswith("_"):
+            out.append(f"{subpackage}.{m.name}")
+            if m.ispkg:
+                out += public_modules(f"{subpackage}.{m.name}")
+    return out
 
 
 def kind_of(obj) -> str:

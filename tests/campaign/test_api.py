@@ -10,7 +10,7 @@ import pytest
 
 import cwlidar_sim as cw
 from cwlidar_sim.campaign import bundled_scene
-from cwlidar_sim.campaign.reproduce import bundled_text
+from cwlidar_sim.campaign.execution.reproduce import bundled_text
 
 
 def test_import_stays_light_and_the_api_is_there():

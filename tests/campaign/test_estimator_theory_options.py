@@ -5,7 +5,7 @@ import math
 import pytest
 
 from cwlidar_sim.campaign import loads_scene
-from cwlidar_sim.campaign.staring import _subcell_spread, estimator_theory
+from cwlidar_sim.campaign.periods.staring import _subcell_spread, estimator_theory
 from cwlidar_sim.turbulence import subcell_variance
 
 BASE = """

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from cwlidar_sim.campaign import loads_scene, registry, run_scene
-from cwlidar_sim.campaign.reproduce import BUNDLED, bundled_scene
+from cwlidar_sim.campaign.execution.reproduce import BUNDLED, bundled_scene
 from cwlidar_sim.cli import main
 
 EXAMPLE = pathlib.Path(__file__).resolve().parents[2] / "examples" / "mast_kind"
@@ -104,7 +104,7 @@ def test_a_kind_missing_members_is_refused_naming_them():
 def test_unknown_kind_names_the_closest_and_every_registered_one():
     text = bundled_scene("nacelle").as_dict()
     text["kind"] = "nacell"
-    from cwlidar_sim.campaign.scene import scene_from_dict
+    from cwlidar_sim.campaign.scenes.staring import scene_from_dict
 
     with pytest.raises(ValueError, match=r"^kind = 'nacell' is not a scene kind \(did you mean 'nacelle' for "
                                          r"'nacell'\?\); allowed: \['staring', 'conical', 'nacelle'\]"):
@@ -154,9 +154,9 @@ def test_the_mast_kind_end_to_end(mast, tmp_path, capsys):
     import distributed
 
     from cwlidar_sim.campaign import read_results
-    from cwlidar_sim.campaign.batch import merge_campaign, run_campaign
-    from cwlidar_sim.campaign.sweep import loads_campaign
-    from cwlidar_sim.campaign.twin import run_twin
+    from cwlidar_sim.campaign.execution.batch import merge_campaign, run_campaign
+    from cwlidar_sim.campaign.execution.sweep import loads_campaign
+    from cwlidar_sim.campaign.twin.run import run_twin
 
     path = tmp_path / "m.toml"
     path.write_text(MAST)

@@ -14,7 +14,7 @@ import pytest
 import xarray as xr
 from conftest import assert_one_line_error, run_cli
 
-from cwlidar_sim.campaign.reproduce import bundled_text
+from cwlidar_sim.campaign.execution.reproduce import bundled_text
 
 SCENE = """
 name = "tiny"

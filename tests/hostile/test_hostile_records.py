@@ -82,7 +82,7 @@ def run_fit_to(tmp_path, record, mean_speed=U, timeout=120):
 FIT = """
 import json, warnings
 from cwlidar_sim.campaign import load_scene
-from cwlidar_sim.campaign.planning import scene_params
+from cwlidar_sim.campaign.periods.staring_field import scene_params
 out = {}
 for name in %r:
     p, info = scene_params(load_scene(name))

@@ -20,7 +20,7 @@ SCENE = FIT_TO_SCENE
 FIT = """
 import json
 from cwlidar_sim.campaign import load_scene
-from cwlidar_sim.campaign.planning import scene_params
+from cwlidar_sim.campaign.periods.staring_field import scene_params
 from cwlidar_sim.analysis.records import RecordSpec, read_record
 out = {}
 for name in %r:
@@ -72,7 +72,7 @@ def test_fit_to_in_ms_without_its_unit_is_refused_naming_it(tmp_path, corpus, li
     write(tmp_path / "r.csv", line, "time", [str(100 * i) for i in range(len(line["u"]))])
     child = run_cli(["run", "r.toml", "--out", "o", "--no-progress"], cwd=tmp_path, timeout=120)
     assert_one_line_error(child, "fit_to", "time column 'time'", "read in ms it would be 10 hz", "time_ms")
-    # nothing computed was written: at most the folder's lock and owner files (campaign/folder.py)
+    # nothing computed was written: at most the folder's lock and owner files (campaign/execution/folder.py)
     left = {p.name for p in (tmp_path / "o").iterdir()} if (tmp_path / "o").exists() else set()
     assert left <= {"cwlidar-run.json", ".cwlidar-sim.lock"}, left
     corpus.record("error", child)

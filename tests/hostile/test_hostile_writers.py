@@ -66,7 +66,7 @@ def test_scenes_write_into_a_missing_folder_is_refused(tmp_path, corpus):
 
 
 def test_twin_out_that_is_a_file_is_refused_before_the_records_are_read(tmp_path, corpus):
-    scene = ROOT / "cwlidar_sim" / "campaign" / "examples" / "twin" / "twin.toml"
+    scene = ROOT / "cwlidar_sim" / "campaign" / "data" / "examples" / "twin" / "twin.toml"
     (tmp_path / "afile").write_text("x", encoding="utf-8")
     child = run_cli(["twin", str(scene), "--out", "afile", "--twins", "2"], cwd=tmp_path)
     assert_one_line_error(child, "afile", "--out")

@@ -188,7 +188,7 @@ def test_cloud_inputs_are_validated_by_name():
 
 
 def test_period_under_a_cloud_moving_with_the_wind():
-    from cwlidar_sim.campaign.conical_period import simulate_conical_period
+    from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
 
     kw = dict(speed=8.0, duration=30.0, scan_revs=(1,), model=False)
     clear = simulate_conical_period(20.0, 3, **kw)

@@ -11,7 +11,7 @@ import numpy as np
 
 from cwlidar_sim import __version__
 from cwlidar_sim.campaign.registry import KindBase
-from cwlidar_sim.campaign.spec import RESULTS_VERSION
+from cwlidar_sim.campaign.scenes.spec import RESULTS_VERSION
 
 from .scene import MastScene
 

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from cwlidar_sim.campaign.spec import (SceneSpec, Spec, Table, check_periods, check_scene_keys, check_scene_name,
+from cwlidar_sim.campaign.scenes.spec import (SceneSpec, Spec, Table, check_periods, check_scene_keys, check_scene_name,
                                        periods_from_dict, spec_table, table_from_dict)
 
 

@@ -137,7 +137,7 @@ def _atomic_write(path, obj):
 # ---------------------------------------------------------------------------
 def conical_extent(z, duration, span, spacings, size=(1.0, 1.0, 1.0)):
     """Physical size (Lx, Ly, Lz) [m] holding the cone of ``span`` for every spacing in ``spacings``."""
-    from cwlidar_sim.campaign.periods.conical_simulation import default_spacing
+    from cwlidar_sim.campaign.scenes.conical import default_spacing
     from cwlidar_sim.sensors.conical import ConicalLidar
     from cwlidar_sim.turbulence.grids import common_extent
     from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
@@ -154,7 +154,8 @@ def conical_extent(z, duration, span, spacings, size=(1.0, 1.0, 1.0)):
 
 
 def conical_row(z, seed, duration, group, settings):
-    from cwlidar_sim.campaign.periods.conical_simulation import default_spacing, simulate_conical_period
+    from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
+    from cwlidar_sim.campaign.scenes.conical import default_spacing
 
     d = default_spacing(z)
     span = settings.get("span", 5.0)

@@ -34,7 +34,7 @@ def projected(var_u, var_v, var_w, phi):
 def one_height(z, seed, duration, U=10.0):
     from cwlidar_sim.analysis import cs_model
     from cwlidar_sim.analysis.vad import fit_record, sonic_radial_variance
-    from cwlidar_sim.campaign.periods.conical_simulation import default_spacing
+    from cwlidar_sim.campaign.scenes.conical import default_spacing
     from cwlidar_sim.sensors import Sonic, sample_sonic
     from cwlidar_sim.sensors.conical import ConicalLidar, conical_field, measure_conical
     from cwlidar_sim.signal.processing import Flag

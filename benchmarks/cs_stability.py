@@ -70,7 +70,7 @@ def class_params(z, zeta):
 
 def height_extent(z, duration):
     """One physical box size at height z for every class: the cone of span SPAN and 2 L of the largest L."""
-    from cwlidar_sim.campaign.periods.conical_simulation import default_spacing
+    from cwlidar_sim.campaign.scenes.conical import default_spacing
     from cwlidar_sim.sensors.conical import ConicalLidar
     from cwlidar_sim.turbulence.grids import common_extent
 
@@ -85,7 +85,8 @@ def height_extent(z, duration):
 
 
 def run_one(z, zeta, seed, duration, extent):
-    from cwlidar_sim.campaign.periods.conical_simulation import default_spacing, simulate_conical_period
+    from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
+    from cwlidar_sim.campaign.scenes.conical import default_spacing
 
     p, su, us = class_params(z, zeta)
     d = default_spacing(z)
@@ -214,7 +215,8 @@ def grid_check(seeds, duration, json_path=None, z=40.0, zetas=(None, 0.4), span=
     class's L = 7.9 m at 40 m is resolved by 4 cells of d = 2 m, so the effect is measured again per
     class, at span 5 as there (the span's effect is separate and barely grid-dependent).
     """
-    from cwlidar_sim.campaign.periods.conical_simulation import default_spacing, simulate_conical_period
+    from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
+    from cwlidar_sim.campaign.scenes.conical import default_spacing
     from cwlidar_sim.sensors.conical import ConicalLidar
     from cwlidar_sim.turbulence.grids import common_extent
 

@@ -138,7 +138,8 @@ def seed_scatter(raw, z, key="std_ratio_1s"):
 
 # ---------------------------------------------------------------------------
 def run_setting(z, tier, st, duration, seed=1):
-    from cwlidar_sim.campaign.periods.conical_simulation import default_spacing, simulate_conical_period
+    from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
+    from cwlidar_sim.campaign.scenes.conical import default_spacing
 
     d = default_spacing(z)
     ov = {"span": float(st["span"]), "cell_length": st.get("cell", 1.0) * d}

@@ -56,7 +56,7 @@ LIGHT = (1.0, 2.0, 3.0, 4.0)
 
 def _one(z, seed, speed, cnr, reference, duration):
     from cwlidar_sim.campaign import simulate_conical_period
-    from cwlidar_sim.campaign.periods.conical_simulation import default_spacing
+    from cwlidar_sim.campaign.scenes.conical import default_spacing
 
     # the scene's lidar: span 30, cells of the box spacing (what a conical scene's [lidar] gives)
     r = simulate_conical_period(z, seed, speed=speed, duration=duration, tier="spectral", reference=reference,

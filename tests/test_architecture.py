@@ -11,6 +11,12 @@ would close a circle through it.  Every import counts, also one
 inside a function: an import hidden in a function to dodge a circle is still
 a circle.  The imports are read with :mod:`ast` from the package's source,
 nothing is imported.
+
+Inside ``campaign`` the sub-packages are layers too (:data:`SUB_LAYERS`, an
+ordered table): the registry and the results' words at the bottom, then the
+scenes (parsing only), the periods and the figures side by side, the
+execution (runner, sweeps, store), the twin, the built-in kinds and the
+high-level API at the top (docs/architecture.md draws the tree).
 """
 
 import ast
@@ -27,6 +33,21 @@ RANK = {"turbulence": 1, "beam": 1, "signal": 2, "sensors": 3, "analysis": 3, "c
         "__main__": 6}
 #: Stages of one rank that must not import each other.
 SIDE_BY_SIDE = {frozenset({"sensors", "analysis"})}
+#: Sub-layers inside a stage, bottom to top: a module of the stage may import its own sub-layer and the rows
+#: before it, never a later row; names in one row sit side by side and do not import each other.  A module's
+#: sub-layer is its first name below the stage (``campaign.scenes.conical`` -> ``scenes``); ``__init__`` is the
+#: stage package's own ``__init__``.  Every module of the stage must be in the table.
+SUB_LAYERS = {
+    "campaign": (
+        ("registry", "_labels"),   # the registry of scene kinds (it loads the kinds by name) | the results' words
+        ("scenes",),               # scene files, parsed: nothing of the campaign but the row above
+        ("periods", "figures"),    # one unit of work per kind | the figures of a kind's results
+        ("execution",),            # runner, sweeps, Dask batches, store, folders, results files: any kind
+        ("twin",),                 # the virtual twin: runs the kinds' periods, writes through the store
+        ("kinds",),                # the built-in kinds: each protocol member handed to its module
+        ("_api", "__init__"),      # the high-level API | the campaign's public names
+    ),
+}
 MAX_LINES = 700
 #: Modules allowed over MAX_LINES while they are being split (none now; the test below fails while a
 #: listed module is short, to say so).  Circles and upward imports have no exceptions.
@@ -138,6 +159,30 @@ def upward(edges: dict) -> list:
     return sorted(bad)
 
 
+def sub_layer(module: str):
+    """(stage, row, name) of a module of a stage with :data:`SUB_LAYERS`, else None."""
+    parts = module.split(".")
+    if len(parts) < 2 or parts[1] not in SUB_LAYERS:
+        return None
+    name = parts[2] if len(parts) > 2 else "__init__"
+    for row, names in enumerate(SUB_LAYERS[parts[1]]):
+        if name in names:
+            return parts[1], row, name
+    raise AssertionError(f"{module}: not in a sub-layer of {parts[1]} {SUB_LAYERS[parts[1]]}; add it to SUB_LAYERS")
+
+
+def against_sub_layers(edges: dict) -> list:
+    """Imports inside a stage that run up its sub-layers, or between side-by-side ones."""
+    bad = []
+    for a, targets in edges.items():
+        la = sub_layer(a)
+        for b in sorted(targets):
+            lb = sub_layer(b)
+            if la and lb and la[0] == lb[0] and la[2] != lb[2] and lb[1] >= la[1]:
+                bad.append(f"{a} -> {b}")
+    return sorted(bad)
+
+
 @pytest.fixture(scope="module")
 def graph():
     mods = modules(PACKAGE)
@@ -152,6 +197,32 @@ def test_no_import_circle(graph):
 def test_no_import_against_the_layers(graph):
     _, edges = graph
     assert upward(edges) == [], "imports that run up the layers or across sensors | analysis"
+
+
+def test_no_import_against_the_campaign_sub_layers(graph):
+    _, edges = graph
+    assert against_sub_layers(edges) == [], "imports that run up the campaign's sub-layers (SUB_LAYERS)"
+
+
+def test_the_sub_layer_check_finds_an_upward_and_a_sideways_import(tmp_path):
+    """The sub-layer checker on a small package: a scene importing a period, a period importing a figure."""
+    pkg = tmp_path / "cwlidar_sim"
+    for sub in ("", "campaign", "campaign/scenes", "campaign/periods", "campaign/figures", "campaign/execution"):
+        (pkg / sub).mkdir(parents=True, exist_ok=True)
+        (pkg / sub / "__init__.py").write_text("")
+    (pkg / "campaign" / "registry.py").write_text("")
+    (pkg / "campaign" / "scenes" / "a.py").write_text("from ..registry import x\n")
+    (pkg / "campaign" / "periods" / "p.py").write_text("from ..scenes.a import y\n")
+    (pkg / "campaign" / "figures" / "f.py").write_text("from ..scenes import a\n")
+    (pkg / "campaign" / "execution" / "r.py").write_text("from ..periods import p\nfrom ..figures.f import z\n")
+    assert against_sub_layers(import_edges(modules(pkg))) == []
+    (pkg / "campaign" / "scenes" / "a.py").write_text("def g():\n    from ..periods.p import y\n")
+    (pkg / "campaign" / "periods" / "p.py").write_text("from ..figures import f\n")
+    assert against_sub_layers(import_edges(modules(pkg))) == ["cwlidar_sim.campaign.periods.p -> cwlidar_sim.campaign.figures.f",
+                                                              "cwlidar_sim.campaign.scenes.a -> cwlidar_sim.campaign.periods.p"]
+    (pkg / "campaign" / "loose.py").write_text("")
+    with pytest.raises(AssertionError, match="loose: not in a sub-layer of campaign"):
+        against_sub_layers(import_edges(modules(pkg)))
 
 
 def test_no_long_module(graph):

@@ -34,13 +34,15 @@ the stages below the campaign layer):
 """
 
 from .execution.reproduce import bundled_scene
-from .execution.runner import choose_field, plan_field, run_scene
+from .execution.runner import run_scene
 from .execution.store import PreflightError, ResultsWriteError, read_results, write_results
 from .periods.conical_simulation import simulate_conical_cycle, simulate_conical_period
 from .periods.staring import fit_probe_length_results
+from .periods.staring_field import choose_field, plan_field
 from .scenes.conical import ConicalScene
 from .scenes.nacelle import NacelleScene
-from .scenes.staring import Scene, load_scene, loads_scene
+from .scenes.load import load_scene, loads_scene
+from .scenes.staring import Scene
 
 from .._dask import WorkersLostError
 

@@ -21,7 +21,7 @@ from .._validation import check_bool
 from .execution import folder, results_file
 from .execution.reproduce import BUNDLED, bundled_scene
 from .execution.runner import run_scene
-from .scenes.staring import load_scene
+from .scenes.load import load_scene
 from .scenes.spec import SceneSpec, select_periods
 
 __all__ = ["open_scene", "run", "open_results"]

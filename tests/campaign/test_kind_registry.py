@@ -104,7 +104,7 @@ def test_a_kind_missing_members_is_refused_naming_them():
 def test_unknown_kind_names_the_closest_and_every_registered_one():
     text = bundled_scene("nacelle").as_dict()
     text["kind"] = "nacell"
-    from cwlidar_sim.campaign.scenes.staring import scene_from_dict
+    from cwlidar_sim.campaign.scenes.load import scene_from_dict
 
     with pytest.raises(ValueError, match=r"^kind = 'nacell' is not a scene kind \(did you mean 'nacelle' for "
                                          r"'nacell'\?\); allowed: \['staring', 'conical', 'nacelle'\]"):

@@ -15,7 +15,7 @@ from __future__ import annotations
 from importlib import resources
 
 from ..registry import kind_of
-from ..scenes.staring import loads_scene
+from ..scenes.load import loads_scene
 
 __all__ = ["BUNDLED", "bundled_scene", "bundled_text"]
 

@@ -30,13 +30,11 @@ import time
 
 from ..._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed
 from . import folder
-from ..periods.staring_field import FieldPlan, choose_field, generate_field, plan_field, scene_params
 from ..registry import kind_of
-from ..scenes.spec import RESULTS_VERSION, SceneSpec
+from ..scenes.spec import SceneSpec
 from .store import PeriodStore, combine_periods, preflight, scene_digest, write_results
 
-__all__ = ["FieldPlan", "choose_field", "plan_field", "generate_field", "run_scene", "scene_params",
-           "RESULTS_VERSION", "SceneRun", "prepare_scene"]
+__all__ = ["run_scene", "SceneRun", "prepare_scene"]
 
 
 @dataclasses.dataclass

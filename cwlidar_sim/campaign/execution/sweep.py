@@ -53,7 +53,8 @@ from ..._seeding import seed_int
 from ..._validation import check_bool, check_int, check_seed, did_you_mean
 from ..registry import kind_of
 from .reproduce import BUNDLED, bundled_scene
-from ..scenes.staring import Scene, load_scene, scene_from_dict
+from ..scenes.load import load_scene, scene_from_dict
+from ..scenes.staring import Scene
 from ..scenes.spec import at_path, check_dotted_key, parse_toml, read_text_file, select_periods, set_path, table_fields
 
 __all__ = ["CampaignSpec", "Task", "load_campaign", "loads_campaign", "expand", "estimate_task", "TASK_OVERHEAD_S",

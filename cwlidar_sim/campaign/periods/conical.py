@@ -50,9 +50,9 @@ import numpy as np
 
 from ..._version import __version__
 from . import conical_simulation as conical_period
-from .conical_simulation import cycle_reference_height, default_spacing
+from .conical_simulation import cycle_reference_height
 from .._labels import WIND_DIRECTION_CONVENTION, duration_phrase, periods_phrase, wind_from_toward
-from ..scenes.conical import ConicalPeriodSpec, ConicalScene, ScanSpec, SurfaceTurbulenceSpec
+from ..scenes.conical import ConicalPeriodSpec, ConicalScene, ScanSpec, SurfaceTurbulenceSpec, default_spacing
 from ..scenes.spec import RESULTS_VERSION
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "run_unit", "unit_dataset",
@@ -182,7 +182,7 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
     tensor, su, ustar = scene.turbulence.resolve(_tensor_height(scene, index), p.mean_speed)
     s = scene.scan
     hs = tuple(z) if s.cycle else (z,)
-    spacing = s.spacing or conical_period.default_spacing(min(hs))
+    spacing = s.spacing or default_spacing(min(hs))
     lidar = scene.lidar_fields(spacing)
     tier, sub_dwells = lidar.pop("tier"), lidar.pop("sub_dwells")
     kw = dict(speed=p.mean_speed, duration=scene.period_duration(p), scan_revs=s.scan_revs, tier=tier,

@@ -94,13 +94,9 @@ import numpy as np
 from ..._seeding import seed_int
 from ..._validation import check_choice, check_int, check_real, check_seed, check_tuple
 from ...signal.processing import usable_fraction
+from ..scenes.conical import default_spacing
 
-__all__ = ["simulate_conical_period", "simulate_conical_cycle", "default_spacing", "cycle_reference_height"]
-
-
-def default_spacing(height: float) -> float:
-    """Grid spacing [m] used by default at height z: z / 20, at least 1 m (module notes)."""
-    return max(1.0, float(height) / 20.0)
+__all__ = ["simulate_conical_period", "simulate_conical_cycle", "cycle_reference_height"]
 
 
 def cycle_reference_height(heights) -> float:
@@ -150,7 +146,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
     tier : {'los', 'spectral', 'signal'}
         Lidar tier (:mod:`cwlidar_sim.sensors.conical`).
     spacing : float, optional
-        Box spacing [m]; default :func:`default_spacing`.
+        Box spacing [m]; default :func:`~cwlidar_sim.campaign.scenes.conical.default_spacing`.
     lateral_doubling : bool
         Generate the box twice as wide and keep half.
     params : MannParameters, optional
@@ -256,7 +252,7 @@ def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_
         The box's one tensor; default the neutral surface layer at
         :func:`cycle_reference_height` and ``speed``.
     spacing : float, optional
-        Box spacing [m]; default :func:`default_spacing` of the lowest height.
+        Box spacing [m]; default :func:`~cwlidar_sim.campaign.scenes.conical.default_spacing` of the lowest height.
     others
         As :func:`simulate_conical_period`.
 

@@ -6,8 +6,7 @@ sensors during a period (a line, a plane or a box) and why;
 :func:`plan_field` its size and the sensors' positions; :func:`generate_field`
 the seeded field itself.  Used by the staring period
 (:mod:`cwlidar_sim.campaign.periods.staring`), the automatic choice and the
-campaign's estimates; the runner (:mod:`cwlidar_sim.campaign.execution.runner`)
-re-exports them.
+campaign's estimates.
 """
 
 from __future__ import annotations

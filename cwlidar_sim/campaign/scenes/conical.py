@@ -88,17 +88,22 @@ import numpy as np
 from ..._seeding import seed_int
 from ..._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str
 from .._labels import wind_from_toward
-from ..periods.conical_simulation import default_spacing
 from .lidar_spec import ConicalLidarSpec, lidar_schema
 from .turbulence_spec import TurbulenceSpec
 from .spec import (SceneSpec, Spec, Table, check_distinct_reals, check_periods, check_scene_keys,
                    check_scene_name, entry_label, periods_from_dict, resolve_path, set_field, spec_table,
                    table_from_dict, turbulence_schema)
 
-__all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS"]
+__all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS", "default_spacing"]
 
 #: scan keys that only a cycling lidar uses.
 CYCLE_KEYS = ("revs_per_height", "refocus_time")
+
+
+def default_spacing(height: float) -> float:
+    """Grid spacing [m] used by default at height z: z / 20, at least 1 m (the reasons are in
+    :mod:`cwlidar_sim.campaign.periods.conical_simulation`)."""
+    return max(1.0, float(height) / 20.0)
 
 
 @dataclasses.dataclass(frozen=True)

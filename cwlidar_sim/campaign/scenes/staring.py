@@ -53,9 +53,9 @@ from ..._seeding import seed_int
 from ..._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
 from ...signal.chain import TIERS
 from .lidar_spec import LidarSpecBase, lidar_schema
-from ..registry import get_kind, kind_names
+from ..registry import kind_names
 from .spec import (SceneSpec, Spec, Table, check_periods, check_scene_keys, check_scene_name,
-                   entry_label, parse_toml, periods_from_dict, read_text_file, resolve_path, set_field, spec_table,
+                   entry_label, periods_from_dict, resolve_path, set_field, spec_table,
                    table_from_dict, turbulence_schema)
 from .turbulence_spec import TurbulenceSpec
 
@@ -68,9 +68,6 @@ __all__ = [
     "AnalysisSpec",
     "PeriodSpec",
     "Scene",
-    "load_scene",
-    "loads_scene",
-    "scene_from_dict",
 ]
 
 FIELD_KINDS = ("auto", "line", "plane", "box")
@@ -403,23 +400,3 @@ class Scene(SceneSpec):
         """A path of the scene file, relative to the scene's folder."""
         return resolve_path(self.base_dir, path)
 
-
-def loads_scene(text: str, *, base_dir: str = "."):
-    """Parse a scene from TOML text: the scene class of its ``kind`` (:func:`cwlidar_sim.campaign.scenes.staring.scene_from_dict`)."""
-    return scene_from_dict(parse_toml(text, "scene"), base_dir=base_dir)
-
-
-def scene_from_dict(d: dict, *, base_dir: str = "."):
-    """A scene of any registered kind from a TOML-shaped mapping, by ``d['kind']`` (default ``'staring'``).
-
-    The kind is looked up in :mod:`cwlidar_sim.campaign.registry`: an unknown
-    one is a ValueError naming the closest kinds and every registered one.
-    """
-    name = d.get("kind", "staring") if isinstance(d, dict) else "staring"
-    return get_kind(name).scene_class.from_dict(d, base_dir=base_dir)
-
-
-def load_scene(path):
-    """Read a scene TOML file (of any registered kind)."""
-    text, folder = read_text_file(path, "scene")
-    return loads_scene(text, base_dir=folder)

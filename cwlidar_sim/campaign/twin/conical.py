@@ -14,7 +14,7 @@ import numpy as np
 
 from ..._seeding import seed_int
 from ._common import _TWIN_TAG, TWIN_VERSION, clock_attrs, record_statistics
-from ..scenes.conical import ConicalPeriodSpec, ConicalScene
+from ..scenes.conical import ConicalPeriodSpec, ConicalScene, default_spacing
 
 __all__ = ["conical_unit_records", "conical_twin_scene", "conical_twin", "conical_twin_period"]
 
@@ -40,7 +40,6 @@ def conical_unit_records(scene: ConicalScene, tp, h: int):
     from ...sensors import nearest_node
     from ...sensors.conical import ConicalLidar, conical_box_yz
     from ..periods.conical import _tensor_height
-    from ..periods.conical_simulation import default_spacing
 
     s = scene.scan
     hs = s.heights if s.cycle else (s.heights[h],)
@@ -105,7 +104,6 @@ def _conical_box_options(scene: ConicalScene, tp, U: float) -> dict:
     record's Fourier modes beyond the grid's Nyquist are left out (read
     band-limited).
     """
-    from ..periods.conical_simulation import default_spacing
 
     d = scene.scan.spacing or default_spacing(min(scene.scan.heights))
     r0 = tp.records[0]

@@ -60,7 +60,8 @@ def write_twin_example(out_dir, *, periods: int = 1, duration: float | None = No
 
     from ..._validation import check_int, check_real, check_seed
     from ..periods.staring_field import scene_params
-    from ..scenes.staring import PeriodSpec, loads_scene
+    from ..scenes.load import loads_scene
+    from ..scenes.staring import PeriodSpec
     from ..periods.staring import SONIC_DELAY, run_unit
     from ..execution.store import write_results
 

@@ -136,7 +136,7 @@ def test_fit_to_a_sonic_record(tmp_path):
     rec.to_netcdf(tmp_path / "sonic.nc", engine="h5netcdf")
     p = tmp_path / "s.toml"
     p.write_text(TEXT.replace("alpha_eps = 0.06\nlength_scale = 20.0\ngamma = 3.9", "fit_to = 'sonic.nc'"))
-    from cwlidar_sim.campaign.execution.runner import scene_params
+    from cwlidar_sim.campaign.periods.staring_field import scene_params
 
     fitted, info = scene_params(load_scene(p))
     for name in ("length_scale", "gamma", "alpha_eps"):

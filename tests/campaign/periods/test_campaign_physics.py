@@ -154,7 +154,7 @@ def test_speckle_transverse_speed_includes_the_mean_wind_across_the_beam():
     s_v^2 + s_w^2 + U^2 sin^2, which differs by (s_u^2 - s_v^2) sin^2(theta) only; at 5 deg
     the mean wind's share, U^2 sin^2 = 0.49 m^2/s^2, is 150 times that.
     """
-    from cwlidar_sim.campaign.execution.runner import scene_params
+    from cwlidar_sim.campaign.periods.staring_field import scene_params
     from cwlidar_sim.campaign.periods.staring import _transverse_speed
     from cwlidar_sim.turbulence import covariances
 

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from cwlidar_sim.campaign.periods.conical_simulation import _conical_lidar, default_spacing, simulate_conical_period
+from cwlidar_sim.campaign.periods.conical_simulation import _conical_lidar, simulate_conical_period
+from cwlidar_sim.campaign.scenes.conical import default_spacing
 from cwlidar_sim.sensors.conical import conical_box_yz
 from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
 

@@ -77,7 +77,7 @@ def test_fit_to_exclusive_and_missing_file(tmp_path):
     p.write_text(MINIMAL.replace("alpha_eps = 0.05\nlength_scale = 20.0\ngamma = 3.9", "fit_to = 'missing.nc'"))
     s = load_scene(p)
     assert s.resolve(s.turbulence.fit_to) == str(tmp_path / "missing.nc")
-    from cwlidar_sim.campaign.execution.runner import scene_params
+    from cwlidar_sim.campaign.periods.staring_field import scene_params
 
     with pytest.raises(ValueError, match="missing.nc"):
         scene_params(s)

@@ -9,7 +9,7 @@ by earlier runs stay valid.
 import re
 
 from cwlidar_sim.campaign.execution.reproduce import bundled_scene, bundled_text
-from cwlidar_sim.campaign.scenes.staring import loads_scene
+from cwlidar_sim.campaign.scenes.load import loads_scene
 from cwlidar_sim.campaign.execution.store import scene_digest
 
 #: a2012.toml's keys and values before its keys were commented.

@@ -17,7 +17,7 @@ import pytest
 from cwlidar_sim import cli
 from cwlidar_sim.campaign.scenes import conical as conical_scene, lidar_spec, nacelle as nacelle_scene, staring as scene, spec
 from cwlidar_sim.campaign.execution.reproduce import bundled_text
-from cwlidar_sim.campaign.scenes.staring import loads_scene
+from cwlidar_sim.campaign.scenes.load import loads_scene
 from cwlidar_sim.campaign.execution.sweep import expand, loads_campaign
 
 TEXT = {name: bundled_text(name) for name in ("a2012", "cs", "nacelle")}

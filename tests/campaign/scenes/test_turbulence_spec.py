@@ -9,7 +9,8 @@ import pytest
 from cwlidar_sim.campaign import loads_scene
 from cwlidar_sim.campaign.scenes.conical import SurfaceTurbulenceSpec
 from cwlidar_sim.campaign.scenes.nacelle import NacelleTurbulenceSpec
-from cwlidar_sim.campaign.scenes.staring import TurbulenceSpec, load_scene
+from cwlidar_sim.campaign.scenes.load import load_scene
+from cwlidar_sim.campaign.scenes.staring import TurbulenceSpec
 from cwlidar_sim.turbulence import MannParameters
 from cwlidar_sim.turbulence.spectra import one_point_spectra
 from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters

@@ -76,7 +76,7 @@ def test_conditioned_scenes_run_only_as_twins_staring_and_conical():
     from cwlidar_sim.campaign import bundled_scene
     from cwlidar_sim.campaign.periods.conical import run_unit
     from cwlidar_sim.campaign.periods.staring_field import scene_params
-    from cwlidar_sim.campaign.scenes.staring import scene_from_dict
+    from cwlidar_sim.campaign.scenes.load import scene_from_dict
     from cwlidar_sim.campaign.periods.staring import run_unit as run_staring
 
     s = loads_scene(SCENE.format(path="m.csv"))

@@ -1,36 +1,35 @@
 """Virtual campaigns: scenes in TOML, the runner, results in NetCDF, figures.
 
-Modules, bottom to top (each imports only those above it in this list, and
-the stages below the campaign layer):
+Sub-packages and modules, bottom to top (each imports only its own row and
+those above it, and the stages below the campaign layer; the rows are
+``SUB_LAYERS`` in tests/test_architecture.py):
 
-``spec``, ``registry``
-    Scene-spec machinery shared by every scene kind (TOML interchange, key
-    checks, ``RESULTS_VERSION``); the registry of scene kinds and the
+``registry``, ``_labels``
+    The registry of scene kinds and the
     :class:`~cwlidar_sim.campaign.registry.SceneKind` protocol, through which
     everything that depends on a scene's kind finds it (built-in kinds and
-    those of the entry-point group ``cwlidar_sim.scene_kinds``, loaded by name).
-``turbulence_spec``
-    The ``[turbulence]`` table of every scene kind.
-``conical_scene``, ``nacelle_scene``, ``scene``
-    The scene files: conical (:class:`ConicalScene`), nacelle
-    (:class:`NacelleScene`) and staring (:class:`Scene`); :func:`load_scene`
-    reads any registered kind by ``kind``.
-``planning``, ``auto``, ``folder``, ``store``, ``results_file``
-    A staring period's field and tensor; the automatic fidelity choice;
-    a results folder's lock, owner (manifest, ``overwrite``), orphaned
-    temporaries and safe names; results on disk (checks, per-unit files,
-    resume); results files a user names, checked before they are read
-    (``report``, ``probe-length``, ``campaign-report``).
-``staring``, ``conical_period``, ``conical``, ``nacelle``
-    One unit of work of each scene kind: a staring period, a conical period
-    (field, lidar, cup, sonic, VAD fits, CS's model) and the conical scene's
-    units and summary, a nacelle period (REWS, preview, coherence, theory).
-``runner``
-    :func:`run_scene`: runs a scene's units through its kind, keeps every finished unit.
-``reproduce``, ``sweep``, ``batch``, ``figures``, ``figures_cs``, ``figures_nacelle``, ``twin``
-    The bundled reproductions, campaign files and their Dask runs, figures, the virtual twin.
+    those of the entry-point group ``cwlidar_sim.scene_kinds``, loaded by name);
+    the words results and figures share.
+:mod:`~cwlidar_sim.campaign.scenes`
+    Scene files, parsed only: the machinery every kind shares (``spec``:
+    TOML interchange, key checks, ``RESULTS_VERSION``), the ``[lidar]`` and
+    ``[turbulence]`` tables, the staring (:class:`Scene`), conical
+    (:class:`ConicalScene`) and nacelle (:class:`NacelleScene`) scenes;
+    :func:`load_scene` (``scenes.load``) reads any registered kind by ``kind``.
+:mod:`~cwlidar_sim.campaign.periods`, :mod:`~cwlidar_sim.campaign.figures`
+    One unit of work of each kind (a staring period with its field planner
+    and automatic settings, a conical period and the conical scene's units,
+    a nacelle period) and its results; the figures of each kind's results.
+:mod:`~cwlidar_sim.campaign.execution`
+    :func:`run_scene` (any kind, through the registry), the store (per-unit
+    files, resume), results folders and files, campaign files (sweeps) and
+    their Dask runs, the bundled reproductions.
+:mod:`~cwlidar_sim.campaign.twin`
+    The virtual twin.
 ``kinds``
     The built-in scene kinds (staring, conical, nacelle) as registry objects.
+``_api``
+    The high-level API re-exported at the top of the package.
 """
 
 from .execution.reproduce import bundled_scene

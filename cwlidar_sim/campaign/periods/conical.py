@@ -29,8 +29,10 @@ Example
     [scan]
     heights = [40.0, 60.0, 80.0, 100.0]
     scan_revs = [1, 3]
+
+    [lidar]                        # the keys of every scene's [lidar]
     tier = "spectral"
-    lidar = { cnr_db = -10.0 }     # further ConicalLidar fields
+    cnr_db = -10.0
 
     [turbulence]                   # or alpha_eps, length_scale, gamma for one tensor at every height
     source = "mann1994"            # neutral surface layer at each height (Mann 1994's Kaimal fit)

@@ -52,35 +52,8 @@ Set-up (choices, each stated)
   The ``ambiguity_rate`` is the fraction of fitted scans whose resolved
   direction is more than 90 deg from the sonic's direction over the scan.
 
-Measured (tier 1, 10 m/s, 12 ten-minute periods per height, laterally doubled boxes)
--------------------------------------------------------------------------------------
-======  ==============  ==============  =====================  ==================
-z [m]   std ratio 1 s   std ratio 3 s   model 1 s / 3 s        radial var. ratio
-                                        (Mann; Kaimal -0.002)  1 s (model)
-======  ==============  ==============  =====================  ==================
-40      0.786           0.759           0.857 / 0.835          0.27 (0.16)
-60      0.769           0.754           0.848 / 0.834          0.24 (0.12)
-80      0.764           0.753           0.839 / 0.829          0.25 (0.09)
-100     0.760           0.754           0.829 / 0.822          0.21 (0.07)
-======  ==============  ==============  =====================  ==================
-
-Standard errors about 0.01.  (Measured with the sensors at (0, 0, z), between
-grid nodes: on the nodes the ratios are 0.008 (40 m) to 0.014 (100 m)
-lower.)  Mean horizontal speed within 0.4 % of the cup's;
-12.9 % of the estimates lost or flagged at the zero crossings, 87 % of the
-points used, no scan lost, no ambiguity left.  (Measured with span 5, the
-sensor's default: the scenes' span 30 raises the tier-1 ratio by 0.07 at 40 m
-and 0.03 at 100 m; see docs/convergence.md for every knob, paired.)
-Single-width boxes lower it by about 0.02.  Diagnostic (span 5, not re-run
-at the converged settings): in a field whose three components all vary along
-x only the simulated ratio was 0.93-0.94 (1 s) and 0.89-0.93 (3 s).  That is
-not CS's 1-D case, whose model has u alone: with v and w varying along x too,
-the VAD's horizontal speed picks up the tilt of w across the circle
-(cross-contamination, absent from the model), so the excess over the model
-says nothing about the model's scan filter.  The radial-variance ratio's excess
-over the model is explained in docs/cs_radial_variance.md (the fit's residual
-carries cross-circle turbulence; the sonic's 10-minute variance holds less than
-the tensor's).
+Measured results, with their settings: docs/reproductions/cs.md and docs/convergence.md (its last table is
+the one these notes held, measured at span 5).
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ and assembles the scene's file from the unit files.  :func:`prepare_scene` and
 units themselves (the campaign's :mod:`cwlidar_sim.campaign.execution.batch`).
 
 Each unit is independent and seeded from the scene (see
-:meth:`Scene.unit_seed`), so a scene gives the same bits whether its units
+:meth:`~cwlidar_sim.campaign.Scene.unit_seed`), so a scene gives the same bits whether its units
 run one after the other here, on the workers of a Dask cluster, or across an
 interrupted run and its resumption.
 """

@@ -51,7 +51,7 @@ import math
 import numpy as np
 
 from ..._version import __version__
-from . import conical_simulation as conical_period
+from . import conical_simulation
 from .conical_simulation import cycle_reference_height
 from .._labels import WIND_DIRECTION_CONVENTION, duration_phrase, periods_phrase, wind_from_toward
 from ..scenes.conical import ConicalPeriodSpec, ConicalScene, ScanSpec, SurfaceTurbulenceSpec, default_spacing
@@ -193,10 +193,10 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
               condition=condition, box_options=box_options)
     if s.cycle:
         revs, refocus = lidar.pop("revs_per_height"), lidar.pop("refocus_time")
-        rows = conical_period.simulate_conical_cycle(z, scene.unit_seed(index), revs_per_height=revs,
+        rows = conical_simulation.simulate_conical_cycle(z, scene.unit_seed(index), revs_per_height=revs,
                                                      refocus_time=refocus, lidar_overrides=lidar, **kw)
     else:
-        rows = [conical_period.simulate_conical_period(z, scene.unit_seed(index), lidar_overrides=lidar, **kw)]
+        rows = [conical_simulation.simulate_conical_period(z, scene.unit_seed(index), lidar_overrides=lidar, **kw)]
     wall = time.perf_counter() - t0
     for r in rows:
         r["sigma_u_target"], r["u_star"] = su, ustar

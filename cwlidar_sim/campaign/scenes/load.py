@@ -15,7 +15,7 @@ __all__ = ["load_scene", "loads_scene", "scene_from_dict"]
 
 
 def loads_scene(text: str, *, base_dir: str = "."):
-    """Parse a scene from TOML text: the scene class of its ``kind`` (:func:`scene_from_dict`)."""
+    """Parse a scene from TOML text: the scene class of its ``kind`` (:func:`~cwlidar_sim.campaign.scenes.load.scene_from_dict`)."""
     return scene_from_dict(parse_toml(text, "scene"), base_dir=base_dir)
 
 

@@ -384,14 +384,14 @@ class ConicalLidar(LidarBase):
             hidx = np.zeros(n, dtype=np.int64)
             scan_e = j // epr
         else:
-            block_n = self.revs_per_height * epr
-            block_t = self.revs_per_height * self.revolution_time + self.refocus_time
-            nb = int(math.floor((duration + self.refocus_time) / block_t + 1e-9))
+            per_block = self.revs_per_height * epr
+            block_duration = self.revs_per_height * self.revolution_time + self.refocus_time
+            nb = int(math.floor((duration + self.refocus_time) / block_duration + 1e-9))
             if nb < 1:
-                raise ValueError(f"duration={duration} s holds no complete height block of {block_t:g} s")
-            b = np.repeat(np.arange(nb), block_n)
-            j = np.tile(np.arange(block_n), nb)
-            time_e = start + b * block_t + (j + 0.5) * dt
+                raise ValueError(f"duration={duration} s holds no complete height block of {block_duration:g} s")
+            b = np.repeat(np.arange(nb), per_block)
+            j = np.tile(np.arange(per_block), nb)
+            time_e = start + b * block_duration + (j + 0.5) * dt
             hidx = b % nh
             scan_e = b * self.revs_per_height + j // epr
         az = self.geometry.azimuth_at(time_e)

@@ -187,7 +187,7 @@ class Sensor(Protocol):
         """The signal chain's settings."""
 
     def subcell_spread_in(self, field) -> tuple:
-        """``(spread [m/s], source)``: the one sub-cell spread rule (:meth:`cwlidar_sim.sensors.LidarBase.subcell_spread_in`)."""
+        """``(spread [m/s], source)``: the one sub-cell spread rule (:meth:`.LidarBase.subcell_spread_in`)."""
 
     def plan_record(self, field, U: float, *, wrap: bool, **when) -> RecordPlan:
         """The record's estimates, foci and :class:`Focus` groups in ``field`` at mean wind ``U``."""

@@ -315,17 +315,17 @@ class NacelleLidar(LidarBase):
         R = check_real("rotor_radius", rotor_radius, lo=0.0)
         a = math.radians(self.half_angle_deg)
         far = max(r + c.edges[-1] for r, c in ((r, self.cells(r)) for r in self.focus_distances))
-        reach_x = far * math.cos(a) + 2.0 * d
+        reach = far * math.cos(a) + 2.0 * d
         radius = max(far * math.sin(a), R) + 2.0 * d
         if self.motion is not None:
             m = self.motion
-            reach_x += float(np.abs(m.surge).max())
+            reach += float(np.abs(m.surge).max())
             radius += float(max(np.abs(m.sway).max(), np.abs(m.heave).max())) + far * math.sin(
                 math.radians(float(max(np.abs(m.roll_deg).max(), np.abs(m.pitch_deg).max(), np.abs(m.yaw_deg).max())
                                    + abs(self.yaw_misalignment_deg))))
         elif self.yaw_misalignment_deg:
             radius += far * math.sin(math.radians(abs(self.yaw_misalignment_deg)))
-        return Region(x_lo=self.position[0] - reach_x, length=reach_x, y_mid=self.position[1], half_width=radius,
+        return Region(x_lo=self.position[0] - reach, length=reach, y_mid=self.position[1], half_width=radius,
                       z_mid=self.position[2], half_height=radius)
 
     def box_planes(self) -> list:
@@ -392,7 +392,7 @@ class NacelleLidar(LidarBase):
                                                   "blocked_e": blocked_e, "focus": finfo})
 
     def finish_record(self, record: LidarRecord, plan: RecordPlan, chain) -> LidarRecord:
-        """Blade blockage, the line-of-sight wind, its directions and the record's ``info`` (:func:`measure_nacelle`)."""
+        """Blade blockage, the line-of-sight wind and its directions, the ``info`` (:func:`measure_nacelle`)."""
         ctx = plan.context
         n_elc, ddot_elc, blocked_e = ctx["n_elc"], ctx["ddot_elc"], ctx["blocked_e"]
         ne, nsub = plan.time_e.size, self.sub_dwells
@@ -425,12 +425,12 @@ class NacelleLidar(LidarBase):
                              f"{self.revolution_time} s")
         epr, dt = self.estimates_per_rev, self.dwell_time
         nf = len(self.focus_distances)
-        block_n = self.revs_per_focus * epr
-        block_t = self.revs_per_focus * self.revolution_time + (self.refocus_time if nf > 1 else 0.0)
-        nb = int(math.floor((duration + (self.refocus_time if nf > 1 else 0.0)) / block_t + 1e-9))
-        b = np.repeat(np.arange(nb), block_n)
-        j = np.tile(np.arange(block_n), nb)
-        time_e = start + b * block_t + (j + 0.5) * dt
+        per_block = self.revs_per_focus * epr
+        block_duration = self.revs_per_focus * self.revolution_time + (self.refocus_time if nf > 1 else 0.0)
+        nb = int(math.floor((duration + (self.refocus_time if nf > 1 else 0.0)) / block_duration + 1e-9))
+        b = np.repeat(np.arange(nb), per_block)
+        j = np.tile(np.arange(per_block), nb)
+        time_e = start + b * block_duration + (j + 0.5) * dt
         if self.circle:
             az = self.azimuth0_deg + 360.0 * (time_e - start) / self.revolution_time
         else:

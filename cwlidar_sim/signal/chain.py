@@ -545,19 +545,19 @@ def run_chain(settings: ChainSettings, groups, n_estimates: int, *, variants=Non
     apply_numba_threads()
     for g in groups:
         inst = g.instrument
-        n_g = g.index_e.size
+        n_group = g.index_e.size
         procs = [("", inst)] + variant_instruments(inst, variants)
         w_s = np.ascontiguousarray(g.weight_s, dtype=np.float64)
         nl = check_int("n_looks", g.n_looks, lo=1, hi=4096)
-        info = {"n_estimates": int(n_g), "n_looks": nl, "n_cells": int(w_s.size), "cnr_db": settings.cnr_db}
+        info = {"n_estimates": int(n_group), "n_looks": nl, "n_cells": int(w_s.size), "cnr_db": settings.cnr_db}
         if g.cloud_weight > 0.0:
             info.update(cloud_weight=g.cloud_weight, cloud_fraction=g.cloud_weight / (1.0 + g.cloud_weight))
         ginfo.append(info)
-        if n_g == 0:
+        if n_group == 0:
             continue
         if tier == "los":
-            for c0 in range(0, n_g, chunk):
-                c1 = min(n_g, c0 + chunk)
+            for c0 in range(0, n_group, chunk):
+                c1 = min(n_group, c0 + chunk)
                 _, v, cloud = g.sample(c0, c1)
                 sel = g.index_e[c0:c1]
                 vlos_e[sel] = v
@@ -573,28 +573,28 @@ def run_chain(settings: ChainSettings, groups, n_estimates: int, *, variants=Non
         spread = _spread(settings, g)
         speckle = _speckle_used(settings, spread)
         if nl > 1 and (speckle == "continuum" or tier == "signal") and inst.blocks_per_estimate % nl:
-            raise ValueError(f"{n_g and nl} looks per estimate with speckle {speckle!r} / tier {tier!r} need "
+            raise ValueError(f"{n_group and nl} looks per estimate with speckle {speckle!r} / tier {tier!r} need "
                              f"n_looks to divide instrument.blocks_per_estimate={inst.blocks_per_estimate}; "
                              "allowed: its divisors")
         run = _Group(settings, g, procs, out, speckle, spread)
-        rows = n_g if tier == "signal" else min(n_g, chunk)
-        check_memory("signal chain buffers", rows * (8 * nl * (w_s.size + 1) + 48 * inst.n_fft) + 64 * n_g)
+        rows = n_group if tier == "signal" else min(n_group, chunk)
+        check_memory("signal chain buffers", rows * (8 * nl * (w_s.size + 1) + 48 * inst.n_fft) + 64 * n_group)
         if tier == "signal":
-            vlos_els, v, cloud = g.sample(0, n_g)
+            vlos_els, v, cloud = g.sample(0, n_group)
             vlos_e[g.index_e] = v
             run.signal(*_with_cloud(vlos_els, cloud, w_s, g.cloud_weight, g.tail))
         elif speckle == "continuum":
             key = np.uint64(int(np.random.default_rng(run.s_sim).integers(0, 2**63, dtype=np.int64)))
-            for c0 in range(0, n_g, chunk):
-                c1 = min(n_g, c0 + chunk)
+            for c0 in range(0, n_group, chunk):
+                c1 = min(n_group, c0 + chunk)
                 vlos_els, v, cloud = g.sample(c0, c1)
                 vlos_e[g.index_e[c0:c1]] = v
                 run.continuum(*_with_cloud(vlos_els, cloud, w_s, g.cloud_weight, g.tail), c0, c1, key)
         else:
             draws = SpeckleBlocks(run.s_sim, inst.n_bins, run.m_eff, speckle)
-            buf = np.empty((min(n_g, chunk), inst.n_bins))
-            for c0 in range(0, n_g, chunk):
-                c1 = min(n_g, c0 + chunk)
+            buf = np.empty((min(n_group, chunk), inst.n_bins))
+            for c0 in range(0, n_group, chunk):
+                c1 = min(n_group, c0 + chunk)
                 vlos_els, v, cloud = g.sample(c0, c1)
                 vlos_e[g.index_e[c0:c1]] = v
                 run.point_cells(*_with_cloud(vlos_els, cloud, w_s, g.cloud_weight, g.tail), c0, c1, draws, buf)

@@ -10,7 +10,7 @@
     chain, probe volume and tail rule, cloud layer), and :class:`BeamSampler`,
     which samples a field along a lidar's looks for the one signal chain
     (:mod:`cwlidar_sim.signal.chain`).  A lidar sensor is geometry only.
-``measure``
+``protocol``
     :class:`Sensor`, the protocol by which a lidar states its record's foci
     (:class:`Focus`: instrument, cells, looks, a sampling callback) and what
     it adds after the chain; :func:`measure`, the one orchestration of every
@@ -41,7 +41,7 @@ Importing this package does not import numba; kernels compile on first use.
 """
 
 from .base import BeamSampler, LidarBase, instrument_from_spec
-from .measure import Focus, LidarRecord, RecordPlan, Sensor, measure
+from .protocol import Focus, LidarRecord, RecordPlan, Sensor, measure
 from .lidar import StaringLidar, measure_staring
 from .conical import ConicalLidar, measure_conical
 from .nacelle import NacelleLidar, measure_nacelle

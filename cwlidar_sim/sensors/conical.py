@@ -83,7 +83,7 @@ from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.spectral import speckle_looks
 from ..turbulence.cover import Region
 from .base import BeamSampler, LidarBase
-from .measure import Focus, LidarRecord, RecordPlan, measure
+from .protocol import Focus, LidarRecord, RecordPlan, measure
 
 __all__ = [
     "ConicalLidar",
@@ -300,7 +300,7 @@ class ConicalLidar(LidarBase):
         """Unit beam directions at the given azimuths [deg], shape (..., 3)."""
         return self.geometry.direction(azimuth_deg)
 
-    # -- the Sensor protocol (cwlidar_sim.sensors.measure) -----------------
+    # -- the Sensor protocol (cwlidar_sim.sensors.protocol) -----------------
     def plan_record(self, field, U: float, *, wrap: bool, duration: float, start: float = 0.0) -> RecordPlan:
         """The scan's dwells over ``[start, start + duration)``, one focus per height (module notes)."""
         sch = self.schedule(duration, start)
@@ -429,7 +429,7 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
                     calibration_time: float = 0.0) -> LidarRecord:
     """Simulate a conically scanning lidar's record of radial-speed estimates in a turbulence field.
 
-    The public API's form of :func:`cwlidar_sim.sensors.measure.measure`
+    The public API's form of :func:`cwlidar_sim.sensors.measure`
     for a conical lidar (a duration and a start).
 
     Parameters
@@ -448,7 +448,7 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
         noise): required by them (a ValueError without one: a record is never
         drawn from fresh entropy, the same seed gives the same bits); not used
         by tier 'los', whose record is the field's.  Each height draws from
-        its child of the root SeedSequence (:func:`cwlidar_sim.sensors.measure.measure`).
+        its child of the root SeedSequence (:func:`cwlidar_sim.sensors.measure`).
     start : float
         Start time [s].
     wrap : bool

@@ -52,7 +52,7 @@ from .._validation import check_int, check_real, check_tuple
 from ..beam.sampling import _prepare_beam, direction_from_angles
 from ..signal.instrument import PROTOTYPE_2003, Instrument
 from .base import BeamSampler, LidarBase
-from .measure import Focus, LidarRecord, RecordPlan, measure
+from .protocol import Focus, LidarRecord, RecordPlan, measure
 
 __all__ = ["StaringLidar", "measure_staring"]
 
@@ -108,7 +108,7 @@ class StaringLidar(LidarBase):
         """The cloud's weight relative to the aerosol probe volume, ``w_c`` [-] (0 if the beam never reaches it)."""
         return self.cloud_weight_at(self.instrument, float(self.direction[2]))
 
-    # -- the Sensor protocol (cwlidar_sim.sensors.measure) -----------------
+    # -- the Sensor protocol (cwlidar_sim.sensors.protocol) -----------------
     def plan_record(self, field, U: float, *, wrap: bool, times_e, transverse_speed: float | None = None) -> RecordPlan:
         """One fixed focus, one look per estimate at ``times_e`` [s] (module notes)."""
         inst = self.instrument
@@ -179,7 +179,7 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed=None, *,
                     calibration_time: float = 0.0) -> LidarRecord:
     """Simulate a staring lidar's record of speed estimates in a turbulence field.
 
-    The public API's form of :func:`cwlidar_sim.sensors.measure.measure`
+    The public API's form of :func:`cwlidar_sim.sensors.measure`
     for a staring lidar (its estimate times given).
 
     Parameters
@@ -197,7 +197,7 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed=None, *,
         noise): required by them (a ValueError without one: a record is never
         drawn from fresh entropy, the same seed gives the same bits); not used
         by tier 'los', whose record is the field's.  The one focus group
-        draws from the root SeedSequence (:func:`cwlidar_sim.sensors.measure.measure`).
+        draws from the root SeedSequence (:func:`cwlidar_sim.sensors.measure`).
     variants : list of dict, optional
         Extra processing of the same spectra (:data:`cwlidar_sim.signal.chain.VARIANT_KEYS`), e.g.
         ``{'name': 'raise10', 'threshold_raise_percent': 10}`` or

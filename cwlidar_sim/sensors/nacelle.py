@@ -92,7 +92,7 @@ from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.processing import Flag, usable_fraction
 from ..turbulence.cover import Region
 from .base import BeamSampler, LidarBase
-from .measure import Focus, LidarRecord, RecordPlan, measure
+from .protocol import Focus, LidarRecord, RecordPlan, measure
 from .platform import PlatformMotion, rotation_matrices
 
 __all__ = ["NacelleLidar", "measure_nacelle", "NACELLE_HALF_ANGLE_RANGE",
@@ -340,7 +340,7 @@ class NacelleLidar(LidarBase):
         """``Rz(gamma)``: the nacelle frame's axes in the field frame."""
         return rotation_matrices(0.0, 0.0, self.yaw_misalignment_deg)
 
-    # -- the Sensor protocol (cwlidar_sim.sensors.measure) -----------------
+    # -- the Sensor protocol (cwlidar_sim.sensors.protocol) -----------------
     def plan_record(self, field, U: float, *, wrap: bool, duration: float, start: float = 0.0) -> RecordPlan:
         """The dwells over ``[start, start + duration)``, one focus per focus distance (module notes)."""
         nf = len(self.focus_distances)
@@ -473,7 +473,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
                     calibration_time: float = 0.0) -> LidarRecord:
     """Simulate a nacelle lidar's record in a turbulence field (module notes).
 
-    The public API's form of :func:`cwlidar_sim.sensors.measure.measure`
+    The public API's form of :func:`cwlidar_sim.sensors.measure`
     for a nacelle lidar (a duration and a start).
 
     Parameters
@@ -494,7 +494,7 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
         noise): required by them (a ValueError without one: a record is never
         drawn from fresh entropy, the same seed gives the same bits); not used
         by tier 'los', whose record is the field's.  Each focus distance draws
-        from its child of the root SeedSequence (:func:`cwlidar_sim.sensors.measure.measure`).
+        from its child of the root SeedSequence (:func:`cwlidar_sim.sensors.measure`).
     start : float
         Start time [s].
     wrap : bool

@@ -206,7 +206,7 @@ def measure(field, sensor: Sensor, U: float, seed=None, *, variants=None, chunk:
     spread of the focus's field (:meth:`cwlidar_sim.sensors.LidarBase.subcell_spread_in`),
     and :func:`cwlidar_sim.signal.chain.run_chain` runs them.
 
-    Seeding, the one rule of every lidar (:func:`cwlidar_sim._seeding.focus_seeds`):
+    Seeding, the one rule of every lidar (``cwlidar_sim._seeding.focus_seeds``):
     a sensor with a focus list (the conical lidar's heights, the nacelle
     lidar's focus distances, a list of one included) gives its groups the
     children of the record's root ``SeedSequence`` in list order; a sensor

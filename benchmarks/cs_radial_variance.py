@@ -36,8 +36,9 @@ def one_height(z, seed, duration, U=10.0):
     from cwlidar_sim.analysis.vad import fit_record, sonic_radial_variance
     from cwlidar_sim.campaign.scenes.conical import default_spacing
     from cwlidar_sim.sensors import Sonic, sample_sonic
-    from cwlidar_sim.sensors.conical import ConicalLidar, conical_field, measure_conical
+    from cwlidar_sim.sensors.conical import ConicalLidar, measure_conical
     from cwlidar_sim.signal.processing import Flag
+    from cwlidar_sim.turbulence.cover import cover_box
     from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
 
     t0 = time.perf_counter()
@@ -45,7 +46,7 @@ def one_height(z, seed, duration, U=10.0):
     params, _, _ = surface_layer_parameters(z, U)
     lid = ConicalLidar(heights=(z,), cell_length=d)
     phi = math.radians(lid.half_angle_deg)
-    field = conical_field(lid, U, duration, params, 1000 + seed, spacing=d)
+    field = cover_box(lid.box_region(d), U, duration, params, 1000 + seed, spacing=d)
     rec = measure_conical(field, lid, duration, U)
     sel = rec.select(z)
     vel = sample_sonic(field, Sonic(position=(0.0, 0.0, z)), sel["time_e"], U)

@@ -69,11 +69,12 @@ def _cells_weighting(lid, r):
 def _box_modes(scene, period, U):
     """The (k2, k3) modes of the period's generated box and the REWS's grid nodes relative to the hub."""
     from cwlidar_sim.analysis.rews import RotorDisc, rotor_node_weights
-    from cwlidar_sim.sensors.nacelle import nacelle_field_shape
+    from cwlidar_sim.turbulence.cover import plan_box
 
     s = scene.scan
-    (nx, ny, nz), *_ = nacelle_field_shape(scene.sensor(period), U, scene.period_duration(period), s.spacing,
-                                           s.rotor_radius, min_extent=2.0 * scene.turbulence.length_scale)
+    nx, ny, nz = plan_box(scene.sensor(period).box_region(s.spacing, s.rotor_radius), U,
+                          scene.period_duration(period), s.spacing,
+                          min_extent=2.0 * scene.turbulence.length_scale).shape
     d = s.spacing
     yc = (np.arange(ny) - 0.5 * (ny - 1)) * d
     zc = (np.arange(nz) - 0.5 * (nz - 1)) * d

@@ -59,7 +59,10 @@ sigma_v^2 + sigma_w^2) / 2``).  Doppler spectra of the signal chain are
 powers per frequency bin (:mod:`cwlidar_sim.signal`).
 
 Array names carry their dimensions as a suffix of single letters (PyWake's
-habit), e.g. ``psd_tf`` is time x frequency.  The letters are:
+habit), e.g. ``psd_tf`` is time x frequency, ``vlos_els`` a line-of-sight
+speed per estimate, look and range cell.  The alphabet is closed: one letter,
+one meaning, and no other letter in a suffix (``tests/test_dimension_letters.py``).
+The letters are:
 
 ==  ==========================================================
 x   grid index along x (the mean-wind direction)
@@ -67,11 +70,16 @@ y   grid index along y (lateral)
 z   grid index along z (vertical)
 k   wavenumber k1 along x [rad/m]
 q   a second wavenumber axis (k2 or k3) [rad/m]
-c   velocity component (u, v, w)
+c   component of a vector: velocity (u, v, w) or direction (x, y, z)
 t   time sample
 f   frequency bin
-s   range cell along a beam
+s   range cell along a beam (the probe volume's cells, then the
+    mean-wind tail or a cloud cell)
+l   look: an equal sub-interval of an estimate's dwell (a
+    scanning beam's sweep)
 b   signal block (512 samples)
+n   sample within a signal block
+d   lag of an autocorrelation [samples]
 e   speed estimate (one output sample)
 p   averaging period
 ==  ==========================================================

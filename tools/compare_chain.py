@@ -52,9 +52,19 @@ def _with_legacy(cls, kind, **kw):
     return cls(**kw)
 
 
+def _conical_box(lid, U, duration, params, seed, **kw):
+    """The conical lidar's box, built by whichever function the revision has."""
+    try:
+        from cwlidar_sim.turbulence.cover import cover_box
+    except ImportError:  # revisions before turbulence.cover: the sensor module built it
+        from cwlidar_sim.sensors.conical import conical_field
+
+        return conical_field(lid, U, duration, params, seed, **kw)
+    return cover_box(lid.box_region(kw["spacing"]), U, duration, params, seed, **kw)
+
+
 def dump(path):
     from cwlidar_sim.sensors import ConicalLidar, StaringLidar, measure_conical, measure_staring
-    from cwlidar_sim.sensors.conical import conical_field
     from cwlidar_sim.signal import PROTOTYPE_2003, simulate_uniform
     from cwlidar_sim.turbulence import MannParameters, generate_line, generate_plane
 
@@ -104,7 +114,7 @@ def dump(path):
             if tier == "signal":
                 kw["instrument"] = ConicalLidar().instrument.replace(blocks_per_estimate=400)
             lid = _with_legacy(ConicalLidar, "conical", **kw)
-            box = conical_field(lid, 10.0, dur, p, 5, spacing=2.0, lateral_doubling=False)
+            box = _conical_box(lid, 10.0, dur, p, 5, spacing=2.0, lateral_doubling=False)
             rec = measure_conical(box, lid, dur, 10.0, 13)
             name = f"conical_{tier}_{len(heights)}h"
             out[f"{name}_vlos"] = rec.vlos_e

@@ -353,7 +353,7 @@ def scan_arrays(x_e, revolution_e, n_rev: int):
 
 def fit_record(record, height: float, n_rev: int, *, half_angle_deg: float = 30.0, reference_deg=None,
                excluded_flags: int | None = None, **kw) -> VadFit:
-    """VAD fits of a :class:`cwlidar_sim.sensors.conical.ConicalRecord` at one height, ``n_rev`` revolutions per scan.
+    """VAD fits of a conical lidar's :class:`~cwlidar_sim.sensors.LidarRecord` at one height, ``n_rev`` revolutions per scan.
 
     Points with NaN speed or any of ``excluded_flags`` (default: NO_SIGNAL,
     NEAR_ZERO, NEAR_NYQUIST, SECOND_PEAK, FIT_FAILED, PAUSED) are left out.

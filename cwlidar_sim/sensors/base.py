@@ -277,7 +277,7 @@ class LidarBase(LidarFields):
 
 
 class BeamSampler:
-    """Samples a field along a lidar's looks for one focus: the chain's ``vlos_elc`` (module notes).
+    """Samples a field along a lidar's looks for one focus: the chain's ``vlos_els`` (module notes).
 
     Parameters
     ----------
@@ -304,7 +304,7 @@ class BeamSampler:
         self.ptr_s = np.ascontiguousarray(cells.ptr_s, dtype=np.int64)
         self.weight_s = np.ascontiguousarray(cells.weight_s, dtype=np.float64)
         self.tail = float(cells.tail_weight)
-        self.n_c = cells.n_cells + (1 if self.tail > 0.0 else 0)
+        self.n_s = cells.n_cells + (1 if self.tail > 0.0 else 0)
         self.U, self.wrap = float(U), bool(wrap)
 
     def check_extent(self, n_dc) -> None:
@@ -312,17 +312,22 @@ class BeamSampler:
         _check_extent(self.fld, self.origin, np.atleast_2d(n_dc), self.range_p, self.wrap, 1e-6)
 
     def sample(self, time_l, n_lc):
-        """``(vlos_lc, vlos_l)`` of the looks at times ``time_l`` [s] along directions ``n_lc`` (unit)."""
+        """``(vlos_ls, vlos_l)`` of the looks at times ``time_l`` [s] along directions ``n_lc`` (unit).
+
+        ``vlos_ls[l, s]`` is the line-of-sight speed [m/s] of cell ``s`` (the
+        range cells, then the tail cell if any) in look ``l``; ``vlos_l`` their
+        weighted sum (tier 1).
+        """
         from ..beam._kernels import los_cells_kernel  # lazily: importing the sensors does not import numba
 
         n_l = time_l.size
-        vlos_lc = np.empty((n_l, self.n_c))
+        vlos_ls = np.empty((n_l, self.n_s))
         vlos_l = np.empty(n_l)
         f = self.fld
         los_cells_kernel(f.u, f.v, f.w, f.grid, self.wrap, self.wrap, self.origin, np.ascontiguousarray(n_lc),
                          self.range_p, self.fraction_p, self.ptr_s, self.weight_s, self.tail,
-                         np.ascontiguousarray(time_l, dtype=np.float64), self.U, True, True, vlos_lc, vlos_l)
-        return vlos_lc, vlos_l
+                         np.ascontiguousarray(time_l, dtype=np.float64), self.U, True, True, vlos_ls, vlos_l)
+        return vlos_ls, vlos_l
 
     def velocity_at(self, time_t, n_tc, ranges):
         """(u, v, w) of the total wind at ``ranges`` along ``n_tc`` at ``time_t``, shape (n_t, n_r, 3) [m/s]."""

@@ -77,22 +77,18 @@ import math
 
 import numpy as np
 
-from .._repr import summary_repr
-from .._seeding import focus_seeds
-from .._validation import check_bool, check_int, check_real, check_tuple
+from .._validation import check_int, check_real, check_tuple
 from ..beam.geometry import ConicalScanGeometry
-from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.spectral import speckle_looks
+from ..turbulence.cover import Region
 from .base import BeamSampler, LidarBase
+from .protocol import Focus, LidarRecord, RecordPlan, measure
 
 __all__ = [
-    "conical_box_yz",
     "ConicalLidar",
-    "ConicalRecord",
     "ScanSchedule",
     "measure_conical",
-    "conical_field",
     "HALF_ANGLE_RANGE",
     "FOCUS_RANGE",
 ]
@@ -281,9 +277,87 @@ class ConicalLidar(LidarBase):
         return {"radius": r_hi * s, "z_lo": self.position[2] + r_lo * c,
                 "z_hi": self.position[2] + r_hi * c}
 
+    def box_region(self, spacing) -> Region:
+        """The region a box must hold for this lidar (:func:`cwlidar_sim.turbulence.cover.cover_box`) [m].
+
+        Every height's cells all round the cone (:meth:`beam_extent`) and the
+        in-situ sensors at the measurement heights, grown by one grid step
+        ``dy``, ``dz`` across the wind and vertically (``spacing``: one value
+        or ``(dx, dy, dz)`` [m]).
+        """
+        if isinstance(spacing, (int, float, np.integer, np.floating)) and not isinstance(spacing, bool):
+            spacing = (spacing,) * 3
+        _, dy, dz = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, hi=100.0, lo_open=True))
+        radius = max(self.beam_extent(z)["radius"] for z in self.heights)
+        z_lo = min(self.beam_extent(z)["z_lo"] for z in self.heights)
+        z_hi = max(self.beam_extent(z)["z_hi"] for z in self.heights)
+        for z in self.heights:  # in-situ sensors at the measurement heights
+            z_lo, z_hi = min(z_lo, self.position[2] + z), max(z_hi, self.position[2] + z)
+        return Region(x_lo=self.position[0] - radius, length=2.0 * radius, y_mid=self.position[1],
+                      half_width=radius + dy, z_mid=0.5 * (z_lo + z_hi), half_height=0.5 * (z_hi - z_lo) + dz)
+
     def direction(self, azimuth_deg) -> np.ndarray:
         """Unit beam directions at the given azimuths [deg], shape (..., 3)."""
         return self.geometry.direction(azimuth_deg)
+
+    # -- the Sensor protocol (cwlidar_sim.sensors.protocol) -----------------
+    def plan_record(self, field, U: float, *, wrap: bool, duration: float, start: float = 0.0) -> RecordPlan:
+        """The scan's dwells over ``[start, start + duration)``, one focus per height (module notes)."""
+        sch = self.schedule(duration, start)
+        origin = np.asarray(self.position, dtype=np.float64)
+        nsub = self.sub_dwells
+        # look offsets within a dwell, in units of the dwell: (l + 1/2) / nsub - 1/2
+        off_l = (np.arange(nsub) + 0.5) / nsub - 0.5
+        ring = self.direction(np.linspace(0.0, 360.0, 73))
+        vel_cl = self.cloud_velocity(U)
+        groups, hinfos = [], []
+        for ih, z in enumerate(self.heights):
+            idx = np.flatnonzero(sch.focus_index_e == ih)
+            inst = self.instrument_at(z)
+            cells = self.cells(z)
+            sampler = BeamSampler(field, origin, inst.focus, cells, U, wrap)
+            sampler.check_extent(ring)  # every azimuth at the extreme ranges
+            wc = self.cloud_weight(z)
+            hinfo = {"focus": inst.focus, "circle_diameter": self.circle_diameter(z),
+                     "rayleigh_length": inst.rayleigh_length, "n_cells": cells.n_cells,
+                     "cell_length": float(cells.edges[1] - cells.edges[0]),
+                     "truncated_fraction": cells.truncated_fraction, "tail": self.tail,
+                     "spot_speed": self.spot_speed(z), "speckle_time": self.speckle_time(z),
+                     "m_eff": self.speckle_looks(z), "n_estimates": int(idx.size)}
+            if self.cloud_base is not None:
+                hinfo.update(cloud_range=self.cloud_base / math.cos(self._phi), cloud_weight=wc,
+                             cloud_fraction=wc / (1.0 + wc))
+            t_e, az_e = sch.time_e[idx], sch.azimuth_e[idx]
+
+            def sample(lo, hi, t_e=t_e, az_e=az_e, sampler=sampler, wc=wc):
+                nb = hi - lo
+                t_l = (t_e[lo:hi, None] + off_l[None, :] * self.dwell_time).ravel()
+                az_l = (az_e[lo:hi, None] + off_l[None, :] * self.dwell_angle_deg).ravel()
+                n_lc = np.ascontiguousarray(self.direction(az_l))
+                vlos_ls, vlos_l = sampler.sample(t_l, n_lc)
+                cloud = None if wc == 0.0 else (n_lc @ vel_cl).reshape(nb, nsub)
+                return vlos_ls.reshape(nb, nsub, -1), vlos_l.reshape(nb, nsub).mean(axis=1), cloud
+
+            groups.append(Focus(instrument=inst, index_e=idx, time_e=t_e, cells=cells, n_looks=nsub, sample=sample,
+                                transverse_speed=self.transverse_speed_at(z), field=field, cloud_weight=wc))
+            hinfos.append(hinfo)
+        return RecordPlan(time_e=sch.time_e, focus_index_e=sch.focus_index_e, foci=self.heights, groups=groups,
+                          extras={"azimuth_e": sch.azimuth_e, "revolution_e": sch.revolution_e,
+                                  "height_e": np.asarray(self.heights)[sch.focus_index_e]},
+                          context={"heights": hinfos})
+
+    def finish_record(self, record: LidarRecord, plan: RecordPlan, chain) -> LidarRecord:
+        """The record's ``info`` (:func:`measure_conical`)."""
+        info = {"tier": self.tier, "sub_dwells": self.sub_dwells, "n_estimates": plan.time_e.size, "heights": {}}
+        for z, hinfo, g in zip(self.heights, plan.context["heights"], chain.groups):
+            if hinfo["n_estimates"] == 0:
+                continue
+            if self.tier != "los":
+                hinfo.update(background=g["background"], speckle=g["speckle"], subcell_spread=g["subcell_spread"])
+            info["heights"][float(z)] = hinfo
+        info.update(flag_counts=chain.info["flag_counts"], n_failed=chain.info["n_failed"],
+                    estimator=chain.info["estimator"], variant_availability=chain.info["variant_availability"])
+        return dataclasses.replace(record, info=info)
 
     def schedule(self, duration: float, start: float = 0.0) -> "ScanSchedule":
         """Estimate times, azimuths and heights over ``[start, start + duration)`` (module notes).
@@ -310,18 +384,18 @@ class ConicalLidar(LidarBase):
             hidx = np.zeros(n, dtype=np.int64)
             scan_e = j // epr
         else:
-            block_n = self.revs_per_height * epr
-            block_t = self.revs_per_height * self.revolution_time + self.refocus_time
-            nb = int(math.floor((duration + self.refocus_time) / block_t + 1e-9))
+            per_block = self.revs_per_height * epr
+            block_duration = self.revs_per_height * self.revolution_time + self.refocus_time
+            nb = int(math.floor((duration + self.refocus_time) / block_duration + 1e-9))
             if nb < 1:
-                raise ValueError(f"duration={duration} s holds no complete height block of {block_t:g} s")
-            b = np.repeat(np.arange(nb), block_n)
-            j = np.tile(np.arange(block_n), nb)
-            time_e = start + b * block_t + (j + 0.5) * dt
+                raise ValueError(f"duration={duration} s holds no complete height block of {block_duration:g} s")
+            b = np.repeat(np.arange(nb), per_block)
+            j = np.tile(np.arange(per_block), nb)
+            time_e = start + b * block_duration + (j + 0.5) * dt
             hidx = b % nh
             scan_e = b * self.revs_per_height + j // epr
         az = self.geometry.azimuth_at(time_e)
-        return ScanSchedule(time_e=time_e, azimuth_e=az, height_index_e=hidx, revolution_e=scan_e,
+        return ScanSchedule(time_e=time_e, azimuth_e=az, focus_index_e=hidx, revolution_e=scan_e,
                             heights=self.heights)
 
 
@@ -335,7 +409,7 @@ class ScanSchedule:
         Dwell mid-times [s].
     azimuth_e : ndarray, shape (n_e,)
         Beam azimuth at the dwell's mid-time [deg] (unwrapped, increasing).
-    height_index_e : ndarray of int, shape (n_e,)
+    focus_index_e : ndarray of int, shape (n_e,)
         Index into ``heights`` of each estimate.
     revolution_e : ndarray of int, shape (n_e,)
         Revolution number of each estimate (consecutive within a height block).
@@ -345,71 +419,25 @@ class ScanSchedule:
 
     time_e: np.ndarray
     azimuth_e: np.ndarray
-    height_index_e: np.ndarray
+    focus_index_e: np.ndarray
     revolution_e: np.ndarray
     heights: tuple
 
 
-@dataclasses.dataclass(frozen=True)
-class ConicalRecord:
-    """Output of :func:`measure_conical`.
-
-    Attributes
-    ----------
-    time_e, azimuth_e, height_index_e, revolution_e : ndarray
-        The :class:`ScanSchedule` of the record.
-    height_e : ndarray, shape (n_e,)
-        Height of each estimate [m].
-    vlos_e : ndarray, shape (n_e,)
-        Tier-1 dwell-averaged weighted line-of-sight speed [m/s], signed: the ideal.
-    speed_e : ndarray, shape (n_e,)
-        The instrument's estimate |v_r| [m/s]; NaN where it failed.
-    flags_e : ndarray, uint8, shape (n_e,)
-        :class:`cwlidar_sim.signal.Flag` bits.
-    availability : float
-        Fraction of finite ``speed_e``.
-    info : dict
-        Per height: focus, circle diameter, Rayleigh length, cells, truncated
-        fraction, spot speed, speckle time and looks (with a cloud also
-        ``cloud_range`` [m], ``cloud_weight`` w_c and ``cloud_fraction``
-        w_c / (1 + w_c)); tier, sub_dwells, flag counts.
-    variants : dict
-        Variant name -> ``(speed_e, flags_e)`` (processing variants of the same spectra).
-    """
-
-    __repr__ = summary_repr
-
-    time_e: np.ndarray
-    azimuth_e: np.ndarray
-    height_index_e: np.ndarray
-    revolution_e: np.ndarray
-    height_e: np.ndarray
-    vlos_e: np.ndarray
-    speed_e: np.ndarray
-    flags_e: np.ndarray
-    availability: float
-    info: dict
-    variants: dict = dataclasses.field(default_factory=dict)
-
-    def select(self, height: float) -> dict:
-        """Arrays of the estimates at one height: time, azimuth, speed, flags, vlos, revolution."""
-        m = self.height_e == float(height)
-        if not m.any():
-            raise ValueError(f"height={height!r} is not in the record; allowed: {sorted(set(self.height_e))}")
-        return {"time_e": self.time_e[m], "azimuth_e": self.azimuth_e[m], "speed_e": self.speed_e[m],
-                "flags_e": self.flags_e[m], "vlos_e": self.vlos_e[m], "revolution_e": self.revolution_e[m]}
-
-
 def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=None, *, start: float = 0.0,
                     wrap: bool = False, variants=None, chunk: int = 4096,
-                    calibration_time: float = 0.0) -> ConicalRecord:
+                    calibration_time: float = 0.0) -> LidarRecord:
     """Simulate a conically scanning lidar's record of radial-speed estimates in a turbulence field.
+
+    The public API's form of :func:`cwlidar_sim.sensors.measure`
+    for a conical lidar (a duration and a start).
 
     Parameters
     ----------
     field : xarray.Dataset
         Box field (see :func:`cwlidar_sim.beam.sample_los`) holding every cell
-        of the cone (:func:`conical_field` builds one); u, v, w fluctuations [m/s].
+        of the cone (:func:`cwlidar_sim.turbulence.cover.cover_box` of
+        :meth:`ConicalLidar.box_region` builds one); u, v, w fluctuations [m/s].
     lidar : ConicalLidar
     duration : float
         Record length [s] (:meth:`ConicalLidar.schedule`).
@@ -419,7 +447,8 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
         Randomness of tiers 'spectral' and 'signal' (background, speckle,
         noise): required by them (a ValueError without one: a record is never
         drawn from fresh entropy, the same seed gives the same bits); not used
-        by tier 'los', whose record is the field's.
+        by tier 'los', whose record is the field's.  Each height draws from
+        its child of the root SeedSequence (:func:`cwlidar_sim.sensors.measure`).
     start : float
         Start time [s].
     wrap : bool
@@ -433,260 +462,17 @@ def measure_conical(field, lidar: ConicalLidar, duration: float, U: float, seed=
 
     Returns
     -------
-    ConicalRecord
+    LidarRecord
+        ``focus_index_e`` the index into ``heights``, ``foci`` the heights;
+        ``extras`` (also attributes): ``azimuth_e`` and ``revolution_e`` (the
+        :class:`ScanSchedule`), ``height_e`` [m]; ``info``: per height
+        (``info['heights'][z]``) the focus, circle diameter, Rayleigh length,
+        cells, truncated fraction, spot speed, speckle time and looks (with a
+        cloud also ``cloud_range`` [m], ``cloud_weight`` w_c and
+        ``cloud_fraction`` w_c / (1 + w_c)); tier, sub_dwells, flag counts.
+        ``rec.select(z)`` gives one height's arrays.
     """
     if not isinstance(lidar, ConicalLidar):
         raise TypeError(f"lidar must be a ConicalLidar, got {type(lidar).__name__}")
-    U = check_real("U", U, lo=-1000.0, hi=1000.0)
-    wrap = check_bool("wrap", wrap)
-    calibration_time = check_real("calibration_time", calibration_time)
-    sch = lidar.schedule(duration, start)
-    origin = np.asarray(lidar.position, dtype=np.float64)
-    ne = sch.time_e.size
-    nsub = lidar.sub_dwells
-    height_e = np.asarray(lidar.heights)[sch.height_index_e]
-    settings = lidar.chain_settings()
-    info = {"tier": lidar.tier, "sub_dwells": nsub, "n_estimates": ne, "heights": {}}
-    if lidar.tier != "los":
-        if seed is None:
-            raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
-        height_seqs = focus_seeds(seed, len(lidar.heights))
-    spread, _ = lidar.subcell_spread_in(field)
-    # look offsets within a dwell, in units of the dwell: (j + 1/2) / nsub - 1/2
-    off_j = (np.arange(nsub) + 0.5) / nsub - 0.5
-    ring = lidar.direction(np.linspace(0.0, 360.0, 73))
-    vel_cl = lidar.cloud_velocity(U)
-    groups, hinfos = [], []
-    for ih, z in enumerate(lidar.heights):
-        idx = np.flatnonzero(sch.height_index_e == ih)
-        inst = lidar.instrument_at(z)
-        cells = lidar.cells(z)
-        sampler = BeamSampler(field, origin, inst.focus, cells, U, wrap)
-        sampler.check_extent(ring)  # every azimuth at the extreme ranges
-        wc = lidar.cloud_weight(z)
-        hinfo = {"focus": inst.focus, "circle_diameter": lidar.circle_diameter(z),
-                 "rayleigh_length": inst.rayleigh_length, "n_cells": cells.n_cells,
-                 "cell_length": float(cells.edges[1] - cells.edges[0]), "truncated_fraction": cells.truncated_fraction,
-                 "tail": lidar.tail, "spot_speed": lidar.spot_speed(z), "speckle_time": lidar.speckle_time(z),
-                 "m_eff": lidar.speckle_looks(z), "n_estimates": int(idx.size)}
-        if lidar.cloud_base is not None:
-            hinfo.update(cloud_range=lidar.cloud_base / math.cos(lidar._phi), cloud_weight=wc,
-                         cloud_fraction=wc / (1.0 + wc))
-        t_e, az_e = sch.time_e[idx], sch.azimuth_e[idx]
-
-        def sample(lo, hi, t_e=t_e, az_e=az_e, sampler=sampler, wc=wc):
-            nb = hi - lo
-            t_l = (t_e[lo:hi, None] + off_j[None, :] * lidar.dwell_time).ravel()
-            az_l = (az_e[lo:hi, None] + off_j[None, :] * lidar.dwell_angle_deg).ravel()
-            n_lc = np.ascontiguousarray(lidar.direction(az_l))
-            vlos_lc, vlos_l = sampler.sample(t_l, n_lc)
-            cloud = None if wc == 0.0 else (n_lc @ vel_cl).reshape(nb, nsub)
-            return vlos_lc.reshape(nb, nsub, -1), vlos_l.reshape(nb, nsub).mean(axis=1), cloud
-
-        groups.append(FocusGroup(instrument=inst, index_e=idx, time_e=t_e, weight_c=cells.weight_c,
-                                 tail=cells.tail_weight > 0.0, n_looks=nsub,
-                                 sample=sample, seed=None if lidar.tier == "los" else height_seqs[ih],
-                                 transverse_speed=lidar.transverse_speed_at(z), subcell_spread=spread,
-                                 cloud_weight=wc, calibration_time=calibration_time))
-        hinfos.append((float(z), hinfo))
-    rec = run_chain(settings, groups, ne, variants=variants, chunk=chunk)
-    for (z, hinfo), g in zip(hinfos, rec.groups):
-        if hinfo["n_estimates"] == 0:
-            continue
-        if lidar.tier != "los":
-            hinfo.update(background=g["background"], speckle=g["speckle"], subcell_spread=g["subcell_spread"])
-        info["heights"][z] = hinfo
-    info.update(flag_counts=rec.info["flag_counts"], n_failed=rec.info["n_failed"], estimator=rec.info["estimator"],
-                variant_availability=rec.info["variant_availability"])
-    return ConicalRecord(time_e=sch.time_e, azimuth_e=sch.azimuth_e, height_index_e=sch.height_index_e,
-                         revolution_e=sch.revolution_e, height_e=height_e, vlos_e=rec.vlos_e, speed_e=rec.speed_e,
-                         flags_e=rec.flags_e, availability=rec.availability, info=info, variants=rec.variants)
-
-
-# ---------------------------------------------------------------------------
-# turbulence for the cone
-# ---------------------------------------------------------------------------
-def conical_field(lidar: ConicalLidar, U: float, duration: float, params, seed: int, *, spacing,
-                  lateral_doubling: bool = True, min_extent: float | None = None, extent=None,
-                  hf_compensation: bool = False, dtype=np.float32, period_x: float | None = None, condition=None):
-    """A Mann box holding a conical lidar's cells for a record, placed in the lidar's frame.
-
-    Parameters
-    ----------
-    lidar : ConicalLidar
-        Its heights, cone and span set the region (all heights together).
-    U : float
-        Mean wind [m/s]; the box's x period must hold ``U duration`` plus the
-        circle, so that no part of the field is seen twice.
-    duration : float
-        Record length [s]; > 0.
-    params : MannParameters
-    seed : int
-    spacing : float or (float, float, float)
-        Grid spacing in x, y and z [m] (one value: all three); each in (0, 100].
-    lateral_doubling : bool
-        Generate the box twice as wide in y and keep one half (hipersim's
-        default), so that the far side of the circle is not correlated with
-        its periodic image W - D away (see the notes).
-    min_extent : float, optional
-        Minimum lateral and vertical size of the kept box [m]; default
-        ``2 L`` (L the tensor's length scale), so that the lowest resolved
-        modes are not much shorter than the energy-containing eddies.
-    extent : (float, float, float), optional
-        Physical size (Lx, Ly, Lz) [m] of the kept box, at least what the
-        record and the cone need (checked).  With it the box's shape is
-        :func:`cwlidar_sim.turbulence.grids.grid_for_extent` of it and the
-        spacing (the spacing then ``L_i / N_i``), so boxes of one extent and
-        one seed on other grids hold the same Fourier coefficients at the
-        wavenumbers they share: a paired comparison of spacings.  Default:
-        sized from the spacing (cells rounded up, x FFT-friendly).
-    hf_compensation : bool
-        The box's high-frequency compensation
-        (:func:`cwlidar_sim.turbulence.generate_box`).
-    dtype : float32 or float64
-    period_x : float, optional
-        The box's x period [m], exactly (exclusive with ``extent``): the
-        virtual twin's box, whose period is the records' ``U T`` so that each
-        record covers one whole line (:mod:`cwlidar_sim.campaign.twin.run`).
-        ``nx`` is ``period_x / spacing[0]`` where that is a whole number
-        (the twin's choice: a node per record sample), else the smallest
-        FFT-friendly count with ``period_x / nx <= spacing[0]``; dx is
-        ``period_x / nx``.  Shorter than ``U duration``
-        plus the circle, so the lidar sees the periodic image within the
-        circle's reach (a few seconds) of the record's ends.
-    condition : callable, optional
-        ``condition(box) -> box`` applied to the generated box (all of it,
-        both lateral halves, in the lidar's frame) before one half is kept:
-        the twin conditions it there on the records, since the kept half of
-        a doubled box does not have a periodic box's covariance.
-
-    Returns
-    -------
-    xarray.Dataset
-        u, v, w [m/s] on x, y, z; y centred on the lidar, z from below the
-        lowest cell; attrs hold the generation settings (``period_x``,
-        ``lateral_doubling``, ``generated_shape``) and those ``condition``
-        adds.
-
-    Notes
-    -----
-    Lateral periodicity: a periodic box of width W correlates y with
-    y + W, so points at the two ends of a circle diameter D (y = +-D/2) are
-    only ``W - D`` apart through the periodic image; for W close to D the far
-    sides of the circle are nearly the same air.  Generating ``2 W`` and
-    keeping ``W`` makes the kept box's two lateral ends ``W`` apart through
-    the image as well (the generated box's correlation at lag ``2W - D``
-    instead of ``W - D``); the price is twice the generation cost.  Kept
-    boxes are not periodic in y, so sampling uses ``wrap=False``.
-    """
-    import xarray as xr
-
-    from ..turbulence.box import generate_box, keep_lateral_rows
-    from ..turbulence.parameters import MannParameters
-
-    if not isinstance(lidar, ConicalLidar):
-        raise TypeError(f"lidar must be a ConicalLidar, got {type(lidar).__name__}")
-    if not isinstance(params, MannParameters):
-        raise TypeError(f"params must be MannParameters, got {type(params).__name__}")
-    U = check_real("U", U, lo=0.0, hi=1000.0)
-    duration = check_real("duration", duration, lo=0.0, lo_open=True)
-    if isinstance(spacing, (int, float, np.integer, np.floating)) and not isinstance(spacing, bool):
-        spacing = (spacing,) * 3
-    dx, dy, dz = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, hi=100.0, lo_open=True))
-    lateral_doubling = check_bool("lateral_doubling", lateral_doubling)
-    hf_compensation = check_bool("hf_compensation", hf_compensation)
-    radius, z_lo, z_hi, width, height = _lateral_needs(lidar, params, dy, dz, min_extent)
-    length = U * duration + 2.0 * radius + 4.0 * dx
-    if period_x is not None:
-        if extent is not None:
-            raise ValueError("conical_field: give period_x or extent, not both")
-        period_x = check_real("period_x", period_x, lo=0.0, hi=1e7, lo_open=True)
-    if extent is None:
-        ny = int(math.ceil(width / dy)) + 1
-        nz = int(math.ceil(height / dz)) + 1
-        if period_x is None:
-            nx = _fast_size(int(math.ceil(length / dx)))
-        else:
-            nx = int(round(period_x / dx))
-            if abs(nx * dx - period_x) > 1e-9 * period_x:
-                nx = _fast_size(int(math.ceil(period_x / dx * (1 - 1e-12))))
-            dx = period_x / nx
-    else:
-        from ..turbulence.grids import grid_for_extent
-
-        ext3 = check_tuple("extent", extent, 3, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
-        (nx, ny, nz), (dx, dy, dz) = grid_for_extent(ext3, (dx, dy, dz))
-        # the kept box spans (N - 1) d between its first and last points; the x period N dx
-        for name, have, need in (("extent[0]", nx * dx, length), ("extent[1]", (ny - 1) * dy, width),
-                                 ("extent[2]", (nz - 1) * dz, height)):
-            if have < need * (1 - 1e-9):
-                raise ValueError(f"{name} gives {have:.4g} m, less than the {need:.4g} m the record and the cone "
-                                 f"need; allowed: a larger extent")
-    ny_gen = 2 * ny if lateral_doubling else ny
-    box = generate_box(params, (nx, ny_gen, nz), (dx, dy, dz), seed, hf_compensation=hf_compensation, dtype=dtype)
-    zc = 0.5 * (z_lo + z_hi)
-    if condition is not None and extent is not None:
-        raise ValueError("conical_field: condition needs the default placement (no extent)")
-    if extent is None:
-        x0 = lidar.position[0] - radius - dx
-        y0 = lidar.position[1] - 0.5 * (ny - 1) * dy
-        zb = zc - 0.5 * (nz - 1) * dz
-    else:  # origins of the physical size, not of the spacing: grids of one extent place their points alike
-        x0 = lidar.position[0] - radius - 0.5 * (ext3[0] - length + 4.0 * dx)
-        y0 = lidar.position[1] - 0.5 * ext3[1]
-        zb = zc - 0.5 * ext3[2]
-    if condition is not None:
-        box = box.assign_coords(x=x0 + np.arange(nx) * dx, y=y0 + np.arange(ny_gen) * dy, z=zb + np.arange(nz) * dz)
-        box = condition(box)
-    keep = (lambda a: np.ascontiguousarray(a[:, :ny, :])) if condition is not None else (lambda a: keep_lateral_rows(a, ny))
-    data = {c: (("x", "y", "z"), keep(box[c].values)) for c in ("u", "v", "w")}
-    attrs = dict(box.attrs)
-    attrs.update(period_x=nx * dx, lateral_doubling=int(lateral_doubling), generated_shape=(nx, ny_gen, nz))
-    del box
-    coords = {"x": x0 + np.arange(nx) * dx, "y": y0 + np.arange(ny) * dy,
-              "z": zb + np.arange(nz) * dz}
-    return xr.Dataset(data, coords=coords, attrs=attrs)
-
-
-def _lateral_needs(lidar, params, dy, dz, min_extent):
-    """(radius, z_lo, z_hi, width, height) [m]: the cone's reach and the kept box's lateral and vertical needs."""
-    ext = 2.0 * params.length_scale if min_extent is None else check_real("min_extent", min_extent, lo=0.0)
-    radius = max(lidar.beam_extent(z)["radius"] for z in lidar.heights)
-    z_lo = min(lidar.beam_extent(z)["z_lo"] for z in lidar.heights)
-    z_hi = max(lidar.beam_extent(z)["z_hi"] for z in lidar.heights)
-    for z in lidar.heights:  # in-situ sensors at the measurement heights
-        z_lo, z_hi = min(z_lo, lidar.position[2] + z), max(z_hi, lidar.position[2] + z)
-    return radius, z_lo, z_hi, max(2.0 * radius + 2.0 * dy, ext), max(z_hi - z_lo + 2.0 * dz, ext)
-
-
-def conical_box_yz(lidar: ConicalLidar, params, *, spacing, lateral_doubling: bool = True,
-                   min_extent: float | None = None):
-    """The y and z nodes [m] of the box :func:`conical_field` generates (both lateral halves; default placement).
-
-    They do not depend on the wind or the record length: the virtual twin
-    uses them to choose the records a box can be conditioned on before it
-    sizes the box's x period from those records' mean speed.
-    """
-    if isinstance(spacing, (int, float, np.integer, np.floating)) and not isinstance(spacing, bool):
-        spacing = (spacing,) * 3
-    _, dy, dz = check_tuple("spacing", spacing, 3, lambda n, v: check_real(n, v, lo=0.0, hi=100.0, lo_open=True))
-    _, z_lo, z_hi, width, height = _lateral_needs(lidar, params, dy, dz, min_extent)
-    ny = int(math.ceil(width / dy)) + 1
-    nz = int(math.ceil(height / dz)) + 1
-    ny_gen = 2 * ny if check_bool("lateral_doubling", lateral_doubling) else ny
-    y0 = lidar.position[1] - 0.5 * (ny - 1) * dy
-    zb = 0.5 * (z_lo + z_hi) - 0.5 * (nz - 1) * dz
-    return y0 + np.arange(ny_gen) * dy, zb + np.arange(nz) * dz
-
-
-def _fast_size(n: int) -> int:
-    """Smallest integer >= n whose prime factors are 2, 3 and 5 (fast FFT lengths)."""
-    m = max(2, n)
-    while True:
-        k = m
-        for p in (2, 3, 5):
-            while k % p == 0:
-                k //= p
-        if k == 1:
-            return m
-        m += 1
+    return measure(field, lidar, U, seed, variants=variants, chunk=chunk, wrap=wrap, calibration_time=calibration_time,
+                   duration=duration, start=start)

@@ -48,15 +48,13 @@ import dataclasses
 
 import numpy as np
 
-from .._repr import summary_repr
-from .._seeding import focus_seeds
-from .._validation import check_bool, check_int, check_real, check_tuple
+from .._validation import check_int, check_real, check_tuple
 from ..beam.sampling import _prepare_beam, direction_from_angles
-from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import PROTOTYPE_2003, Instrument
 from .base import BeamSampler, LidarBase
+from .protocol import Focus, LidarRecord, RecordPlan, measure
 
-__all__ = ["StaringLidar", "LidarRecord", "measure_staring"]
+__all__ = ["StaringLidar", "measure_staring"]
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -110,55 +108,79 @@ class StaringLidar(LidarBase):
         """The cloud's weight relative to the aerosol probe volume, ``w_c`` [-] (0 if the beam never reaches it)."""
         return self.cloud_weight_at(self.instrument, float(self.direction[2]))
 
+    # -- the Sensor protocol (cwlidar_sim.sensors.protocol) -----------------
+    def plan_record(self, field, U: float, *, wrap: bool, times_e, transverse_speed: float | None = None) -> RecordPlan:
+        """One fixed focus, one look per estimate at ``times_e`` [s] (module notes)."""
+        inst = self.instrument
+        cells = self.cells()
+        n3 = np.ascontiguousarray(self.direction, dtype=np.float64)
+        origin, _, time_e, _ = _prepare_beam(self.position, n3, times_e, np.maximum(inst.focus + cells.sub_p, 0.0))
+        time_e = np.ascontiguousarray(time_e, dtype=np.float64)
+        sampler = BeamSampler(field, origin, inst.focus, cells, U, wrap)
+        sampler.check_extent(n3)
+        ne = time_e.size
+        wc = self.cloud_weight()
+        vel_cl = self.cloud_velocity(U)
 
-@dataclasses.dataclass(frozen=True)
-class LidarRecord:
-    """Output of :func:`measure_staring`.
+        def sample(lo, hi):
+            vlos_ls, vlos_l = sampler.sample(time_e[lo:hi], np.broadcast_to(n3, (hi - lo, 3)))
+            cloud = None if wc == 0.0 else np.full((hi - lo, 1), float(n3 @ vel_cl))
+            return vlos_ls[:, None, :], vlos_l, cloud
 
-    Attributes
-    ----------
-    time_e : ndarray, float64, shape (n_e,)
-        Estimate (mid-)times [s].
-    vlos_e : ndarray, float64, shape (n_e,)
-        Tier-1 probe-volume weighted line-of-sight speed of the total wind
-        [m/s], signed (positive away from the lidar): the ideal.
-    speed_e : ndarray, float64, shape (n_e,)
-        The instrument's speed estimate |v| [m/s] (>= 0); NaN where the
-        processing failed.
-    flags_e : ndarray, uint8, shape (n_e,)
-        :class:`cwlidar_sim.signal.Flag` bit fields.
-    variants : dict
-        Variant name -> ``(speed_e, flags_e)`` from the same spectra processed
-        with that variant's overrides.
-    availability : float
-        Fraction of finite ``speed_e`` [-].
-    info : dict
-        Run information: ``tier``, ``n_estimates``, ``n_cells``,
-        ``cell_length`` [m], ``span``, ``weighting``, ``tail``,
-        ``kept_fraction``, ``truncated_fraction``, ``rayleigh_length`` [m],
-        ``focus`` [m], ``direction``, ``cnr_db``, ``transverse_speed`` [m/s]
-        and its ``transverse_speed_source``, ``correlation_time`` [s],
-        ``m_eff``, ``speckle`` (the model used), ``subcell_spread`` [m/s] and
-        its ``subcell_spread_source``, ``background``, ``estimator``,
-        ``flag_counts``, ``variant_availability``, with a cloud
-        ``cloud_weight`` and ``cloud_fraction``.
-    """
+        vt, src = 0.0, None
+        if self.tier != "los":
+            if transverse_speed is not None:
+                vt, src = check_real("transverse_speed", transverse_speed, lo=0.0, hi=1000.0), "argument"
+            elif self.transverse_speed is not None:
+                vt, src = self.transverse_speed, "lidar"
+            else:
+                vel_tsc, vlos_ts = sampler.velocity_at(time_e, np.broadcast_to(n3, (ne, 3)), [inst.focus])
+                perp = vel_tsc[:, 0, :] - vlos_ts[:, :1] * n3[None, :]
+                vt, src = float(np.sqrt(np.mean(np.sum(perp * perp, axis=1)))), "field rms at the focus"
+        focus = Focus(instrument=inst, index_e=np.arange(ne), time_e=time_e, cells=cells, n_looks=1, sample=sample,
+                      transverse_speed=vt, field=field, cloud_weight=wc)
+        return RecordPlan(time_e=time_e, focus_index_e=np.zeros(ne, dtype=np.int64), foci=(inst.focus,),
+                          groups=[focus], fixed_focus=True, context={"n3": n3, "transverse_speed_source": src})
 
-    __repr__ = summary_repr
-
-    time_e: np.ndarray
-    vlos_e: np.ndarray
-    speed_e: np.ndarray
-    flags_e: np.ndarray
-    variants: dict
-    availability: float
-    info: dict
+    def finish_record(self, record: LidarRecord, plan: RecordPlan, chain) -> LidarRecord:
+        """The record's ``info`` (:func:`measure_staring`)."""
+        inst, focus = self.instrument, plan.groups[0]
+        cells, n3, wc = focus.cells, plan.context["n3"], focus.cloud_weight
+        info = {
+            "tier": self.tier, "n_estimates": plan.time_e.size, "n_cells": cells.n_cells,
+            "cell_length": float(cells.edges[1] - cells.edges[0]), "span": self.span, "weighting": self.weighting,
+            "tail": self.tail, "cell_growth": self.cell_growth,
+            "kept_fraction": cells.kept_fraction, "truncated_fraction": cells.truncated_fraction,
+            "rayleigh_length": inst.rayleigh_length, "focus": inst.focus, "direction": tuple(float(c) for c in n3),
+            "cnr_db": self.cnr_db,
+        }
+        g = chain.groups[0]
+        los = self.tier == "los"
+        info.update(estimator=chain.info["estimator"], transverse_speed=None if los else focus.transverse_speed,
+                    transverse_speed_source=plan.context["transverse_speed_source"],
+                    correlation_time=g["correlation_time"], m_eff=g["m_eff"], speckle=g["speckle"],
+                    subcell_spread=None if los else g["subcell_spread"],
+                    subcell_spread_source=None if los else self.subcell_spread_in(focus.field)[1],
+                    background=g["background"], flag_counts=chain.info["flag_counts"],
+                    variant_availability=chain.info["variant_availability"])
+        if not los:
+            info.update(background_gain=g["background_gain"], cnr_db_range=g["cnr_db_range"],
+                        n_failed=chain.info["n_failed"])
+        else:
+            info["note"] = ("tier 'los' is the ideal weighted line-of-sight average; speed_e = |vlos_e| with the "
+                            "blind zone")
+        if wc > 0.0:
+            info.update(cloud_weight=wc, cloud_fraction=wc / (1.0 + wc))
+        return dataclasses.replace(record, info=info)
 
 
 def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed=None, *, variants=None, chunk: int = 4096,
                     transverse_speed: float | None = None, wrap: bool = False,
                     calibration_time: float = 0.0) -> LidarRecord:
     """Simulate a staring lidar's record of speed estimates in a turbulence field.
+
+    The public API's form of :func:`cwlidar_sim.sensors.measure`
+    for a staring lidar (its estimate times given).
 
     Parameters
     ----------
@@ -169,12 +191,13 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed=None, *,
     times_e : array_like, shape (n_e,)
         Estimate mid-times [s] (e.g. ``arange(n) / instrument.estimate_rate``).
     U : float
-        Mean wind along +x [m/s] (Taylor advection and the mean of u).
+        Mean wind along +x [m/s] (Taylor advection and the mean of u); in [-1000, 1000].
     seed : int or numpy.random.Generator, optional
         Randomness of tiers 'spectral' and 'signal' (background, speckle,
         noise): required by them (a ValueError without one: a record is never
         drawn from fresh entropy, the same seed gives the same bits); not used
-        by tier 'los', whose record is the field's.
+        by tier 'los', whose record is the field's.  The one focus group
+        draws from the root SeedSequence (:func:`cwlidar_sim.sensors.measure`).
     variants : list of dict, optional
         Extra processing of the same spectra (:data:`cwlidar_sim.signal.chain.VARIANT_KEYS`), e.g.
         ``{'name': 'raise10', 'threshold_raise_percent': 10}`` or
@@ -193,69 +216,20 @@ def measure_staring(field, lidar: StaringLidar, times_e, U: float, seed=None, *,
     Returns
     -------
     LidarRecord
+        ``focus_index_e`` all 0, ``foci`` the focus; ``info``: ``tier``,
+        ``n_estimates``, ``n_cells``, ``cell_length`` [m], ``span``,
+        ``weighting``, ``tail``, ``kept_fraction``, ``truncated_fraction``,
+        ``rayleigh_length`` [m], ``focus`` [m], ``direction``, ``cnr_db``,
+        ``transverse_speed`` [m/s] and its ``transverse_speed_source``,
+        ``correlation_time`` [s], ``m_eff``, ``speckle`` (the model used),
+        ``subcell_spread`` [m/s] and its ``subcell_spread_source``,
+        ``background``, ``estimator``, ``flag_counts``,
+        ``variant_availability``, with a cloud ``cloud_weight`` and
+        ``cloud_fraction``.
     """
     if not isinstance(lidar, StaringLidar):
         raise TypeError(f"lidar must be a StaringLidar, got {type(lidar).__name__}")
-    if lidar.tier != "los" and seed is None:
-        raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
-    inst = lidar.instrument
-    U = check_real("U", U)
-    check_int("chunk", chunk, lo=1, hi=10**6)
-    wrap = check_bool("wrap", wrap)
-    calibration_time = check_real("calibration_time", calibration_time)
-    settings = lidar.chain_settings()
-    cells = lidar.cells()
-    n3 = np.ascontiguousarray(lidar.direction, dtype=np.float64)
-    origin, _, time_e, _ = _prepare_beam(lidar.position, n3, times_e, np.maximum(inst.focus + cells.sub_p, 0.0))
-    time_e = np.ascontiguousarray(time_e, dtype=np.float64)
-    sampler = BeamSampler(field, origin, inst.focus, cells, U, wrap)
-    sampler.check_extent(n3)
-    ne = time_e.size
-    info = {
-        "tier": lidar.tier, "n_estimates": ne, "n_cells": cells.n_cells,
-        "cell_length": float(cells.edges[1] - cells.edges[0]), "span": lidar.span, "weighting": lidar.weighting,
-        "tail": lidar.tail, "cell_growth": lidar.cell_growth,
-        "kept_fraction": cells.kept_fraction, "truncated_fraction": cells.truncated_fraction,
-        "rayleigh_length": inst.rayleigh_length, "focus": inst.focus, "direction": tuple(float(c) for c in n3),
-        "cnr_db": lidar.cnr_db,
-    }
-    wc = lidar.cloud_weight()
-    vel_cl = lidar.cloud_velocity(U)
+    return measure(field, lidar, U, seed, variants=variants, chunk=chunk, wrap=wrap, calibration_time=calibration_time,
+                   times_e=times_e, transverse_speed=transverse_speed)
 
-    def sample(lo, hi):
-        vlos_lc, vlos_l = sampler.sample(time_e[lo:hi], np.broadcast_to(n3, (hi - lo, 3)))
-        cloud = None if wc == 0.0 else np.full((hi - lo, 1), float(n3 @ vel_cl))
-        return vlos_lc[:, None, :], vlos_l, cloud
-
-    vt, src, spread, spread_src = 0.0, None, 0.0, None
-    if lidar.tier != "los":
-        if transverse_speed is not None:
-            vt, src = check_real("transverse_speed", transverse_speed, lo=0.0, hi=1000.0), "argument"
-        elif lidar.transverse_speed is not None:
-            vt, src = lidar.transverse_speed, "lidar"
-        else:
-            vel_tsc, vlos_ts = sampler.velocity_at(time_e, np.broadcast_to(n3, (ne, 3)), [inst.focus])
-            perp = vel_tsc[:, 0, :] - vlos_ts[:, :1] * n3[None, :]
-            vt, src = float(np.sqrt(np.mean(np.sum(perp * perp, axis=1)))), "field rms at the focus"
-        spread, spread_src = lidar.subcell_spread_in(field)
-    group = FocusGroup(instrument=inst, index_e=np.arange(ne), time_e=time_e, weight_c=cells.weight_c,
-                       tail=cells.tail_weight > 0.0, n_looks=1,
-                       sample=sample, seed=None if lidar.tier == "los" else focus_seeds(seed, None)[0],
-                       transverse_speed=vt, subcell_spread=spread, cloud_weight=wc,
-                       calibration_time=calibration_time)
-    rec = run_chain(settings, [group], ne, variants=variants, chunk=chunk)
-    g = rec.groups[0]
-    info.update(estimator=rec.info["estimator"], transverse_speed=vt if lidar.tier != "los" else None,
-                transverse_speed_source=src, correlation_time=g["correlation_time"], m_eff=g["m_eff"],
-                speckle=g["speckle"], subcell_spread=g["subcell_spread"] if lidar.tier != "los" else None,
-                subcell_spread_source=spread_src, background=g["background"],
-                flag_counts=rec.info["flag_counts"], variant_availability=rec.info["variant_availability"])
-    if lidar.tier != "los":
-        info.update(background_gain=g["background_gain"], cnr_db_range=g["cnr_db_range"], n_failed=rec.info["n_failed"])
-    else:
-        info["note"] = "tier 'los' is the ideal weighted line-of-sight average; speed_e = |vlos_e| with the blind zone"
-    if wc > 0.0:
-        info.update(cloud_weight=wc, cloud_fraction=wc / (1.0 + wc))
-    return LidarRecord(time_e=time_e, vlos_e=rec.vlos_e, speed_e=rec.speed_e, flags_e=rec.flags_e,
-                       variants=rec.variants, availability=rec.availability, info=info)
 

@@ -86,17 +86,16 @@ import math
 
 import numpy as np
 
-from .._repr import summary_repr
-from .._seeding import focus_seeds
 from .._validation import check_bool, check_int, check_real, check_tuple
 from ..beam.geometry import ConicalScanGeometry
-from ..signal.chain import FocusGroup, run_chain
 from ..signal.instrument import CS_SERIES, Instrument
 from ..signal.processing import Flag, usable_fraction
+from ..turbulence.cover import Region
 from .base import BeamSampler, LidarBase
+from .protocol import Focus, LidarRecord, RecordPlan, measure
 from .platform import PlatformMotion, rotation_matrices
 
-__all__ = ["NacelleLidar", "NacelleRecord", "measure_nacelle", "nacelle_field", "NACELLE_HALF_ANGLE_RANGE",
+__all__ = ["NacelleLidar", "measure_nacelle", "NACELLE_HALF_ANGLE_RANGE",
            "NACELLE_FOCUS_RANGE"]
 
 #: Allowed half-angle of the scan cone from the rotor axis [deg].
@@ -303,6 +302,36 @@ class NacelleLidar(LidarBase):
             return self.geometry.spot_speed(focus)
         return max(abs(U) * math.sin(math.radians(self.half_angle_deg)), 1e-3)
 
+    def box_region(self, spacing: float, rotor_radius: float = 0.0) -> Region:
+        """The region a box must hold for this lidar (:func:`cwlidar_sim.turbulence.cover.cover_box`) [m].
+
+        Every focus's cells up to the farthest, upwind of ``position``, and a
+        rotor disc of radius ``rotor_radius`` [m] on its axis, grown by two
+        grid steps ``spacing`` [m] (in (0, 100]), then by the reach of the
+        yaw misalignment and of the platform's motion (its largest
+        displacements and turns).
+        """
+        d = check_real("spacing", spacing, lo=0.0, hi=100.0, lo_open=True)
+        R = check_real("rotor_radius", rotor_radius, lo=0.0)
+        a = math.radians(self.half_angle_deg)
+        far = max(r + c.edges[-1] for r, c in ((r, self.cells(r)) for r in self.focus_distances))
+        reach = far * math.cos(a) + 2.0 * d
+        radius = max(far * math.sin(a), R) + 2.0 * d
+        if self.motion is not None:
+            m = self.motion
+            reach += float(np.abs(m.surge).max())
+            radius += float(max(np.abs(m.sway).max(), np.abs(m.heave).max())) + far * math.sin(
+                math.radians(float(max(np.abs(m.roll_deg).max(), np.abs(m.pitch_deg).max(), np.abs(m.yaw_deg).max())
+                                   + abs(self.yaw_misalignment_deg))))
+        elif self.yaw_misalignment_deg:
+            radius += far * math.sin(math.radians(abs(self.yaw_misalignment_deg)))
+        return Region(x_lo=self.position[0] - reach, length=reach, y_mid=self.position[1], half_width=radius,
+                      z_mid=self.position[2], half_height=radius)
+
+    def box_planes(self) -> list:
+        """x [m] of the planes of evolving turbulence: the rotor's (the lidar's) and each focus distance's."""
+        return [self.position[0]] + [self.position[0] - self.preview_distance(r) for r in self.focus_distances]
+
     def nacelle_direction(self, azimuth_deg) -> np.ndarray:
         """Unit beam directions in the nacelle frame at rest, shape (..., 3)."""
         return self.geometry.direction(azimuth_deg)
@@ -310,6 +339,82 @@ class NacelleLidar(LidarBase):
     def yaw_matrix(self) -> np.ndarray:
         """``Rz(gamma)``: the nacelle frame's axes in the field frame."""
         return rotation_matrices(0.0, 0.0, self.yaw_misalignment_deg)
+
+    # -- the Sensor protocol (cwlidar_sim.sensors.protocol) -----------------
+    def plan_record(self, field, U: float, *, wrap: bool, duration: float, start: float = 0.0) -> RecordPlan:
+        """The dwells over ``[start, start + duration)``, one focus per focus distance (module notes)."""
+        nf = len(self.focus_distances)
+        fields = list(field) if isinstance(field, (list, tuple)) else [field] * nf
+        if len(fields) != nf:
+            raise ValueError(f"field: one box per focus distance ({nf}) or one box for all, got {len(fields)}")
+        time_e, az_e, fidx_e, rev_e = self.schedule(duration, start)
+        ne = time_e.size
+        nsub = self.sub_dwells
+        off_l = (np.arange(nsub) + 0.5) / nsub - 0.5
+        dang = 360.0 / self.estimates_per_rev if self.circle else 0.0
+        t_el = time_e[:, None] + off_l[None, :] * self.dwell_time
+        az_el = az_e[:, None] + off_l[None, :] * dang
+        if self.motion is not None:
+            self.motion.check_covers(float(t_el.min()), float(t_el.max()))
+        origin0, n_elc, known_elc, ddot_elc = (None if a is None else a.reshape(ne, nsub, 3)
+                                               for a in _look_geometry(self, t_el.ravel(), az_el.ravel()))
+        blocked_e = _blocked(self, t_el, az_el).mean(axis=1) if ne else np.zeros(0)
+        groups, finfo = [], {}
+        pos = np.asarray(self.position, dtype=np.float64)
+        for i, r in enumerate(self.focus_distances):
+            idx = np.flatnonzero(fidx_e == i)
+            inst, cells = self.instrument_at(r), self.cells(r)
+            sampler = BeamSampler(fields[i], pos, r, cells, U, wrap)
+            if origin0 is None:
+                sampler.check_extent(n_elc[idx].reshape(-1, 3)[:: max(1, nsub)] if idx.size else n_elc[:0, 0])
+
+            def sample(lo, hi, idx=idx, sampler=sampler):
+                sel = idx[lo:hi]
+                t_l = t_el[sel].ravel()
+                n_lc = np.ascontiguousarray(n_elc[sel].reshape(-1, 3))
+                if origin0 is None:
+                    vlos_ls, vlos_l = sampler.sample(t_l, n_lc)
+                else:
+                    vlos_ls, vlos_l = _sample_moving(sampler, origin0[sel].reshape(-1, 3), t_l, n_lc)
+                rel = np.einsum("lc,lc->l", n_lc, ddot_elc[sel].reshape(-1, 3))  # the lidar's own speed along n
+                vlos_ls -= rel[:, None]
+                vlos_l -= rel
+                return vlos_ls.reshape(sel.size, nsub, -1), vlos_l.reshape(sel.size, nsub).mean(axis=1), None
+
+            groups.append(Focus(instrument=inst, index_e=idx, time_e=time_e[idx], cells=cells, n_looks=nsub,
+                                sample=sample, transverse_speed=self.transverse_speed_at(r, U), field=fields[i]))
+            finfo[float(r)] = {"preview_distance": self.preview_distance(r), "rayleigh_length": inst.rayleigh_length,
+                               "n_cells": cells.n_cells, "truncated_fraction": cells.truncated_fraction,
+                               "transverse_speed": self.transverse_speed_at(r, U), "n_estimates": int(idx.size)}
+        extras = {"azimuth_e": az_e, "revolution_e": rev_e, "focus_e": np.asarray(self.focus_distances)[fidx_e]}
+        return RecordPlan(time_e=time_e, focus_index_e=fidx_e, foci=self.focus_distances, groups=groups,
+                          extras=extras, context={"n_elc": n_elc, "known_elc": known_elc, "ddot_elc": ddot_elc,
+                                                  "blocked_e": blocked_e, "focus": finfo})
+
+    def finish_record(self, record: LidarRecord, plan: RecordPlan, chain) -> LidarRecord:
+        """Blade blockage, the line-of-sight wind and its directions, the ``info`` (:func:`measure_nacelle`)."""
+        ctx = plan.context
+        n_elc, ddot_elc, blocked_e = ctx["n_elc"], ctx["ddot_elc"], ctx["blocked_e"]
+        ne, nsub = plan.time_e.size, self.sub_dwells
+        speed_e, flags_e = chain.speed_e.copy(), chain.flags_e.copy()
+        lost = blocked_e > self.blockage_fraction
+        speed_e[lost] = np.nan
+        flags_e[lost] |= np.uint8(Flag.BLOCKED)
+        variants_out = {}
+        for name, (s, f) in chain.variants.items():
+            s, f = s.copy(), f.copy()
+            s[lost] = np.nan
+            f[lost] |= np.uint8(Flag.BLOCKED)
+            variants_out[name] = (s, f)
+        corr_e = np.einsum("elc,elc->e", n_elc, ddot_elc) / nsub if self.motion_correction else np.zeros(ne)
+        info = {"tier": self.tier, "sub_dwells": nsub, "n_estimates": ne, "focus": ctx["focus"],
+                "flag_counts": {f.name: int(np.count_nonzero(flags_e & f.value)) for f in Flag},
+                "n_blocked": int(lost.sum()), "estimator": chain.info["estimator"]}
+        extras = dict(record.extras, los_e=-speed_e + corr_e, direction_ec=ctx["known_elc"].mean(axis=1),
+                      field_direction_ec=n_elc.mean(axis=1), blocked_e=blocked_e, correction_e=corr_e)
+        return dataclasses.replace(record, speed_e=speed_e, flags_e=flags_e, variants=variants_out,
+                                   availability=usable_fraction(speed_e, flags_e) if ne else 0.0, info=info,
+                                   extras=extras)
 
     def schedule(self, duration: float, start: float = 0.0):
         """``(time_e, azimuth_e, focus_index_e, revolution_e)`` of the record (module notes)."""
@@ -320,77 +425,17 @@ class NacelleLidar(LidarBase):
                              f"{self.revolution_time} s")
         epr, dt = self.estimates_per_rev, self.dwell_time
         nf = len(self.focus_distances)
-        block_n = self.revs_per_focus * epr
-        block_t = self.revs_per_focus * self.revolution_time + (self.refocus_time if nf > 1 else 0.0)
-        nb = int(math.floor((duration + (self.refocus_time if nf > 1 else 0.0)) / block_t + 1e-9))
-        b = np.repeat(np.arange(nb), block_n)
-        j = np.tile(np.arange(block_n), nb)
-        time_e = start + b * block_t + (j + 0.5) * dt
+        per_block = self.revs_per_focus * epr
+        block_duration = self.revs_per_focus * self.revolution_time + (self.refocus_time if nf > 1 else 0.0)
+        nb = int(math.floor((duration + (self.refocus_time if nf > 1 else 0.0)) / block_duration + 1e-9))
+        b = np.repeat(np.arange(nb), per_block)
+        j = np.tile(np.arange(per_block), nb)
+        time_e = start + b * block_duration + (j + 0.5) * dt
         if self.circle:
             az = self.azimuth0_deg + 360.0 * (time_e - start) / self.revolution_time
         else:
             az = np.asarray(self.beam_azimuths_deg)[j % len(self.beam_azimuths_deg)]
         return time_e, az, b % nf, b * self.revs_per_focus + j // epr
-
-
-@dataclasses.dataclass(frozen=True)
-class NacelleRecord:
-    """Output of :func:`measure_nacelle`.
-
-    Attributes
-    ----------
-    time_e, azimuth_e : ndarray, shape (n_e,)
-        Dwell mid-times [s]; beam azimuths at them [deg] (nacelle frame).
-    focus_index_e, revolution_e : ndarray of int, shape (n_e,)
-        Index into ``focus_distances``; revolution (or cycle) number.
-    focus_e : ndarray, shape (n_e,)
-        Focus distance [m].
-    vlos_e : ndarray, shape (n_e,)
-        Tier-1 ideal: the dwell-averaged weighted line-of-sight speed of the
-        wind relative to the lidar [m/s], signed (< 0 into the wind).
-    speed_e, flags_e : ndarray
-        The instrument's |v_los| [m/s] (NaN where lost) and its :class:`~cwlidar_sim.signal.Flag` bits.
-    los_e : ndarray, shape (n_e,)
-        The lidar's line-of-sight wind estimate [m/s]: ``-speed_e``, plus
-        ``n . d'`` with the motion correction (module notes).
-    direction_ec : ndarray, shape (n_e, 3)
-        The direction ``los_e`` refers to in the nacelle frame at rest [-]
-        (mean of the looks'; with motion only with the correction).
-    field_direction_ec : ndarray, shape (n_e, 3)
-        Mean of the looks' true directions in the field frame [-].
-    blocked_e : ndarray, shape (n_e,)
-        Fraction of the dwell's looks blocked by a blade [-].
-    availability : float
-        Fraction of usable estimates (:func:`cwlidar_sim.signal.processing.usable_fraction`).
-    info : dict
-        Per focus: preview distance, Rayleigh length, cells, speckle; tier,
-        flag counts.
-    variants : dict
-        Variant name -> ``(speed_e, flags_e)``.
-    correction_e : ndarray, shape (n_e,)
-        The motion correction ``n . d'`` added to ``-speed_e`` [m/s] (0 without
-        ``motion_correction``); add it to a variant's ``-speed`` or to ``vlos_e``
-        to correct them alike.
-    """
-
-    __repr__ = summary_repr
-
-    time_e: np.ndarray
-    azimuth_e: np.ndarray
-    focus_index_e: np.ndarray
-    revolution_e: np.ndarray
-    focus_e: np.ndarray
-    vlos_e: np.ndarray
-    speed_e: np.ndarray
-    flags_e: np.ndarray
-    los_e: np.ndarray
-    direction_ec: np.ndarray
-    field_direction_ec: np.ndarray
-    blocked_e: np.ndarray
-    availability: float
-    info: dict
-    variants: dict = dataclasses.field(default_factory=dict)
-    correction_e: np.ndarray | None = None
 
 
 def _blocked(lidar: NacelleLidar, t_l, az_l):
@@ -425,15 +470,19 @@ def _look_geometry(lidar: NacelleLidar, t_l, az_l):
 
 def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=None, *, start: float = 0.0,
                     wrap: bool = False, variants=None, chunk: int = 4096,
-                    calibration_time: float = 0.0) -> NacelleRecord:
+                    calibration_time: float = 0.0) -> LidarRecord:
     """Simulate a nacelle lidar's record in a turbulence field (module notes).
+
+    The public API's form of :func:`cwlidar_sim.sensors.measure`
+    for a nacelle lidar (a duration and a start).
 
     Parameters
     ----------
     field : xarray.Dataset or sequence of them
-        A box holding every cell of every focus (:func:`nacelle_field`), or
-        one box per focus distance (evolving turbulence: the box of the
-        focus's plane, :func:`cwlidar_sim.turbulence.evolution.iter_evolving_boxes`);
+        A box holding every cell of every focus (:func:`cwlidar_sim.turbulence.cover.cover_box`
+        of :meth:`NacelleLidar.box_region`), or one box per focus distance
+        (evolving turbulence: the box of the focus's plane,
+        :func:`cwlidar_sim.turbulence.evolution.iter_evolving_boxes`);
         u, v, w fluctuations [m/s].
     lidar : NacelleLidar
     duration : float
@@ -444,7 +493,8 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
         Randomness of tiers 'spectral' and 'signal' (background, speckle,
         noise): required by them (a ValueError without one: a record is never
         drawn from fresh entropy, the same seed gives the same bits); not used
-        by tier 'los', whose record is the field's.
+        by tier 'los', whose record is the field's.  Each focus distance draws
+        from its child of the root SeedSequence (:func:`cwlidar_sim.sensors.measure`).
     start : float
         Start time [s].
     wrap : bool
@@ -459,90 +509,40 @@ def measure_nacelle(field, lidar: NacelleLidar, duration: float, U: float, seed=
 
     Returns
     -------
-    NacelleRecord
+    LidarRecord
+        ``focus_index_e`` the index into ``focus_distances``, ``foci`` the
+        focus distances; ``availability`` counts the blocked estimates as
+        lost; ``extras`` (also attributes):
+
+        * ``azimuth_e``: beam azimuths [deg] (nacelle frame);
+          ``revolution_e``: revolution (or cycle) number; ``focus_e``: focus distance [m];
+        * ``los_e``: the lidar's line-of-sight wind estimate [m/s]:
+          ``-speed_e``, plus ``n . d'`` with the motion correction (module notes);
+        * ``direction_ec`` (n_e, 3): the direction ``los_e`` refers to in the
+          nacelle frame at rest [-] (mean of the looks'; with motion only with
+          the correction); ``field_direction_ec``: mean of the looks' true
+          directions in the field frame [-];
+        * ``blocked_e``: fraction of the dwell's looks blocked by a blade [-];
+        * ``correction_e``: the motion correction ``n . d'`` added to
+          ``-speed_e`` [m/s] (0 without ``motion_correction``); add it to a
+          variant's ``-speed`` or to ``vlos_e`` to correct them alike.
+
+        ``speed_e``, ``flags_e`` and the variants are NaN flagged
+        ``BLOCKED`` where a blade blocks the estimate; ``vlos_e`` (tier 1,
+        < 0 into the wind) is the wind relative to the lidar.  ``info``: per
+        focus (``info['focus'][r]``) the preview distance, Rayleigh length,
+        cells, speckle; tier, flag counts, ``n_blocked``.
     """
     if not isinstance(lidar, NacelleLidar):
         raise TypeError(f"lidar must be a NacelleLidar, got {type(lidar).__name__}")
-    U = check_real("U", U, lo=-1000.0, hi=1000.0)
-    wrap = check_bool("wrap", wrap)
-    calibration_time = check_real("calibration_time", calibration_time)
-    nf = len(lidar.focus_distances)
-    fields = list(field) if isinstance(field, (list, tuple)) else [field] * nf
-    if len(fields) != nf:
-        raise ValueError(f"field: one box per focus distance ({nf}) or one box for all, got {len(fields)}")
-    time_e, az_e, fidx_e, rev_e = lidar.schedule(duration, start)
-    ne = time_e.size
-    nsub = lidar.sub_dwells
-    off_j = (np.arange(nsub) + 0.5) / nsub - 0.5
-    dang = 360.0 / lidar.estimates_per_rev if lidar.circle else 0.0
-    t_el = time_e[:, None] + off_j[None, :] * lidar.dwell_time
-    az_el = az_e[:, None] + off_j[None, :] * dang
-    if lidar.motion is not None:
-        lidar.motion.check_covers(float(t_el.min()), float(t_el.max()))
-    origin0, n_elc, known_elc, ddot_elc = (None if a is None else a.reshape(ne, nsub, 3)
-                                           for a in _look_geometry(lidar, t_el.ravel(), az_el.ravel()))
-    blocked_e = _blocked(lidar, t_el, az_el).mean(axis=1) if ne else np.zeros(0)
-    if lidar.tier != "los" and seed is None:
-        raise ValueError(f"seed is required for tier {lidar.tier!r}; allowed: an int or a numpy Generator")
-    seqs = focus_seeds(seed, nf) if lidar.tier != "los" else [None] * nf
-    groups, finfo = [], {}
-    pos = np.asarray(lidar.position, dtype=np.float64)
-    for i, r in enumerate(lidar.focus_distances):
-        idx = np.flatnonzero(fidx_e == i)
-        inst, cells = lidar.instrument_at(r), lidar.cells(r)
-        sampler = BeamSampler(fields[i], pos, r, cells, U, wrap)
-        if origin0 is None:
-            sampler.check_extent(n_elc[idx].reshape(-1, 3)[:: max(1, nsub)] if idx.size else n_elc[:0, 0])
-        spread, _ = lidar.subcell_spread_in(fields[i])
-
-        def sample(lo, hi, idx=idx, sampler=sampler):
-            sel = idx[lo:hi]
-            t_l = t_el[sel].ravel()
-            n_lc = np.ascontiguousarray(n_elc[sel].reshape(-1, 3))
-            if origin0 is None:
-                vlos_lc, vlos_l = sampler.sample(t_l, n_lc)
-            else:
-                vlos_lc, vlos_l = _sample_moving(sampler, origin0[sel].reshape(-1, 3), t_l, n_lc)
-            rel = np.einsum("lc,lc->l", n_lc, ddot_elc[sel].reshape(-1, 3))  # the lidar's own speed along n
-            vlos_lc -= rel[:, None]
-            vlos_l -= rel
-            return vlos_lc.reshape(sel.size, nsub, -1), vlos_l.reshape(sel.size, nsub).mean(axis=1), None
-
-        groups.append(FocusGroup(instrument=inst, index_e=idx, time_e=time_e[idx], weight_c=cells.weight_c,
-                                 tail=cells.tail_weight > 0.0, n_looks=nsub, sample=sample, seed=seqs[i],
-                                 transverse_speed=lidar.transverse_speed_at(r, U), subcell_spread=spread,
-                                 calibration_time=calibration_time))
-        finfo[float(r)] = {"preview_distance": lidar.preview_distance(r), "rayleigh_length": inst.rayleigh_length,
-                           "n_cells": cells.n_cells, "truncated_fraction": cells.truncated_fraction,
-                           "transverse_speed": lidar.transverse_speed_at(r, U), "n_estimates": int(idx.size)}
-    rec = run_chain(lidar.chain_settings(), groups, ne, variants=variants, chunk=chunk)
-    speed_e, flags_e = rec.speed_e.copy(), rec.flags_e.copy()
-    lost = blocked_e > lidar.blockage_fraction
-    speed_e[lost] = np.nan
-    flags_e[lost] |= np.uint8(Flag.BLOCKED)
-    variants_out = {}
-    for name, (s, f) in rec.variants.items():
-        s, f = s.copy(), f.copy()
-        s[lost] = np.nan
-        f[lost] |= np.uint8(Flag.BLOCKED)
-        variants_out[name] = (s, f)
-    corr_e = np.einsum("elc,elc->e", n_elc, ddot_elc) / nsub if lidar.motion_correction else np.zeros(ne)
-    los_e = -speed_e + corr_e
-    info = {"tier": lidar.tier, "sub_dwells": nsub, "n_estimates": ne, "focus": finfo,
-            "flag_counts": {f.name: int(np.count_nonzero(flags_e & f.value)) for f in Flag},
-            "n_blocked": int(lost.sum()), "estimator": rec.info["estimator"]}
-    return NacelleRecord(time_e=time_e, azimuth_e=az_e, focus_index_e=fidx_e, revolution_e=rev_e,
-                         focus_e=np.asarray(lidar.focus_distances)[fidx_e], vlos_e=rec.vlos_e, speed_e=speed_e,
-                         flags_e=flags_e, los_e=los_e, direction_ec=known_elc.mean(axis=1),
-                         field_direction_ec=n_elc.mean(axis=1), blocked_e=blocked_e,
-                         availability=usable_fraction(speed_e, flags_e) if ne else 0.0, info=info,
-                         variants=variants_out, correction_e=corr_e)
+    return measure(field, lidar, U, seed, variants=variants, chunk=chunk, wrap=wrap, calibration_time=calibration_time,
+                   duration=duration, start=start)
 
 
 def _sample_moving(sampler: BeamSampler, origin_lc, t_l, n_lc):
     """The sampler's looks from a moving origin, one look at a time (a moving platform only)."""
     n_l = t_l.size
-    vlos_lc = np.empty((n_l, sampler.n_c))
+    vlos_ls = np.empty((n_l, sampler.n_s))
     vlos_l = np.empty(n_l)
     o0 = sampler.origin
     try:
@@ -550,111 +550,7 @@ def _sample_moving(sampler: BeamSampler, origin_lc, t_l, n_lc):
             sampler.origin = np.ascontiguousarray(origin_lc[i])
             sampler.check_extent(n_lc[i])
             a, b = sampler.sample(t_l[i:i + 1], n_lc[i:i + 1])
-            vlos_lc[i], vlos_l[i] = a[0], b[0]
+            vlos_ls[i], vlos_l[i] = a[0], b[0]
     finally:
         sampler.origin = o0
-    return vlos_lc, vlos_l
-
-
-# ---------------------------------------------------------------------------
-# turbulence for the preview
-# ---------------------------------------------------------------------------
-def nacelle_field_shape(lidar: NacelleLidar, U: float, duration: float, spacing: float, rotor_radius: float,
-                        *, min_extent: float = 0.0):
-    """``(shape, x0, y0, z0)`` of a box holding the lidar's cells and the rotor disc for a record (see :func:`nacelle_field`)."""
-    d = check_real("spacing", spacing, lo=0.0, hi=100.0, lo_open=True)
-    R = check_real("rotor_radius", rotor_radius, lo=0.0)
-    a = math.radians(lidar.half_angle_deg)
-    far = max(r + c.edges[-1] for r, c in ((r, lidar.cells(r)) for r in lidar.focus_distances))
-    reach_x = far * math.cos(a) + 2.0 * d
-    radius = max(far * math.sin(a), R) + 2.0 * d
-    if lidar.motion is not None:
-        m = lidar.motion
-        reach_x += float(np.abs(m.surge).max())
-        radius += float(max(np.abs(m.sway).max(), np.abs(m.heave).max())) + far * math.sin(
-            math.radians(float(max(np.abs(m.roll_deg).max(), np.abs(m.pitch_deg).max(), np.abs(m.yaw_deg).max())
-                               + abs(lidar.yaw_misalignment_deg))))
-    elif lidar.yaw_misalignment_deg:
-        radius += far * math.sin(math.radians(abs(lidar.yaw_misalignment_deg)))
-    width = max(2.0 * radius, min_extent)
-    ny = nz = int(math.ceil(width / d)) + 1
-    nx = _fast_size(int(math.ceil((abs(U) * duration + reach_x + 4.0 * d) / d)))
-    x0 = lidar.position[0] - reach_x - d
-    return (nx, ny, nz), x0, lidar.position[1] - 0.5 * (ny - 1) * d, lidar.position[2] - 0.5 * (nz - 1) * d
-
-
-def nacelle_field(lidar: NacelleLidar, U: float, duration: float, params, seed: int, *, spacing: float,
-                  rotor_radius: float = 0.0, lateral_doubling: bool = True, min_extent: float | None = None,
-                  evolution=None, dtype=np.float32):
-    """Mann box(es) holding a nacelle lidar's cells and the rotor disc for a record, in the field frame.
-
-    Parameters
-    ----------
-    lidar : NacelleLidar
-    U : float
-        Mean wind [m/s]; the box's x period holds ``U duration`` plus the preview reach.
-    duration : float
-        Record length [s].
-    params : MannParameters
-    seed : int
-    spacing : float
-        Grid spacing in x, y, z [m]; in (0, 100].
-    rotor_radius : float
-        Radius of the rotor disc to hold about the lidar's axis [m].
-    lateral_doubling : bool
-        Generate twice as wide in y and keep one half (as for the conical
-        lidar): the far sides of the disc are not each other's periodic image.
-    min_extent : float, optional
-        Minimum lateral and vertical size [m]; default 2 L.
-    evolution : EddyLifetimeEvolution, optional
-        Evolving turbulence: one box per plane, the rotor's (x = position x)
-        and each focus distance's (x = position x - r cos a).
-    dtype : float32 or float64
-
-    Returns
-    -------
-    xarray.Dataset or list of xarray.Dataset
-        Frozen: one box.  Evolving: ``[rotor box, box of focus 0, ...]``
-        (the rotor's is ``generate_box(seed)``).  attrs add ``period_x``,
-        ``lateral_doubling``, ``generated_shape``.
-    """
-    import xarray as xr
-
-    from ..turbulence.parameters import MannParameters
-
-    if not isinstance(lidar, NacelleLidar):
-        raise TypeError(f"lidar must be a NacelleLidar, got {type(lidar).__name__}")
-    if not isinstance(params, MannParameters):
-        raise TypeError(f"params must be MannParameters, got {type(params).__name__}")
-    U = check_real("U", U, lo=0.0, hi=1000.0)
-    duration = check_real("duration", duration, lo=0.0, lo_open=True)
-    lateral_doubling = check_bool("lateral_doubling", lateral_doubling)
-    ext = 2.0 * params.length_scale if min_extent is None else check_real("min_extent", min_extent, lo=0.0)
-    (nx, ny, nz), x0, y0, z0 = nacelle_field_shape(lidar, U, duration, spacing, rotor_radius, min_extent=ext)
-    d = float(spacing)
-    gen_shape = (nx, 2 * ny if lateral_doubling else ny, nz)
-    if evolution is None:
-        from ..turbulence.box import generate_box
-
-        boxes = [generate_box(params, gen_shape, (d, d, d), seed, dtype=dtype)]
-    else:
-        from ..turbulence.evolution import iter_evolving_boxes
-
-        planes = [lidar.position[0]] + [lidar.position[0] - lidar.preview_distance(r) for r in lidar.focus_distances]
-        boxes = [None] * len(planes)
-        for p, box in iter_evolving_boxes(params, gen_shape, (d, d, d), seed, evolution, planes, dtype=dtype):
-            boxes[p] = box
-    coords = {"x": x0 + np.arange(nx) * d, "y": y0 + np.arange(ny) * d, "z": z0 + np.arange(nz) * d}
-    out = []
-    for box in boxes:
-        data = {c: (("x", "y", "z"), np.ascontiguousarray(box[c].values[:, :ny, :])) for c in ("u", "v", "w")}
-        attrs = dict(box.attrs)
-        attrs.update(period_x=nx * d, lateral_doubling=int(lateral_doubling), generated_shape=gen_shape)
-        out.append(xr.Dataset(data, coords=coords, attrs=attrs))
-    return out[0] if evolution is None else out
-
-
-def _fast_size(n: int) -> int:
-    from .conical import _fast_size as fs
-
-    return fs(n)
+    return vlos_ls, vlos_l

@@ -12,10 +12,10 @@ Estimates come in :class:`FocusGroup` s: the estimates that share one focus
 cycling through heights or focus distances one per focus).  For each
 estimate ``e`` of a group the chain asks the sensor, a chunk at a time, for
 
-* ``vlos_elc[e, l, c]``: the signed line-of-sight speed [m/s] of aerosol
-  cell ``c`` in look ``l`` (looks are equal sub-intervals of the estimate's
+* ``vlos_els[e, l, s]``: the signed line-of-sight speed [m/s] of aerosol
+  cell ``s`` in look ``l`` (looks are equal sub-intervals of the estimate's
   dwell, e.g. a scanning beam's sweep; one look for a staring beam), the
-  cells' weights ``weight_c`` summing to 1; the weight beyond the simulated
+  cells' weights ``weight_s`` summing to 1; the weight beyond the simulated
   span is the last cell (``tail = True``), which sees the mean wind
   (:mod:`cwlidar_sim.beam.cells`);
 * ``vlos_e[e]``: the ideal, the mean over looks of the weighted sum (tier 1,
@@ -41,7 +41,7 @@ Tiers
     'independent' without a spread), 'independent' (one Gamma(M_eff) gain per
     bin, :func:`cwlidar_sim.signal.sample_spectra`) and 'coherent' (one per
     estimate); the looks' cells enter the point-cell models with weight
-    ``w_c / n_looks`` each.
+    ``w_s / n_looks`` each.
 ``signal`` (3)
     The heterodyne signal (:func:`cwlidar_sim.signal.simulate_signal_spectra`)
     of each look in turn (``blocks_per_estimate / n_looks`` blocks per look,
@@ -215,13 +215,13 @@ class FocusGroup:
         Positions of the group's estimates in the record.
     time_e : ndarray, shape (n_e,)
         Their mid-times [s] (CNR variation, background drift and pauses).
-    weight_c : ndarray, shape (n_c,)
+    weight_s : ndarray, shape (n_s,)
         Weights of the aerosol cells [-], >= 0, summing to 1.
     n_looks : int
         Looks per estimate.
     sample : callable
-        ``sample(lo, hi) -> (vlos_elc, vlos_e, cloud_el)`` for the group's
-        estimates ``lo .. hi - 1``: shapes ``(hi - lo, n_looks, n_c)``,
+        ``sample(lo, hi) -> (vlos_els, vlos_e, cloud_el)`` for the group's
+        estimates ``lo .. hi - 1``: shapes ``(hi - lo, n_looks, n_s)``,
         ``(hi - lo,)`` and ``(hi - lo, n_looks)`` or None [m/s].
     tail : bool
         The last aerosol cell is the mean-wind tail (left out of the
@@ -243,7 +243,7 @@ class FocusGroup:
     instrument: Instrument
     index_e: np.ndarray
     time_e: np.ndarray
-    weight_c: np.ndarray
+    weight_s: np.ndarray
     n_looks: int
     sample: Callable
     tail: bool = False
@@ -380,25 +380,25 @@ class SpeckleBlocks:
             yield lo, hi, key, gain[lo - b * DRAW_BLOCK: hi - b * DRAW_BLOCK]
 
 
-def _with_cloud(vlos_elc, cloud_el, weight_c, wc, tail):
+def _with_cloud(vlos_els, cloud_el, weight_s, wc, tail):
     """The spectrum's cells: the tail left out (module notes), the cloud one more cell of every look.
 
     With a cloud, the weights are divided by ``1 + w_c`` and the CNR raised by ``10 log10(1 + w_c)``.
     """
     if tail:
-        vlos_elc, weight_c = vlos_elc[:, :, :-1], weight_c[:-1]
+        vlos_els, weight_s = vlos_els[:, :, :-1], weight_s[:-1]
     if cloud_el is None or wc == 0.0:
-        return vlos_elc, weight_c
-    v = np.concatenate([vlos_elc, cloud_el[:, :, None]], axis=2)
-    return np.ascontiguousarray(v), np.append(weight_c, wc) / (1.0 + wc)
+        return vlos_els, weight_s
+    v = np.concatenate([vlos_els, cloud_el[:, :, None]], axis=2)
+    return np.ascontiguousarray(v), np.append(weight_s, wc) / (1.0 + wc)
 
 
-def _flat(vlos_elc, w_c):
-    """The looks' cells as one set of cells of weight ``w_c / n_looks``."""
-    ne, nl, nc = vlos_elc.shape
+def _flat(vlos_els, w_s):
+    """The looks' cells as one set of cells of weight ``w_s / n_looks``."""
+    ne, nl, ns = vlos_els.shape
     if nl == 1:
-        return np.ascontiguousarray(vlos_elc[:, 0, :]), w_c
-    return np.ascontiguousarray(vlos_elc.reshape(ne, nl * nc)), np.tile(w_c, nl) / nl
+        return np.ascontiguousarray(vlos_els[:, 0, :]), w_s
+    return np.ascontiguousarray(vlos_els.reshape(ne, nl * ns)), np.tile(w_s, nl) / nl
 
 
 class _Group:
@@ -436,27 +436,27 @@ class _Group:
             self.out[name][0][sel] = est.speed_e
             self.out[name][1][sel] = est.flags_e
 
-    def continuum(self, vlos_elc, w_c, e0, e1, key):
-        inst, nl = self.inst, vlos_elc.shape[1]
+    def continuum(self, vlos_els, w_s, e0, e1, key):
+        inst, nl = self.inst, vlos_els.shape[1]
         gain = None if self.cnr_gain_e is None else self.cnr_gain_e[e0:e1]
         if nl == 1:
-            mean, var, _ = continuum_moments(inst, vlos_elc[:, 0, :], w_c, self.cnr_db, self.spread,
+            mean, var, _ = continuum_moments(inst, vlos_els[:, 0, :], w_s, self.cnr_db, self.spread,
                                              correlation_time=self.tau, cnr_gain_e=gain)
         else:
             # disjoint sets of M / n_looks blocks: their averages are independent
             look = inst.replace(blocks_per_estimate=inst.blocks_per_estimate // nl)
             mean = var = 0.0
             for j in range(nl):
-                m_j, v_j, _ = continuum_moments(look, vlos_elc[:, j, :], w_c, self.cnr_db, self.spread,
+                m_l, v_l, _ = continuum_moments(look, vlos_els[:, j, :], w_s, self.cnr_db, self.spread,
                                                 correlation_time=self.tau, cnr_gain_e=gain)
-                mean = mean + m_j
-                var = var + v_j
+                mean = mean + m_l
+                var = var + v_l
             mean, var = mean / nl, var / (nl * nl)
         self.process(e0, e1, sample_moments(mean, var, key, e0=e0))
 
-    def point_cells(self, vlos_elc, w_c, e0, e1, draws, buf):
+    def point_cells(self, vlos_els, w_s, e0, e1, draws, buf):
         inst = self.inst
-        v, w = _flat(vlos_elc, w_c)
+        v, w = _flat(vlos_els, w_s)
         a_d = lag_coefficients(inst.n_fft, inst.window, ar1_rho(inst, self.tau))
         sig = signal_rows(inst, v, 0.5 * (10.0 ** (self.cnr_db / 10.0)) * w, a_d)
         if self.cnr_gain_e is not None:
@@ -467,19 +467,19 @@ class _Group:
             _draw_rows(sig[lo - e0: hi - e0], noise, inst.blocks_per_estimate, gain, key, lo, spec[lo - e0: hi - e0])
         self.process(e0, e1, spec)
 
-    def signal(self, vlos_elc, w_c):
+    def signal(self, vlos_els, w_s):
         from .heterodyne import simulate_signal_spectra
 
         inst = self.inst
-        ne, nl, nc = vlos_elc.shape
+        ne, nl, ns = vlos_els.shape
         rng = np.random.default_rng(self.s_sim)
         if nl == 1:
-            spec = simulate_signal_spectra(inst, np.ascontiguousarray(vlos_elc[:, 0, :]), w_c, self.cnr_db, rng,
+            spec = simulate_signal_spectra(inst, np.ascontiguousarray(vlos_els[:, 0, :]), w_s, self.cnr_db, rng,
                                            correlation_time=self.tau, speed_spread=self.spread)
         else:
             look = inst.replace(blocks_per_estimate=inst.blocks_per_estimate // nl,
                                 estimate_rate=inst.estimate_rate * nl)
-            spec_l = simulate_signal_spectra(look, np.ascontiguousarray(vlos_elc.reshape(ne * nl, nc)), w_c,
+            spec_l = simulate_signal_spectra(look, np.ascontiguousarray(vlos_els.reshape(ne * nl, ns)), w_s,
                                              self.cnr_db, rng, correlation_time=self.tau, speed_spread=self.spread)
             spec = spec_l.reshape(ne, nl, -1).mean(axis=1)
         self.process(0, ne, spec)
@@ -545,19 +545,19 @@ def run_chain(settings: ChainSettings, groups, n_estimates: int, *, variants=Non
     apply_numba_threads()
     for g in groups:
         inst = g.instrument
-        n_g = g.index_e.size
+        n_group = g.index_e.size
         procs = [("", inst)] + variant_instruments(inst, variants)
-        w_c = np.ascontiguousarray(g.weight_c, dtype=np.float64)
+        w_s = np.ascontiguousarray(g.weight_s, dtype=np.float64)
         nl = check_int("n_looks", g.n_looks, lo=1, hi=4096)
-        info = {"n_estimates": int(n_g), "n_looks": nl, "n_cells": int(w_c.size), "cnr_db": settings.cnr_db}
+        info = {"n_estimates": int(n_group), "n_looks": nl, "n_cells": int(w_s.size), "cnr_db": settings.cnr_db}
         if g.cloud_weight > 0.0:
             info.update(cloud_weight=g.cloud_weight, cloud_fraction=g.cloud_weight / (1.0 + g.cloud_weight))
         ginfo.append(info)
-        if n_g == 0:
+        if n_group == 0:
             continue
         if tier == "los":
-            for c0 in range(0, n_g, chunk):
-                c1 = min(n_g, c0 + chunk)
+            for c0 in range(0, n_group, chunk):
+                c1 = min(n_group, c0 + chunk)
                 _, v, cloud = g.sample(c0, c1)
                 sel = g.index_e[c0:c1]
                 vlos_e[sel] = v
@@ -573,31 +573,31 @@ def run_chain(settings: ChainSettings, groups, n_estimates: int, *, variants=Non
         spread = _spread(settings, g)
         speckle = _speckle_used(settings, spread)
         if nl > 1 and (speckle == "continuum" or tier == "signal") and inst.blocks_per_estimate % nl:
-            raise ValueError(f"{n_g and nl} looks per estimate with speckle {speckle!r} / tier {tier!r} need "
+            raise ValueError(f"{n_group and nl} looks per estimate with speckle {speckle!r} / tier {tier!r} need "
                              f"n_looks to divide instrument.blocks_per_estimate={inst.blocks_per_estimate}; "
                              "allowed: its divisors")
         run = _Group(settings, g, procs, out, speckle, spread)
-        rows = n_g if tier == "signal" else min(n_g, chunk)
-        check_memory("signal chain buffers", rows * (8 * nl * (w_c.size + 1) + 48 * inst.n_fft) + 64 * n_g)
+        rows = n_group if tier == "signal" else min(n_group, chunk)
+        check_memory("signal chain buffers", rows * (8 * nl * (w_s.size + 1) + 48 * inst.n_fft) + 64 * n_group)
         if tier == "signal":
-            vlos_elc, v, cloud = g.sample(0, n_g)
+            vlos_els, v, cloud = g.sample(0, n_group)
             vlos_e[g.index_e] = v
-            run.signal(*_with_cloud(vlos_elc, cloud, w_c, g.cloud_weight, g.tail))
+            run.signal(*_with_cloud(vlos_els, cloud, w_s, g.cloud_weight, g.tail))
         elif speckle == "continuum":
             key = np.uint64(int(np.random.default_rng(run.s_sim).integers(0, 2**63, dtype=np.int64)))
-            for c0 in range(0, n_g, chunk):
-                c1 = min(n_g, c0 + chunk)
-                vlos_elc, v, cloud = g.sample(c0, c1)
+            for c0 in range(0, n_group, chunk):
+                c1 = min(n_group, c0 + chunk)
+                vlos_els, v, cloud = g.sample(c0, c1)
                 vlos_e[g.index_e[c0:c1]] = v
-                run.continuum(*_with_cloud(vlos_elc, cloud, w_c, g.cloud_weight, g.tail), c0, c1, key)
+                run.continuum(*_with_cloud(vlos_els, cloud, w_s, g.cloud_weight, g.tail), c0, c1, key)
         else:
             draws = SpeckleBlocks(run.s_sim, inst.n_bins, run.m_eff, speckle)
-            buf = np.empty((min(n_g, chunk), inst.n_bins))
-            for c0 in range(0, n_g, chunk):
-                c1 = min(n_g, c0 + chunk)
-                vlos_elc, v, cloud = g.sample(c0, c1)
+            buf = np.empty((min(n_group, chunk), inst.n_bins))
+            for c0 in range(0, n_group, chunk):
+                c1 = min(n_group, c0 + chunk)
+                vlos_els, v, cloud = g.sample(c0, c1)
                 vlos_e[g.index_e[c0:c1]] = v
-                run.point_cells(*_with_cloud(vlos_elc, cloud, w_c, g.cloud_weight, g.tail), c0, c1, draws, buf)
+                run.point_cells(*_with_cloud(vlos_els, cloud, w_s, g.cloud_weight, g.tail), c0, c1, draws, buf)
         cnr_range = None
         if run.cnr_gain_e is not None:
             cnr_range = (settings.cnr_db + 10 * math.log10(run.cnr_gain_e.min()),

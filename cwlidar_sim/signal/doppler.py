@@ -125,7 +125,7 @@ def simulate_uniform(speed: float, cnr_db: float, *, instrument: Instrument = PR
     def sample(lo, hi):
         return np.full((hi - lo, 1, n_cells), v), np.full(hi - lo, v), np.full((hi - lo, 1), v_c)
 
-    group = FocusGroup(instrument=inst, index_e=np.arange(n), time_e=np.arange(n) / inst.estimate_rate, weight_c=w,
+    group = FocusGroup(instrument=inst, index_e=np.arange(n), time_e=np.arange(n) / inst.estimate_rate, weight_s=w,
                        n_looks=1, sample=sample, seed=np.random.SeedSequence(seed), transverse_speed=transverse_speed,
                        cloud_weight=w_c)
     rec = run_chain(settings, [group], n)

@@ -10,12 +10,12 @@ from cwlidar_sim.analysis.vad import fit_record
 from cwlidar_sim.sensors.conical import (
     FOCUS_RANGE,
     ConicalLidar,
-    conical_field,
     measure_conical,
 )
 from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
 from cwlidar_sim.signal import CS_SERIES, Flag
 from cwlidar_sim.turbulence import MannParameters
+from cwlidar_sim.turbulence.cover import cover_box
 
 PHI = math.radians(30.0)
 
@@ -92,7 +92,7 @@ def test_schedule_dwell_and_cycle():
     # cycle through 3 heights, 1 revolution each, 0.5 s lost refocusing: 4 blocks in 5.5 s
     c = ConicalLidar(heights=(40.0, 60.0, 80.0), refocus_time=0.5).schedule(5.5)
     assert c.time_e.size == 4 * 50
-    assert list(c.height_index_e[::50]) == [0, 1, 2, 0]
+    assert list(c.focus_index_e[::50]) == [0, 1, 2, 0]
     np.testing.assert_allclose(c.time_e[50], 1.5 + 0.01)  # after the refocus gap
     np.testing.assert_allclose(c.azimuth_e[50], 360.0 * 1.51)  # the scanner kept turning
 
@@ -191,11 +191,11 @@ def test_spectral_tier_uniform_flow_tp_is_estimator_noise():
     np.testing.assert_allclose(fit.speed_p, U * dirichlet(4, math.radians(7.2)), rtol=1e-3)
 
 
-def test_conical_field_lateral_doubling_and_extent():
+def test_cover_box_of_a_cone_lateral_doubling_and_extent():
     lid = ConicalLidar(heights=(40.0,), cell_length=4.0)
     p = MannParameters.iec(40.0, 1.0)
-    f1 = conical_field(lid, 5.0, 30.0, p, 4, spacing=4.0, lateral_doubling=True)
-    f0 = conical_field(lid, 5.0, 30.0, p, 4, spacing=4.0, lateral_doubling=False)
+    f1 = cover_box(lid.box_region(4.0), 5.0, 30.0, p, 4, spacing=4.0, lateral_doubling=True)
+    f0 = cover_box(lid.box_region(4.0), 5.0, 30.0, p, 4, spacing=4.0, lateral_doubling=False)
     assert f1.sizes == f0.sizes
     assert f1.attrs["generated_shape"][1] == 2 * f1.sizes["y"]
     assert f1.attrs["period_x"] >= 5.0 * 30.0 + lid.circle_diameter(40.0)
@@ -275,7 +275,7 @@ def test_spectral_tier_bits_do_not_depend_on_threads():
     np.testing.assert_array_equal(out[0].flags_e, out[1].flags_e)
 
 
-def test_conical_field_of_one_extent_is_one_realisation_on_two_grids():
+def test_cover_box_of_one_extent_is_one_realisation_on_two_grids():
     # A fixed physical size makes boxes of two spacings one realisation (their shared Fourier
     # coefficients equal to round-off) placed at the same physical points: what a paired study of
     # the spacing needs.  Without doubling the kept box is the whole periodic box.
@@ -283,8 +283,8 @@ def test_conical_field_of_one_extent_is_one_realisation_on_two_grids():
     p = MannParameters.iec(40.0, 1.0)
     ext = (480.0, 96.0, 72.0)
     kw = dict(lateral_doubling=False, extent=ext, dtype=np.float64)
-    c = conical_field(lid, 5.0, 30.0, p, 4, spacing=(8.0, 6.0, 6.0), **kw)
-    f = conical_field(lid, 5.0, 30.0, p, 4, spacing=(4.0, 3.0, 3.0), **kw)
+    c = cover_box(lid.box_region((8.0, 6.0, 6.0)), 5.0, 30.0, p, 4, spacing=(8.0, 6.0, 6.0), **kw)
+    f = cover_box(lid.box_region((4.0, 3.0, 3.0)), 5.0, 30.0, p, 4, spacing=(4.0, 3.0, 3.0), **kw)
     assert c.u.shape == (60, 16, 12) and f.u.shape == (120, 32, 24)
     for ax in "xyz":  # every coarse point is a fine point
         np.testing.assert_allclose(f[ax].values[::2], c[ax].values, atol=1e-9)
@@ -298,9 +298,11 @@ def test_conical_field_of_one_extent_is_one_realisation_on_two_grids():
         y = b[g[0] % sf[0], g[1] % sf[1], g[2]]
         assert np.abs(x - y).max() < 1e-12 * math.sqrt(np.mean(np.abs(x) ** 2))
     # the default sizing of the same spacings is another realisation
-    d = conical_field(lid, 5.0, 30.0, p, 4, spacing=(8.0, 6.0, 6.0), lateral_doubling=False, dtype=np.float64)
+    d = cover_box(lid.box_region((8.0, 6.0, 6.0)), 5.0, 30.0, p, 4, spacing=(8.0, 6.0, 6.0), lateral_doubling=False,
+                  dtype=np.float64)
     assert d.u.shape != c.u.shape
     with pytest.raises(ValueError, match=r"extent\[0\]"):
-        conical_field(lid, 5.0, 30.0, p, 4, spacing=8.0, extent=(100.0, 96.0, 72.0))
-    hf = conical_field(lid, 5.0, 30.0, p, 4, spacing=(8.0, 6.0, 6.0), hf_compensation=True, **kw)
+        cover_box(lid.box_region(8.0), 5.0, 30.0, p, 4, spacing=8.0, extent=(100.0, 96.0, 72.0))
+    hf = cover_box(lid.box_region((8.0, 6.0, 6.0)), 5.0, 30.0, p, 4, spacing=(8.0, 6.0, 6.0), hf_compensation=True,
+                   **kw)
     assert hf.attrs["hf_compensation"] == 1 and float(hf.u.var()) > float(c.u.var())

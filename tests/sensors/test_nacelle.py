@@ -16,14 +16,15 @@ import xarray as xr
 
 from cwlidar_sim.analysis.rews import fit_uvw
 from cwlidar_sim.sensors import NacelleLidar, PlatformMotion, measure_nacelle
-from cwlidar_sim.sensors.nacelle import nacelle_field_shape
+from cwlidar_sim.turbulence.cover import plan_box
 from cwlidar_sim.signal import Flag
 
 U = 10.0
 
 
 def calm_box(lid, duration, d=4.0):
-    (nx, ny, nz), x0, y0, z0 = nacelle_field_shape(lid, U, duration, d, 0.0)
+    plan = plan_box(lid.box_region(d), U, duration, d, min_extent=0.0)
+    (nx, ny, nz), (x0, y0, z0) = plan.shape, plan.origin
     z = np.zeros((nx, ny, nz), dtype=np.float32)
     return xr.Dataset({c: (("x", "y", "z"), z) for c in "uvw"},
                       coords={"x": x0 + d * np.arange(nx), "y": y0 + d * np.arange(ny), "z": z0 + d * np.arange(nz)})

@@ -53,7 +53,7 @@ def test_identical_looks_give_the_one_look_continuum_moments():
         return np.repeat(v[lo:hi, None, :], nl, axis=1), v[lo:hi] @ w, None
 
     for nl in (1, 8):
-        g = FocusGroup(instrument=inst, index_e=np.arange(5), time_e=np.arange(5) * 0.02, weight_c=w, n_looks=nl,
+        g = FocusGroup(instrument=inst, index_e=np.arange(5), time_e=np.arange(5) * 0.02, weight_s=w, n_looks=nl,
                        sample=lambda lo, hi, nl=nl: sample(lo, hi, nl), seed=np.random.SeedSequence(3),
                        transverse_speed=300.0, subcell_spread=0.12)
         out[nl] = run_chain(ChainSettings(tier="spectral", cnr_db=-12.0, speckle="continuum"), [g], 5)

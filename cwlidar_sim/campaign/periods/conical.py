@@ -114,7 +114,7 @@ COST_S_PER_SIM_HOUR = {"los": 20.0, "spectral": 150.0, "signal": 50000.0}
 
 
 def _box_points(scene: ConicalScene, index: int) -> tuple:
-    """(generated points, spacing [m]) of unit ``index``'s box (as conical_field sizes it, approximately)."""
+    """(generated points, spacing [m]) of unit ``index``'s box (as cover_box sizes it, approximately)."""
     p, z = scene.units()[index]
     hs = tuple(z) if scene.scan.cycle else (z,)
     d = scene.scan.spacing or default_spacing(min(hs))

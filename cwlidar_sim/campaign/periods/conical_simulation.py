@@ -11,7 +11,7 @@ to the staring period (:mod:`cwlidar_sim.campaign.periods.staring`).
 
 Set-up (choices, each stated)
 -----------------------------
-* Turbulence: one box per height (:func:`cwlidar_sim.sensors.conical.conical_field`),
+* Turbulence: one box per height (:func:`cwlidar_sim.turbulence.cover.cover_box`),
   Mann parameters of a neutral surface layer over flat terrain at that height
   (:func:`cwlidar_sim.turbulence.surface_layer.surface_layer_parameters`: u* from the
   log law with z0 = 0.01 m, then by default Mann's (1994) fit of his tensor
@@ -149,7 +149,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         same turbulence (a paired study of the span).
     box_options : dict, optional
         Numerical settings of the box (a convergence study's knobs), passed
-        to :func:`cwlidar_sim.sensors.conical.conical_field`: ``spacing``
+        to :func:`cwlidar_sim.turbulence.cover.cover_box`: ``spacing``
         (one value or (dx, dy, dz) [m]; default ``spacing``, which also sets
         the cells' length), ``extent`` ((Lx, Ly, Lz) [m]: a fixed physical
         size, so that boxes of other spacings and one seed share their
@@ -160,7 +160,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         ``condition(box) -> box``: the generated box conditioned on records
         before its lateral half is kept (the virtual twin,
         :mod:`cwlidar_sim.campaign.twin.run`); see
-        :func:`cwlidar_sim.sensors.conical.conical_field`.
+        :func:`cwlidar_sim.turbulence.cover.cover_box`.
 
     Returns
     -------
@@ -270,7 +270,8 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
     """The box, the lidar at ``heights`` (one: dwell, several: cycle), cups and sonics, fits: one dict per height."""
     from ...analysis.vad import sonic_radial_variance
     from ...sensors import Cup, Sonic, nearest_node, sample_cup, sample_sonic
-    from ...sensors.conical import conical_field, measure_conical
+    from ...sensors.conical import measure_conical
+    from ...turbulence.cover import cover_box
     from ...turbulence.surface_layer import surface_layer_parameters
     from ...signal.processing import Flag
     from ...turbulence.parameters import MannParameters
@@ -308,7 +309,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
                                                                    lo_open=True)), cloud_base=None,
                                   cloud_strength=0.0)
     box_kw = _box_options(box_options, d)
-    field = conical_field(box_lidar, U, duration, params,
+    field = cover_box(box_lidar.box_region(box_kw["spacing"]), U, duration, params,
                           seed_int(box_seq),
                           lateral_doubling=lateral_doubling, condition=condition, **box_kw)
     cost["box"] = time.perf_counter() - t0
@@ -365,7 +366,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
 
 
 def _box_options(options, spacing) -> dict:
-    """conical_field's keywords from ``box_options`` (names checked), the spacing defaulting to ``spacing``."""
+    """cover_box's keywords from ``box_options`` (names checked), the spacing defaulting to ``spacing``."""
     allowed = ("spacing", "extent", "hf_compensation", "min_extent", "period_x")
     opts = dict(options or {})
     bad = sorted(set(opts) - set(allowed))

@@ -3,7 +3,7 @@
 Per period (:mod:`cwlidar_sim.campaign.scenes.nacelle`):
 
 1. Turbulence: one Mann box (frozen) or one per plane (evolving:
-   :func:`cwlidar_sim.sensors.nacelle.nacelle_field`), holding the rotor disc
+   :func:`cwlidar_sim.turbulence.cover.cover_box`), holding the rotor disc
    and every focus distance's cells for the period.
 2. REWS: :func:`cwlidar_sim.analysis.rews.rews_from_box` at the lidar's x
    (the rotor plane), the disc about the hub at the lidar's (y, z), at the
@@ -76,14 +76,14 @@ THEORY_S_PER_BEAM2_BIN = 0.012
 
 def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
     """Estimated wall time [s] on one core and memory [bytes] of one period (boxes, records, theory)."""
-    from ...sensors.nacelle import nacelle_field_shape
+    from ...turbulence.cover import plan_box
 
     p = scene.periods[index]
     s = scene.scan
     lid = scene.sensor(p)
     dur = scene.period_duration(p)
-    (nx, ny, nz), *_ = nacelle_field_shape(lid, p.mean_speed, dur, s.spacing, s.rotor_radius,
-                                           min_extent=2.0 * scene.period_params(p).length_scale)
+    nx, ny, nz = plan_box(lid.box_region(s.spacing, s.rotor_radius), p.mean_speed, dur, s.spacing,
+                          min_extent=2.0 * scene.period_params(p).length_scale).shape
     planes = 1 if p.lifetime is None else 1 + len(s.focus_distances)
     points = nx * ny * nz * (2 if s.lateral_doubling else 1)
     nf = len(s.focus_distances)
@@ -113,9 +113,10 @@ def _trailing_nanmean(x, n):
 
 
 def period_records(scene: NacelleScene, index: int, *, status=None):
-    """The period's REWS and per-focus lidar records: ``(rews_t, time_t, {focus: NacelleRecord}, info)``."""
+    """The period's REWS and per-focus lidar records: ``(rews_t, time_t, {focus: LidarRecord}, info)``."""
     from ...analysis.rews import RotorDisc, rews_from_box
-    from ...sensors.nacelle import measure_nacelle, nacelle_field
+    from ...sensors.nacelle import measure_nacelle
+    from ...turbulence.cover import cover_box
     from ...turbulence.evolution import EddyLifetimeEvolution
 
     p = scene.periods[index]
@@ -128,8 +129,9 @@ def period_records(scene: NacelleScene, index: int, *, status=None):
     t0 = time.perf_counter()
     if status is not None:
         status(f"{p.name}: box")
-    boxes = nacelle_field(lidar_all, U, dur, params, scene.unit_seed(index), spacing=s.spacing,
-                          rotor_radius=s.rotor_radius, lateral_doubling=s.lateral_doubling, evolution=evolution)
+    boxes = cover_box(lidar_all.box_region(s.spacing, s.rotor_radius), U, dur, params, scene.unit_seed(index),
+                      spacing=s.spacing, lateral_doubling=s.lateral_doubling, evolution=evolution,
+                      planes=None if evolution is None else lidar_all.box_planes())
     rotor_box = boxes if evolution is None else boxes[0]
     cost["box"] = time.perf_counter() - t0
     recs = {}

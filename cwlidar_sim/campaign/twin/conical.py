@@ -31,14 +31,15 @@ def conical_unit_records(scene: ConicalScene, tp, h: int):
 
     Box ``h`` is the dwell height ``scan.heights[h]`` (cycle: the one box,
     h = 0).  A record is used when its position lies inside the generated
-    box (:func:`cwlidar_sim.sensors.conical.conical_box_yz`), at the box's
+    box (:func:`cwlidar_sim.turbulence.cover.cover_yz`), at the box's
     node nearest its position across the wind (where the period's cup and
     sonic read the field, :func:`cwlidar_sim.sensors.nearest_node`); U is the mean
     of the used records' mean speeds, the box's x period ``U T``.  Raises
     ValueError when no record lies in the box.
     """
     from ...sensors import nearest_node
-    from ...sensors.conical import ConicalLidar, conical_box_yz
+    from ...sensors.conical import ConicalLidar
+    from ...turbulence.cover import cover_yz
     from ..periods.conical import _tensor_height
 
     s = scene.scan
@@ -49,7 +50,7 @@ def conical_unit_records(scene: ConicalScene, tp, h: int):
     lidar = ConicalLidar(heights=tuple(hs), tier=scene.lidar.tier, **kw)
     unit = 0 if s.cycle else h
     tensor = scene.turbulence.params(_tensor_height(scene.replace(periods=scene.periods[:1]), unit), tp.U)
-    y_n, z_n = conical_box_yz(lidar, tensor, spacing=spacing, lateral_doubling=s.lateral_doubling)
+    y_n, z_n = cover_yz(lidar.box_region(spacing), spacing, params=tensor, lateral_doubling=s.lateral_doubling)
     theta = scene.periods[0].toward_deg
     used, field_pos = [], []
     for i, spec in enumerate(scene.turbulence.condition_on):

@@ -7,7 +7,7 @@ import pytest
 
 from cwlidar_sim.campaign.periods.conical_simulation import _conical_lidar, simulate_conical_period
 from cwlidar_sim.campaign.scenes.conical import default_spacing
-from cwlidar_sim.sensors.conical import conical_box_yz
+from cwlidar_sim.turbulence.cover import cover_yz
 from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
 
 
@@ -30,7 +30,7 @@ def test_short_period_end_to_end():
     # the cup and the sonic on the box's nearest node across the wind (midway they would read an average)
     x, y, z = r["in_situ_position"]
     lid = _conical_lidar((20.0,), "los", 1.0, 8, None, 0.0)
-    ys, zs = conical_box_yz(lid, surface_layer_parameters(20.0, 8.0)[0], spacing=1.0)
+    ys, zs = cover_yz(lid.box_region(1.0), 1.0, params=surface_layer_parameters(20.0, 8.0)[0])
     assert x == 0.0 and np.min(np.abs(ys - y)) < 1e-9 and np.min(np.abs(zs - z)) < 1e-9
     assert abs(y) <= 0.5 and abs(z - 20.0) <= 0.5
     # (0, 0, 20) itself is off the nodes of this box: the test would not see a sensor left there

@@ -9,7 +9,7 @@ import xarray as xr
 from cwlidar_sim.campaign import loads_scene, run_scene
 from cwlidar_sim.campaign.periods import conical_simulation as conical_period
 from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_cycle
-from cwlidar_sim.sensors import conical as sensors_conical
+from cwlidar_sim.turbulence import cover as turbulence_cover
 from cwlidar_sim.sensors.conical import measure_conical
 from cwlidar_sim.turbulence import MannParameters
 
@@ -65,7 +65,7 @@ def calm_box(lidar, d=2.0, nx=64):
 @pytest.fixture
 def sheared(monkeypatch):
     """Each unit's turbulence replaced by a frozen field u = a (z - z0), v = w = 0 (a = 0: a uniform wind)."""
-    real = sensors_conical.conical_field
+    real = turbulence_cover.cover_box
     shear = {"a": 0.0, "z0": 0.0}
 
     def field(*args, **kw):
@@ -73,7 +73,7 @@ def sheared(monkeypatch):
         u = (shear["a"] * (f.z - shear["z0"])).broadcast_like(f.u).transpose(*f.u.dims)
         return f.assign(u=u.astype(f.u.dtype), v=0.0 * f.v, w=0.0 * f.w)
 
-    monkeypatch.setattr(sensors_conical, "conical_field", field)
+    monkeypatch.setattr(turbulence_cover, "cover_box", field)
     return shear
 
 

@@ -49,7 +49,8 @@ def _write_mast(path, seeds=(7, 8)):
     period U T): the record is then a sample of the model the twin conditions, so the theory holds exactly.
     """
     from cwlidar_sim.sensors import Sonic, nearest_node, sample_sonic
-    from cwlidar_sim.sensors.conical import ConicalLidar, conical_field
+    from cwlidar_sim.sensors.conical import ConicalLidar
+    from cwlidar_sim.turbulence.cover import cover_box
     from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
 
     scene = _scene(".")
@@ -59,7 +60,7 @@ def _write_mast(path, seeds=(7, 8)):
     t = np.arange(n) * DX / U
     vel = []
     for s in seeds:
-        box = conical_field(lidar, U, T, params, s, spacing=DX, period_x=U * T)
+        box = cover_box(lidar.box_region(DX), U, T, params, s, spacing=DX, period_x=U * T)
         # the truth's mast on a node, as the twin conditions and reads it
         vel.append(sample_sonic(box, Sonic(position=nearest_node(box, (0.0, 0.0, Z)), rate=U / DX), t, U))
     vel = np.concatenate(vel) + np.random.default_rng(seeds[0]).normal(0.0, NOISE, (n * len(seeds), 3))
@@ -258,7 +259,8 @@ def test_cli_twin_runs_a_conical_scene(run, tmp_path, capsys):
 def test_mast_positions_turn_with_the_wind_into_the_field_frame(run, tmp_path):
     """A mast 10 m toward the lidar's azimuth 90 deg, the wind blowing toward 90 deg: 10 m downwind (x), y = 0."""
     from cwlidar_sim.campaign.twin.run import conical_unit_records, twin_periods
-    from cwlidar_sim.sensors.conical import ConicalLidar, conical_box_yz
+    from cwlidar_sim.sensors.conical import ConicalLidar
+    from cwlidar_sim.turbulence.cover import cover_yz
     from cwlidar_sim.turbulence.surface_layer import surface_layer_parameters
 
     shutil.copy(run["dir"] / "mast.csv", tmp_path / "mast.csv")
@@ -270,8 +272,8 @@ def test_mast_positions_turn_with_the_wind_into_the_field_frame(run, tmp_path):
         assert used == [0] and Ub == pytest.approx(tp.records[0].mean_speed)
         assert line.position[0] == pytest.approx(expect[0] - Ub * tp.delay, abs=1e-9)
         # on the box's node nearest the mast across the wind (at most half a cell off)
-        y_n, z_n = conical_box_yz(ConicalLidar(heights=(Z,), **sc.lidar_fields(DX)),
-                                  surface_layer_parameters(Z, Ub)[0], spacing=DX)
+        y_n, z_n = cover_yz(ConicalLidar(heights=(Z,), **sc.lidar_fields(DX)).box_region(DX), DX,
+                            params=surface_layer_parameters(Z, Ub)[0])
         assert np.min(np.abs(y_n - line.position[1])) < 1e-9 and np.min(np.abs(z_n - line.position[2])) < 1e-9
         assert abs(line.position[1] - expect[1]) <= 0.5 * DX + 1e-9 and abs(line.position[2] - Z) <= 0.5 * DX + 1e-9
 

@@ -35,6 +35,9 @@ headline ratios of all of them (``ratios``), the machine and the wall time of
 each benchmark.  A benchmark that fails is reported with its error; the
 others still run.  ``--quick`` passes ``--quick`` to each (about 8-10
 minutes on 2 cores); without it the full set takes about 30-60 minutes.
+
+``tools/compare_benchmarks.py --base REV`` runs a base revision's own run_all.py and this
+one's, alternating, and prints every headline side by side.
 """
 
 from __future__ import annotations

@@ -61,7 +61,7 @@ def test_compare_flags_only_a_change_worse_than_the_noise_in_the_slower_directio
             {"ratios": {"wall_s": 10.5, "tier3_realtime_factor": 4.1, "peak_gib": 1.0, "x/error": 0.1}}]
     new = [{"ratios": {"wall_s": 10.3, "tier3_realtime_factor": 3.0, "peak_gib": 1.5, "x/error": 0.5}},
            {"ratios": {"wall_s": 10.2, "tier3_realtime_factor": 3.1, "peak_gib": 1.5, "x/error": 0.5}}]
-    rows = {r[0]: r for r in tool.compare(base, new, min_noise=0.01)}
+    rows = {r[0]: r for r in tool.compare(base, new, min_noise=0.01, noise_factor=1.0)}
     # 10.0 -> 10.2: +2 %, inside the base's own spread of 5 %
     assert rows["wall_s"][2:4] == (10.0, 10.2) and rows["wall_s"][5] == 0.05 and rows["wall_s"][6] == ""
     # a real-time factor is higher-is-better: its best is the maximum, and a drop is the slower direction
@@ -69,13 +69,18 @@ def test_compare_flags_only_a_change_worse_than_the_noise_in_the_slower_directio
     assert rows["peak_gib"][6] == "MORE MEMORY"
     assert rows["x/error"][1] == "info" and rows["x/error"][6] == ""
     # faster is never flagged, however large
-    rows = {r[0]: r for r in tool.compare(new, base, min_noise=0.01)}
+    rows = {r[0]: r for r in tool.compare(new, base, min_noise=0.01, noise_factor=1.0)}
     assert rows["tier3_realtime_factor"][6] == "" and rows["peak_gib"][6] == ""
     # one round per side: no measured noise, the floor decides
     rows = {r[0]: r for r in tool.compare(base[:1], [{"ratios": {"wall_s": 10.4}}], min_noise=0.05)}
     assert rows["wall_s"][5] is None and rows["wall_s"][6] == ""
     rows = {r[0]: r for r in tool.compare(base[:1], [{"ratios": {"wall_s": 10.6}}], min_noise=0.05)}
     assert rows["wall_s"][6] == "SLOWER"
+    # the noise counts noise_factor times: 10.0 -> 10.8 (+8 %) against a spread of 5 %
+    slower = [{"ratios": {"wall_s": 10.8}}, {"ratios": {"wall_s": 10.9}}]
+    for factor, flag in ((1.0, "SLOWER"), (2.0, "")):
+        rows = {r[0]: r for r in tool.compare(base, slower, min_noise=0.01, noise_factor=factor)}
+        assert rows["wall_s"][6] == flag and rows["peak_gib"][6] == "one side only"
 
 
 def test_headline_directions_of_run_all_keys():

@@ -27,8 +27,9 @@ one drawn spectrum) and the standard deviation of the estimates about the probe-
 speed (the estimate noise).  The adoption criterion of the note: an error at least 100
 times below that scatter.  Time: the wall time of each method's lag sequences and of the
 whole ``continuum_moments`` (one thread, minimum of 3), and ``realtime`` = simulated
-seconds (50 Hz) per wall second of the lag step.  One process: this is an accuracy
-study with timings beside it, not a protocol timing benchmark.
+seconds (50 Hz) per wall second of the lag step.  One process (not the shared protocol's
+fresh children): an accuracy study with timings beside it; ``run_all.py`` keeps its
+timings (the gridded path against the exact one, measured in the same run).
 """
 
 from __future__ import annotations

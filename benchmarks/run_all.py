@@ -13,16 +13,31 @@ of ``benchmarks/_protocol.py``), and keeps its full report under
 * ``campaign``: ``bench_campaign.py`` -- the A2012 reproduction against its
   tier-1 floor;
 * ``cs``: ``bench_cs.py`` -- the CS conical reproduction against its tier-1 floor;
+* ``nacelle``: ``bench_nacelle.py`` -- the nacelle reproduction against its tier-1 floor;
 * ``estimator_theory``: ``bench_estimator_theory.py`` -- the estimator-aware
   theory against one campaign period;
 * ``scaling``: ``bench_scaling.py`` -- campaign throughput, 1 and N workers;
-* ``speed_vs_accuracy``: ``speed_vs_accuracy.py`` -- the fidelity chart.
+* ``speed_vs_accuracy``: ``speed_vs_accuracy.py`` -- the fidelity chart;
+* ``speed_vs_accuracy_conical``: ``speed_vs_accuracy_conical.py --measure`` -- the
+  conical panel's cost per setting, against the converged default's;
+* ``subbin``: ``bench_subbin.py`` -- tier 2's gridded ``continuum_moments`` against
+  the exact cosine sums;
+* ``conditioning``: ``bench_conditioning.py --no-accuracy`` -- conditioned boxes
+  (ours, hipersim, mannrs) against an unconditioned box.
+
+Every script in benchmarks/ is one of these (the one-off studies that feed the docs
+pages are in studies/).  ``DIR/<name>.json`` is removed before its benchmark runs, so
+that a benchmark that fails to write it is reported as failed, never summarised from
+an older run's report.
 
 ``DIR/run_all.json`` (default DIR ``results/benchmarks``) gathers the
 headline ratios of all of them (``ratios``), the machine and the wall time of
 each benchmark.  A benchmark that fails is reported with its error; the
-others still run.  ``--quick`` passes ``--quick`` to each (about 6-8
-minutes on 2 shared cores); without it the full set takes about 30 minutes.
+others still run.  ``--quick`` passes ``--quick`` to each (about 8-10
+minutes on 2 cores); without it the full set takes about 30-60 minutes.
+
+``tools/compare_benchmarks.py --base REV`` runs a base revision's own run_all.py and this
+one's, alternating, and prints every headline side by side.
 """
 
 from __future__ import annotations
@@ -70,6 +85,7 @@ def ratios_campaign(rep):
 
 
 def ratios_cs(rep):
+    """A bundled scene against its tier-1 floor (``bench_cs.py``, ``bench_nacelle.py``)."""
     return {"wall_s": rep.get("wall_s"), "over_tier1_floor": rep.get("ratio_to_floor"),
             "peak_gib": (rep.get("peak_bytes") or 0) / 2**30}
 
@@ -115,6 +131,36 @@ def ratios_speed(rep):
     return out
 
 
+def ratios_subbin(rep):
+    """``continuum_moments`` exact and gridded (the default) as real-time factors, and the speed-up."""
+    pkg = [r for r in rep.get("rows", []) if "speedup_of_continuum_moments" in r]
+    return {"realtime_exact": rep.get("realtime_exact"), "realtime_gridded": rep.get("realtime_gridded"),
+            "speedup_gridded_over_exact": pkg[0]["speedup_of_continuum_moments"] if pkg else None}
+
+
+def ratios_conditioning(rep):
+    """Per constraint set and method: set-up + one conditioned box [s] and its ratio to an unconditioned box."""
+    out = {}
+    for label, st in rep.get("sets", {}).items():
+        for name, t in st.get("timing", {}).items():
+            if "wall_s_min" in t:
+                out[f"{label}: {name}"] = {"wall_s": t["wall_s_min"], "over_box": t.get("over_box"),
+                                           "peak_mb": t.get("peak_mb")}
+    return out
+
+
+def ratios_speed_conical(rep):
+    """The conical panel's CPU s per 10-minute period and setting, and its ratio to the default C's."""
+    recs = rep.get("records", {})
+    default = {r["height"]: r["cpu_s"] for r in recs.values() if "(default C)" in r.get("label", "")}
+    out = {}
+    for key, r in recs.items():
+        d = default.get(r.get("height"))
+        out[key] = {"cpu_s": r.get("cpu_s"), "wall_s": r.get("wall_s"),
+                    "over_default": r["cpu_s"] / d if d and r.get("cpu_s") else None}
+    return out
+
+
 #: name -> (script, arguments full, arguments quick, ratio extractor, json flag)
 BENCHMARKS = {
     "turbulence": ("bench_turbulence.py", [], ["--quick"], ratios_turbulence, "--json"),
@@ -124,6 +170,12 @@ BENCHMARKS = {
     "estimator_theory": ("bench_estimator_theory.py", [], ["--quick"], ratios_estimator_theory, "--json"),
     "scaling": ("bench_scaling.py", [], ["--quick"], ratios_scaling, "--json"),
     "speed_vs_accuracy": ("speed_vs_accuracy.py", [], ["--quick"], ratios_speed, "--out"),
+    "nacelle": ("bench_nacelle.py", [], ["--quick"], ratios_cs, "--json"),
+    "speed_vs_accuracy_conical": ("speed_vs_accuracy_conical.py", ["--measure"], ["--measure", "--quick"],
+                                  ratios_speed_conical, "--json"),
+    "subbin": ("bench_subbin.py", [], ["--quick"], ratios_subbin, "--json"),
+    "conditioning": ("bench_conditioning.py", ["--no-accuracy"], ["--quick", "--no-accuracy"], ratios_conditioning,
+                     "--json"),
 }
 
 
@@ -143,6 +195,8 @@ def main(argv=None):
             path = os.path.join(target, f"{name}.json")
         else:
             target = path
+        if os.path.exists(path):  # a benchmark that fails to write its report must not be read from an old one
+            os.remove(path)
         cmd = [sys.executable, os.path.join(HERE, script), *(quick if a.quick else full), flag, target]
         log(f"== {name}: {' '.join(cmd[1:])}")
         t0 = time.perf_counter()

@@ -6,7 +6,7 @@
     python benchmarks/speed_vs_accuracy_conical.py --chart               # JSON + convergence -> PNG, table
 
 **Error** of a setting: its 10-minute std ratio minus the converged reference's, from the
-paired effects of ``docs/convergence.json`` (``benchmarks/convergence.py``: every knob moved on
+paired effects of ``docs/convergence.json`` (``studies/convergence.py``: every knob moved on
 its own with the realisation held fixed), chained through the scenes' converged default C =
 (tier 'los', span 30 z_R, d = z / 20, cells d, 8 sub-dwells, no hf compensation):
 

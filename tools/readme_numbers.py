@@ -10,8 +10,8 @@ The sources (all committed):
 
 * ``docs/a2012_reproduce.json``: a full ``cwlidar-sim reproduce a2012`` run's headline numbers
   (``--a2012 RESULTS.nc`` writes it from the run's results file);
-* ``docs/cs_reproduce.json``: ``python benchmarks/cs_reproduce.py --out DIR --json docs/cs_reproduce.json``;
-* ``docs/nacelle_coherence.json``: ``python benchmarks/nacelle_coherence.py --json docs/nacelle_coherence.json``;
+* ``docs/cs_reproduce.json``: ``python studies/cs_reproduce.py --out DIR --json docs/cs_reproduce.json``;
+* ``docs/nacelle_coherence.json``: ``python studies/nacelle_coherence.py --json docs/nacelle_coherence.json``;
 * ``docs/readme_timings.json``: the wall time of the README's commands, cold (numba compiling into
   an empty cache) and warm (``--measure`` runs them here and writes it).
 
@@ -140,7 +140,7 @@ def _reproductions(a2012, cs, nacelle) -> str:
         f"{h1['std_ratio_1s_model_kaimal']:.3f} |",
         f"| [nacelle](docs/reproductions/nacelle.md): `reproduce nacelle` | forward-looking scanning lidar, "
         f"rotor-effective wind speed preview at {', '.join(focuses)} m | wavenumber of coherence 0.5 at "
-        f"{NACELLE_FOCUS} m ({nacelle['periods']} frozen periods, `benchmarks/nacelle_coherence.py`): {fo['k_half_simulated']:.4f} [{k_lo:.4f}, {k_hi:.4f}] rad/m simulated, "
+        f"{NACELLE_FOCUS} m ({nacelle['periods']} frozen periods, `studies/nacelle_coherence.py`): {fo['k_half_simulated']:.4f} [{k_lo:.4f}, {k_hi:.4f}] rad/m simulated, "
         f"{fo['k_half_theory_exact']:.4f} analytic; {inside} of {total} bins hold the analytic coherence in "
         f"their 95 % interval |",
     ]

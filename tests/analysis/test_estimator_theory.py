@@ -1,7 +1,7 @@
 """The estimator-aware theory: the zR_eff fit, the probe-length fit and its named errors.
 
 The theory's agreement with simulated method 2 is tested on a campaign run in
-tests/campaign/periods/test_campaign_physics.py (long validation: benchmarks/validate_estimator_theory.py).
+tests/campaign/periods/test_campaign_physics.py (long validation: studies/validate_estimator_theory.py).
 """
 
 import math

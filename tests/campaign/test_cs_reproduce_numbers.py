@@ -1,6 +1,6 @@
 """The CS page's numbers are those ``cwlidar-sim reproduce cs`` wrote (docs/cs_reproduce.json), at their stated rounding.
 
-benchmarks/cs_reproduce.py summarises the run (minutes, too long for the suite); these tests hold the
+studies/cs_reproduce.py summarises the run (minutes, too long for the suite); these tests hold the
 table of docs/reproductions/cs.md and its claims about the standard errors to the JSON, and the bundled
 scene's plan of periods per height to the plan the JSON was run with (the README's summary of it is
 generated: tests/test_readme.py).

@@ -282,7 +282,7 @@ def test_spectral_tier_tracks_the_ideal_average(aligned_spectral):
 
 
 #: Scatter (sd) of the band mean of log(T2_run / T2_theory) of one 900-s period (300-s segments, U = 8 m/s),
-#: measured over 4 independent periods by benchmarks/validate_estimator_theory.py at A2012's focus
+#: measured over 4 independent periods by studies/validate_estimator_theory.py at A2012's focus
 #: (larger of its two turbulence intensities): median 0.036, centroid 0.020, peak 0.048.
 SCATTER_900S = {"median": 0.036, "centroid": 0.020, "peak": 0.048}
 

@@ -1,6 +1,6 @@
 """The conical scene's default span is the converged one (docs/convergence.md), checked at reduced size.
 
-benchmarks/convergence.py measures every numerical knob's effect on the conical std ratio
+studies/convergence.py measures every numerical knob's effect on the conical std ratio
 with the realisation held fixed (one seed, one field sized for the largest setting); the
 span (the mean-wind tail's weight) was the one knob whose default (5 z_R) was not converged:
 on 600-s records at 40 m, span 5 -> 10 -> 20 -> 30 moved the 1 s ratio by +0.050, +0.019,

@@ -1,6 +1,6 @@
 """The CS reproduction's numbers for the docs: ``cwlidar-sim reproduce cs``'s run, summarised to JSON.
 
-    python benchmarks/cs_reproduce.py [--out DIR] [--json PATH] [--figures DIR] [--quick]
+    python studies/cs_reproduce.py [--out DIR] [--json PATH] [--figures DIR] [--quick]
                                       [--run-info JSON]
 
 Runs the bundled ``cs`` scene exactly as ``cwlidar-sim reproduce cs --out DIR`` does
@@ -27,7 +27,7 @@ import os
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
 from _protocol import machine, write_json  # noqa: E402
 
 SE_TARGET = 0.01

@@ -1,9 +1,9 @@
 """A cloud layer above the conical ZephIR: bias of the 10-minute mean speed and std ratio, SECOND_PEAK flags.
 
 Run from the repository root:
-    PYTHONPATH=. CWLIDAR_SIM_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python benchmarks/cs_clouds.py \
+    PYTHONPATH=. CWLIDAR_SIM_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python studies/cs_clouds.py \
         [n_seeds] [out.json] [grid,cnr]
-    python benchmarks/cs_clouds.py --table out.json      # the Markdown table of docs/cs_clouds.md
+    python studies/cs_clouds.py --table out.json      # the Markdown table of docs/cs_clouds.md
 
 Tier 2 (spectral), 10 m/s, 10-minute periods at 40 and 100 m
 (:func:`cwlidar_sim.campaign.periods.conical_simulation.simulate_conical_period`), for every seed a clear

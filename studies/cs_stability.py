@@ -21,10 +21,10 @@ ILLUSTRATIVE, not a site's.
 
 Usage (one core, in the background)::
 
-    NUMBA_NUM_THREADS=1 CWLIDAR_SIM_NUM_THREADS=1 nohup python benchmarks/cs_stability.py \
+    NUMBA_NUM_THREADS=1 CWLIDAR_SIM_NUM_THREADS=1 nohup python studies/cs_stability.py \
         --json docs/cs_stability.json > cs_stability.log 2>&1 &
-    python benchmarks/cs_stability.py --quick            # 120-s periods, 1 seed: a smoke run
-    python benchmarks/cs_stability.py --markdown docs/cs_stability.json   # the table again
+    python studies/cs_stability.py --quick            # 120-s periods, 1 seed: a smoke run
+    python studies/cs_stability.py --markdown docs/cs_stability.json   # the table again
 
 Every finished period is written at once to the JSON (atomically) and a rerun resumes from it.
 """
@@ -40,7 +40,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
 from _protocol import log, machine, write_json  # noqa: E402
 
 SPEED = 10.0

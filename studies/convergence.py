@@ -39,9 +39,9 @@ Every finished row is written at once (atomically) to the JSON, and a rerun resu
 
 Usage::
 
-    python benchmarks/convergence.py --quick               # 300-s conical, 1200-s staring, 1 seed
-    python benchmarks/convergence.py --json results/convergence.json --seeds 1 2
-    python benchmarks/convergence.py --parts staring --seeds 1 2 3
+    python studies/convergence.py --quick               # 300-s conical, 1200-s staring, 1 seed
+    python studies/convergence.py --json results/convergence.json --seeds 1 2
+    python studies/convergence.py --parts staring --seeds 1 2 3
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
 from _protocol import log, machine, write_json  # noqa: E402
 
 HEIGHTS = (40.0, 100.0)

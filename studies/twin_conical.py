@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/twin_conical.py [--quick] [--periods P] [--twins N] [--duration T] [--json PATH]
+    python studies/twin_conical.py [--quick] [--periods P] [--twins N] [--duration T] [--json PATH]
                                       [--workers W]
 
 Everything goes through the scene path a user runs (``cwlidar-sim twin`` on a conical scene):
@@ -37,7 +37,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
 from _protocol import log, machine, write_json  # noqa: E402
 
 HEIGHT, U, DX, NOISE = 40.0, 10.0, 2.0, 0.05

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/twin_edge.py [--quick] [--pairs M] [--json PATH]
+    python studies/twin_edge.py [--quick] [--pairs M] [--json PATH]
 
 The per-k1 conditioning reads a record of length T as one whole period of a field of length U T:
 its first and last seconds meet.  A real mast's record is a window of a longer flow.  Here the
@@ -33,7 +33,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
 from _protocol import log, machine, write_json  # noqa: E402
 
 HEIGHT, U, DX, NY, NOISE = 40.0, 10.0, 2.0, 64, 0.05

@@ -1,7 +1,7 @@
 """Why the simulated radial-variance ratio (TP U)^2 / sonic lies above CS's model: a decomposition on one box.
 
 Run from the repository root (minutes per height on one core):
-    CWLIDAR_SIM_NUM_THREADS=1 python benchmarks/cs_radial_variance.py [height ...] [--seed S] [--duration T]
+    CWLIDAR_SIM_NUM_THREADS=1 python studies/cs_radial_variance.py [height ...] [--seed S] [--duration T]
         [--json PATH]
 
 One box per height (the conical default: tier 'los', z/20 grid, laterally doubled, 10 m/s), and on it:

@@ -1,6 +1,6 @@
 """Stability map, conical panel: where the conically scanning ZephIR's 10-minute statistics fail.
 
-    python benchmarks/stability_map_conical.py [--quick] [--out DIR] [--heights Z ...] [--seeds S ...]
+    python studies/stability_map_conical.py [--quick] [--out DIR] [--heights Z ...] [--seeds S ...]
 
 Not a benchmark (no timing): a sweep run by hand that writes ``stability_map_conical.json``,
 ``stability_table_conical.md`` and ``stability_map_conical.png`` to DIR (default
@@ -18,7 +18,7 @@ changes are not seed scatter):
   is resolved against the previous scan);
 * the same light winds with the ambiguity resolved by a vane (``reference = 'vane'``).
 
-Clouds are mapped in docs/cs_clouds.md (benchmarks/cs_clouds.py).
+Clouds are mapped in docs/cs_clouds.md (studies/cs_clouds.py).
 
 Failure criteria (per point, over the seeds; stated here and in docs/stability.md)
 -------------------------------------------------------------------------------
@@ -45,7 +45,7 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
 from _protocol import log, machine, write_json  # noqa: E402
 
 SELECT_MIN, BIAS_MAX, STD_OFF_MAX, AMBIGUITY_MAX = 0.65, 0.01, 0.05, 0.01

@@ -1,6 +1,6 @@
 """Validation of the estimator-aware theory against long campaign runs (issue 13).
 
-    python benchmarks/validate_estimator_theory.py [--periods 4] [--duration 900] [--lines 8] [--json PATH]
+    python studies/validate_estimator_theory.py [--periods 4] [--duration 900] [--lines 8] [--json PATH]
 
 For two focus distances (67.5 m, zR = 5.61 m; 40 m, zR = 1.97 m) and two
 turbulence intensities (A2012's scene, sigma_u ~ 1 m/s, and four times its

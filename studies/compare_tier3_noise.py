@@ -1,6 +1,6 @@
 """Tier 3 with RIN and the 0 Hz reflection: this checkout's coloured shot noise against an older checkout's AR(1) streams.
 
-    python benchmarks/compare_tier3_noise.py --before DIR [--n N] [--json PATH]
+    python studies/compare_tier3_noise.py --before DIR [--n N] [--json PATH]
 
 (``DIR``: e.g. ``git archive <rev> | tar -x -C DIR``.)  Since the noise above shot noise became
 a colouring of the shot-noise normals (heterodyne.noise_filter) the random draws of tier 3
@@ -24,7 +24,7 @@ import math
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
 import _protocol  # noqa: E402
 from _protocol import child_main, machine, write_json  # noqa: E402
 

@@ -1,7 +1,7 @@
 """CS reproduction at tier 1 (and a tier-2 check): lidar/cup std ratios, TP, radial variances, costs.
 
 Run from the repository root:
-    CWLIDAR_SIM_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python benchmarks/cs_conical_ratios.py [n_seeds] [out.json]
+    CWLIDAR_SIM_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python studies/cs_conical_ratios.py [n_seeds] [out.json]
 
 Wall times are of this machine at the time of the run (shared, unloaded or not): indicative only.
 """

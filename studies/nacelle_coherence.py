@@ -1,6 +1,6 @@
 """Simulated REWS-lidar coherence of the bundled nacelle scene against the analytic one, with its sampling error.
 
-    python benchmarks/nacelle_coherence.py [--periods 12] [--chain-periods 3] [--beams 16] [--json PATH]
+    python studies/nacelle_coherence.py [--periods 12] [--chain-periods 3] [--beams 16] [--json PATH]
 
 Frozen turbulence, the bundled scene's lidar (15 deg circular scan, 50 estimates per
 revolution, focus 50, 100, 150 m, CS optics, span 5 z_R with the mean-wind tail) and
@@ -47,7 +47,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
 from _protocol import machine, write_json  # noqa: E402
 
 K_GRID = np.geomspace(1.5e-4, 0.6, 36)  # rad/m: below the first ordinate of 600 s to past the last bin + Hann reach

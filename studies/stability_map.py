@@ -1,6 +1,6 @@
 """Stability map: where each Doppler estimator and each transfer-function method fails.
 
-    python benchmarks/stability_map.py [--quick] [--out DIR]
+    python studies/stability_map.py [--quick] [--out DIR]
 
 Not a benchmark (no timing): a sweep run by hand that writes
 ``stability_map.json``, ``stability_table.md`` and ``stability_map.png`` to DIR
@@ -51,7 +51,7 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
 from _protocol import log, machine, write_json  # noqa: E402
 
 ESTIMATORS = ("median", "centroid", "peak", "peak_parabolic", "peak_gaussian", "ml")

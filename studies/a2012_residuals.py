@@ -1,12 +1,12 @@
 """A2012's open residuals as hypotheses tested with the simulator (docs/estimator_theory.md, "Findings").
 
-    python benchmarks/a2012_residuals.py aperture [--lines 4] [--truncations inf 1.5 1.37 1.3] [--json PATH]
-    python benchmarks/a2012_residuals.py floor [--estimates 4000] [--seed 7] [--json PATH]
+    python studies/a2012_residuals.py aperture [--lines 4] [--truncations inf 1.5 1.37 1.3] [--json PATH]
+    python studies/a2012_residuals.py floor [--estimates 4000] [--seed 7] [--json PATH]
 
 ``aperture``: the median's method 2 (estimator theory, A2012's scene: focus 67.5 m, the bundled scene's
 Mann parameters, U = 8.1 m/s, CNR -10 dB, 4 lines) with the probe cells weighted by the truncated-aperture
 beam (:mod:`cwlidar_sim.beam.aperture`, truncation ratio T = R / a0) instead of the untruncated Gaussian,
-as T2 / exp(-2 k 5.61 m) at 0.28 and 0.56 rad/m (the table of benchmarks/candidates_a2012.py).  The cells are
+as T2 / exp(-2 k 5.61 m) at 0.28 and 0.56 rad/m (the table of studies/candidates_a2012.py).  The cells are
 the theory's own (same edges and sub-points); only their weights change, each the integral of the
 aperture weighting over the cell (Simpson, 8 panels), the weight beyond the span going to the mean-wind
 tail as usual.  This swaps a private helper of the theory for the run (a tool, not a package option).

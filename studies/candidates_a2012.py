@@ -1,6 +1,6 @@
 """What A2012's instrument had that the simulation lacks: each candidate's effect on the median's method 2.
 
-    python benchmarks/candidates_a2012.py [--lines 4] [--json PATH]
+    python studies/candidates_a2012.py [--lines 4] [--json PATH]
 
 Each candidate is evaluated with the estimator-aware theory (the tier-2 physics of a campaign
 on its own seeded lines, validated against long runs by validate_estimator_theory.py), A2012's

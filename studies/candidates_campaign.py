@@ -1,6 +1,6 @@
 """The A2012 candidates that are scene options, run as campaigns: the median's method 1 and 2.
 
-    python benchmarks/candidates_campaign.py [--duration 900] [--json PATH]
+    python studies/candidates_campaign.py [--duration 900] [--json PATH]
 
 One aligned period (line field, spectral tier, U = 8.1 m/s, 300-s segments, A2012's
 turbulence and focus) per candidate, the same seed for all (paired: the same turbulence),

@@ -15,8 +15,8 @@ For each setting of the probe volume's tail -- what the weight beyond the simula
 
 Usage::
 
-    python benchmarks/tail_rule.py --quick            # 20-min staring records, 1 seed; conical 1 seed
-    python benchmarks/tail_rule.py --json results/tail_rule.json
+    python studies/tail_rule.py --quick            # 20-min staring records, 1 seed; conical 1 seed
+    python studies/tail_rule.py --json results/tail_rule.json
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ values: a few are gaps, more than ``max_filled_fraction`` an error.
   and ``na_values``; a Campbell TOA5 file is recognised by its first line
   (names from line 2, units from line 3).  ISO times with a zone are
   converted to UTC, naive ones are in the spec's ``timezone`` (else UTC);
-  :attr:`Record.start_time` keeps the absolute start in the zone written.
+  ``Record.start_time`` keeps the absolute start in the zone written.
 * A pandas DataFrame (a time index or column) or an xarray Dataset in place
   of the path (Python API), read as a CSV's columns or a NetCDF's variables.
 * NetCDF (netCDF-4 through h5netcdf, netCDF-3 through scipy; CF-decoded by

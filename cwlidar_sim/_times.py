@@ -35,7 +35,8 @@ import re
 import numpy as np
 
 __all__ = ["TimeColumn", "split_unit", "find_time_column", "column_unit", "unit_ns", "parse_time_cells",
-           "float_times", "infer_grid", "check_increasing", "check_rate", "ns_text"]
+           "float_times", "infer_grid", "check_increasing", "check_rate", "ns_text", "check_timezone",
+           "localize_ns", "start_timestamp"]
 
 _NS = {
     "ns": 1, "nsec": 1, "nanosecond": 1, "nanoseconds": 1,
@@ -50,6 +51,8 @@ _NS = {
 _HEADER = re.compile(r"^\s*(?P<base>.*?)\s*"
                      r"(?:\[\s*(?P<a>[^\]]+?)\s*\]|\(\s*(?P<b>[^)]+?)\s*\)|[_/ ](?P<c>[A-Za-zµ]+))\s*$")
 _MISSING = ("", "nan", "na", "n/a", "null", "none")
+# an ISO 8601 time with its zone: '...12:00:00.05+02:00', '...T12:00Z', '... 12:00:00 -0500'
+_ZONED = re.compile(r"^(?P<body>.*\d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)\s*(?P<tz>Z|UTC|[+-]\d{2}(?::?\d{2})?)$")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,9 +61,13 @@ class TimeColumn:
 
     ``quantum_ns`` is the smallest step the file can express (1e-3 s for
     times written with three decimals); ``iso`` tells that the times were
-    ISO 8601 (nanoseconds since 1970-01-01T00:00, naive times as UTC);
-    ``unit`` is the unit the numbers were read in; ``where`` names the
-    column (file and column) for messages.
+    ISO 8601 (nanoseconds since 1970-01-01T00:00 UTC; naive times as UTC
+    unless a time zone is named for them); ``unit`` is the unit the numbers
+    were read in; ``where`` names the column (file and column) for messages.
+    ``tz`` is the zone the times were written in (``'+02:00'``, ``'UTC'``,
+    ``'Europe/Berlin'``; None: not said); ``epoch_ns`` is the instant of
+    the clock's zero in ns since 1970-01-01T00:00 UTC (0 for ISO times, the
+    reference of ``seconds since DATE``; None: the clock is not absolute).
     """
 
     ns: np.ndarray
@@ -68,6 +75,8 @@ class TimeColumn:
     iso: bool = False
     unit: str = "s"
     where: str = ""
+    tz: str | None = None
+    epoch_ns: int | None = None
 
 
 def split_unit(header: str):
@@ -171,13 +180,15 @@ def _not_times(cells, where: str, first: int) -> str:
     return f"{where}: mixes numbers and ISO 8601 times; allowed: one or the other"
 
 
-def parse_time_cells(cells, unit: str, where: str, first: int = 0) -> TimeColumn:
+def parse_time_cells(cells, unit: str, where: str, first: int = 0, tz: str | None = None) -> TimeColumn:
     """Text cells (numbers in ``unit``, or ISO 8601 times) -> a :class:`TimeColumn`, exactly.
 
     A missing cell (empty, ``nan``) is an error naming its sample; so is a
     column that is neither numbers nor ISO 8601 times.  ``first`` is the
     sample number of ``cells[0]`` in its column (a reader parsing a long
-    column in chunks names the column's sample, not the chunk's).
+    column in chunks names the column's sample, not the chunk's).  ISO times
+    with a zone (``+02:00``, ``Z``) are converted to UTC exactly; naive ones
+    are in the zone ``tz`` (an offset or a name, DST included; None: UTC).
     """
     cells = [str(c).strip() for c in cells]
     for i, c in enumerate(cells):
@@ -204,16 +215,90 @@ def parse_time_cells(cells, unit: str, where: str, first: int = 0) -> TimeColumn
             raise ValueError(f"{where}: times beyond +-292 years in ns; allowed: |t| < 9.2e18 ns")
         quantum = max(1.0, per * 10.0 ** (-max(places, 0)))
         return TimeColumn(np.array(ns, dtype=np.int64), quantum, unit=unit, where=where)
+    zoned = [_ZONED.match(c) for c in cells]
+    n_zoned = sum(z is not None for z in zoned)
+    if 0 < n_zoned < len(cells):
+        i = next(i for i, z in enumerate(zoned) if (z is None) != (zoned[0] is None))
+        raise ValueError(f"{where}: mixes times with and without a time zone (sample {first + i}); allowed: one "
+                         f"or the other")
+    body = [z.group("body").replace(",", ".") for z in zoned] if n_zoned else cells
     try:
-        d = np.array(cells, dtype="datetime64[ns]")
+        d = np.array(body, dtype="datetime64[ns]")
     except ValueError:
         raise ValueError(_not_times(cells, where, first)) from None
     if np.any(np.isnat(d)):
         i = int(np.nonzero(np.isnat(d))[0][0])
         raise ValueError(f"{where}: time is missing at sample {first + i}")
-    frac = [c.split(".", 1)[1] if "." in c else "" for c in cells]
+    frac = [c.split(".", 1)[1] if "." in c else "" for c in body]
     places = max(len(re.match(r"\d*", f).group(0)) for f in frac)
-    return TimeColumn(d.astype(np.int64), max(1.0, 1e9 * 10.0 ** -places), iso=True, where=where)
+    ns = d.astype(np.int64)
+    if n_zoned:
+        offs = [_offset_ns(z.group("tz")) for z in zoned]
+        ns = ns - np.array(offs, dtype=np.int64)
+        zone = _zone_text(zoned[0].group("tz"))
+    elif tz is not None:
+        ns, zone = localize_ns(ns, tz, where, first), str(tz)
+    else:
+        zone = None
+    return TimeColumn(ns, max(1.0, 1e9 * 10.0 ** -places), iso=True, where=where, tz=zone, epoch_ns=0)
+
+
+def _offset_ns(text: str) -> int:
+    """ns east of UTC of an ISO 8601 zone designator (``Z``, ``+02:00``, ``-0530``, ``+02``)."""
+    if text in ("Z", "UTC"):
+        return 0
+    sign = -1 if text[0] == "-" else 1
+    digits = text[1:].replace(":", "")
+    return sign * (int(digits[:2]) * 3600 + int(digits[2:4] or 0) * 60) * 10**9
+
+
+def _zone_text(text: str) -> str:
+    """A zone designator as written in a record's ``start_time``: ``'UTC'`` or ``'+02:00'``."""
+    if text in ("Z", "UTC"):
+        return "UTC"
+    digits = text[1:].replace(":", "")
+    return f"{text[0]}{digits[:2]}:{digits[2:4] or '00'}"
+
+
+def check_timezone(name: str, tz) -> str:
+    """A time zone as given (``'+02:00'``, ``'UTC'``, ``'Europe/Berlin'``) after checking pandas knows it."""
+    import pandas as pd
+
+    if not isinstance(tz, str) or not tz.strip():
+        raise TypeError(f"{name} must be a time zone name or offset (e.g. '+02:00', 'Europe/Berlin'), got {tz!r}")
+    try:
+        pd.Timestamp("2000-01-01").tz_localize(_pandas_zone(tz))
+    except Exception:  # noqa: BLE001  (pytz, zoneinfo and dateutil each raise their own)
+        raise ValueError(f"{name}={tz!r} is not a time zone; allowed: an offset such as '+02:00' or '-0500', 'UTC', "
+                         f"or an IANA name such as 'Europe/Berlin'") from None
+    return tz
+
+
+def _pandas_zone(tz: str):
+    """``tz`` as pandas takes it: an offset as a fixed ``datetime.timezone``, a name as is."""
+    import datetime
+
+    m = re.fullmatch(r"[+-]\d{2}(?::?\d{2})?", tz.strip())
+    if m:
+        return datetime.timezone(datetime.timedelta(seconds=_offset_ns(tz.strip()) // 10**9))
+    return tz.strip()
+
+
+def localize_ns(ns, tz: str, where: str, first: int = 0) -> np.ndarray:
+    """Naive wall-clock times [ns] in zone ``tz`` -> ns since 1970 UTC (a DST gap or fold is an error naming the sample)."""
+    import pandas as pd
+
+    idx = pd.DatetimeIndex(np.asarray(ns, dtype=np.int64).view("datetime64[ns]"))
+    try:
+        out = idx.tz_localize(_pandas_zone(tz), ambiguous="NaT", nonexistent="NaT")
+    except Exception:  # noqa: BLE001
+        raise ValueError(f"{where}: time zone {tz!r} is not known") from None
+    bad = np.asarray(out.isna())
+    if bad.any():
+        i = int(np.nonzero(bad)[0][0])
+        raise ValueError(f"{where}: time at sample {first + i} is ambiguous or does not exist in time zone {tz!r} "
+                         f"(a daylight-saving change); allowed: times with their offset (e.g. +02:00)")
+    return np.asarray(out.tz_convert("UTC").as_unit("ns").asi8, dtype=np.int64)
 
 
 def float_times(values, unit: str, where: str) -> TimeColumn:
@@ -231,7 +316,28 @@ def float_times(values, unit: str, where: str) -> TimeColumn:
     whole = np.trunc(v)
     ns = whole.astype(np.int64) * np.int64(per) + np.rint((v - whole) * per).astype(np.int64)
     quantum = float(np.spacing(np.max(np.abs(v)))) * per if v.size else 1.0
-    return TimeColumn(ns, max(1.0, quantum), unit=unit, where=where)
+    epoch, zone = _since(unit, where)
+    return TimeColumn(ns, max(1.0, quantum), unit=unit, where=where, tz=zone, epoch_ns=epoch)
+
+
+def _since(unit: str, where: str):
+    """(ns since 1970 UTC, zone) of the reference of ``'... since DATE'`` units (CF: a naive DATE is UTC); (None, None)."""
+    import pandas as pd
+
+    parts = unit.strip().split(" since ", 1)
+    if len(parts) < 2:
+        return None, None
+    try:
+        ref = pd.Timestamp(parts[1].strip())
+    except (ValueError, TypeError, OverflowError):
+        raise ValueError(f"{where}: time units {unit!r}: the reference date does not parse") from None
+    if ref.tzinfo is None:
+        return int(ref.as_unit("ns").value), "UTC"
+    off = ref.utcoffset()
+    zone = "UTC" if not off else _zone_text(f"{'-' if off.total_seconds() < 0 else '+'}"
+                                            f"{int(abs(off.total_seconds())) // 3600:02d}:"
+                                            f"{int(abs(off.total_seconds())) % 3600 // 60:02d}")
+    return int(ref.tz_convert("UTC").as_unit("ns").value), zone
 
 
 def ns_text(ns: int) -> str:
@@ -331,3 +437,14 @@ def infer_grid(tc: TimeColumn, where: str, *, sample_rate=None, rate_range=(0.0,
         i = int(np.nonzero(np.diff(idx) == 0)[0][0])
         raise ValueError(f"{where}: samples {i} and {i + 1} fall on one time step of the {fs:.9g} Hz grid")
     return fs, idx
+
+
+def start_timestamp(tc: TimeColumn, ns: int):
+    """The absolute time of ``ns`` on ``tc``'s clock as a pandas Timestamp in the zone written (naive when the
+    zone is not said), or None for a clock that is not absolute (plain numbers)."""
+    import pandas as pd
+
+    if tc is None or tc.epoch_ns is None:
+        return None
+    t = pd.Timestamp(int(tc.epoch_ns) + int(ns), unit="ns")
+    return t if tc.tz is None else t.tz_localize("UTC").tz_convert(_pandas_zone(tc.tz))

@@ -106,15 +106,36 @@ def check_memory(name: str, nbytes: int, *, fraction: float = 0.8) -> None:
 
 
 def available_memory() -> int | None:
-    """Bytes of memory available to this process (Linux), or None if unknown."""
+    """Bytes of memory this process may still allocate, or None if unknown.
+
+    psutil's available memory (any platform; on Linux the kernel's
+    ``MemAvailable``), capped by Dask's :data:`distributed.system.MEMORY_LIMIT`
+    (the least of the host's memory, a cgroup limit: Slurm, containers, and
+    ``RLIMIT_RSS``) less this process's resident memory: inside a cgroup of
+    4 GiB on a host with 200 GiB free, 4 GiB less what the process holds.
+    """
     try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return None
+        import psutil  # a dependency of dask.distributed (imported here: only the checks need it)
+    except ImportError:
+        return None
+    try:
+        vm = psutil.virtual_memory()
+        avail = int(vm.available)
+        limit = _memory_limit()
+        if limit is not None and limit < vm.total:
+            avail = min(avail, max(0, limit - int(psutil.Process().memory_info().rss)))
+    except (OSError, AttributeError, RuntimeError):
+        return None
+    return avail
+
+
+def _memory_limit() -> int | None:
+    """Dask's limit of this system's memory (host, cgroup, RLIMIT_RSS) [bytes], or None without distributed."""
+    try:
+        from distributed.system import MEMORY_LIMIT  # read once, at its first import (cgroups v1 and v2)
+    except ImportError:
+        return None
+    return int(MEMORY_LIMIT)
 
 
 def _range_text(lo, hi, lo_open, hi_open) -> str:

@@ -23,8 +23,16 @@ values: a few are gaps, more than ``max_filled_fraction`` an error.
   integer ns (``cwlidar_sim._times``); its unit is the header's or the
   spec's ``units['time']`` (they must agree), else seconds; without one the
   spec's ``sample_rate`` gives the times.  Velocities in m/s unless the spec's
-  ``units`` says otherwise (CSV carries no units of its own).
-* NetCDF (netCDF-4 through h5netcdf, netCDF-3 through scipy): variables
+  ``units`` says otherwise (CSV carries no units of its own).  Read by
+  pandas with the spec's ``sep``, ``decimal``, ``skiprows``, ``comment``
+  and ``na_values``; a Campbell TOA5 file is recognised by its first line
+  (names from line 2, units from line 3).  ISO times with a zone are
+  converted to UTC, naive ones are in the spec's ``timezone`` (else UTC);
+  ``Record.start_time`` keeps the absolute start in the zone written.
+* A pandas DataFrame (a time index or column) or an xarray Dataset in place
+  of the path (Python API), read as a CSV's columns or a NetCDF's variables.
+* NetCDF (netCDF-4 through h5netcdf, netCDF-3 through scipy; CF-decoded by
+  xarray: ``_FillValue``, ``missing_value``, ``scale_factor``, ``add_offset``): variables
   found by the spec's ``columns``, else by CF standard name or name:
   ``eastward_wind``/``northward_wind``/``upward_air_velocity``,
   ``x_wind``/``y_wind`` (sensor axes), plain ``u``/``v``/``w``; a cup's
@@ -75,14 +83,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from fractions import Fraction
 import os
 
 import numpy as np
 
-from .._times import infer_grid, ns_text
+from .._times import check_timezone, infer_grid, ns_text, start_timestamp
 from .._validation import check_choice, check_keys, check_real, check_tuple
-from .record_files import MAX_SAMPLES, absurd_speeds, parse_speed_units, parse_time_units, read_record_file
+from .record_files import (MAX_SAMPLES, absurd_speeds, as_table, parse_speed_units, parse_time_units,
+                           read_record_file)
 
 __all__ = ["RecordSpec", "Record", "read_record", "read_periods", "parse_speed_units", "parse_time_units",
            "fit_mann_to_record"]
@@ -100,8 +110,10 @@ class RecordSpec:
 
     Parameters
     ----------
-    path : str
-        CSV (``.csv``, ``.txt``) or NetCDF (``.nc``, ``.nc4``, ``.cdf``) file.
+    path : str, pandas.DataFrame or xarray.Dataset
+        CSV (``.csv``, ``.txt``) or NetCDF (``.nc``, ``.nc4``, ``.cdf``) file,
+        or the record itself in memory (kept as a
+        ``cwlidar_sim.analysis.record_files.RecordTable``, compared by identity).
     kind : {"sonic", "cup"}
     position : (float, float, float)
         (x, y, z) of the sensor relative to the scene [m] (x along the mean
@@ -138,6 +150,29 @@ class RecordSpec:
         Largest sigma_u / U for Taylor's hypothesis, in (0, 2].
     distance_constant : float
         Cup only: l0 [m] in [0, 100] (0: ideal).
+    sep : str
+        CSV: the field separator, one character (``","``, ``";"``,
+        ``"\\t"``, ``"|"``).
+    decimal : {".", ","}
+        CSV: the decimal mark (``","``: decimal commas, with ``sep=";"``).
+    skiprows : int
+        CSV: lines before the header row (a logger's preamble), >= 0.  A
+        Campbell TOA5 file (first line ``"TOA5",...``) is recognised
+        without it: its column names from line 2, units from line 3.
+    comment : str, optional
+        CSV: one character; lines that begin with it are skipped, and text
+        after it on a line is ignored.
+    na_values : sequence of str or float
+        CSV: more missing-value markers besides empty, ``nan``, ``NA``,
+        ``NAN``, ``null``: words (``"-"``) compared as written, numbers
+        (``-9999``) compared by value however written (``-9999.0``,
+        ``-9999,00``).  They become gaps (flag FLAG_GAP), never numbers.
+    timezone : str, optional
+        The zone of ISO 8601 times written without one (a logger's local
+        clock): an offset (``"+02:00"``) or an IANA name
+        (``"Europe/Berlin"``, daylight-saving time included).  Times written
+        with their zone are converted by it; naive times without this
+        option are taken as UTC.
     """
 
     path: str
@@ -157,13 +192,25 @@ class RecordSpec:
     min_mean_speed: float = 1.0
     max_intensity: float = 0.5
     distance_constant: float = 0.0
+    sep: str = ","
+    decimal: str = "."
+    skiprows: int = 0
+    comment: str | None = None
+    na_values: tuple = ()
+    timezone: str | None = None
 
     def __post_init__(self):
         from .._validation import check_int
 
-        if not isinstance(self.path, (str, os.PathLike)) or not str(self.path):
-            raise TypeError(f"RecordSpec.path must be a file path, got {self.path!r}")
-        object.__setattr__(self, "path", str(self.path))
+        table = as_table(self.path)
+        if table is not None:
+            object.__setattr__(self, "path", table)
+        elif not isinstance(self.path, (str, os.PathLike)) or not str(self.path):
+            raise TypeError(f"RecordSpec.path must be a file path, a pandas DataFrame or an xarray Dataset, got "
+                            f"{self.path!r}")
+        else:
+            object.__setattr__(self, "path", str(self.path))
+        _check_csv_options(self)
         check_choice("RecordSpec.kind", self.kind, KINDS)
         object.__setattr__(self, "position", check_tuple("RecordSpec.position", self.position, 3, check_real))
         roles = _ROLES[self.kind] + ("time",)
@@ -192,7 +239,7 @@ class RecordSpec:
         if not isinstance(self.name, str):
             raise TypeError(f"RecordSpec.name must be a str, got {type(self.name).__name__}")
         if not self.name:
-            object.__setattr__(self, "name", os.path.basename(self.path))
+            object.__setattr__(self, "name", self.path.kind if table is not None else os.path.basename(self.path))
 
     def column(self, role: str) -> str | None:
         return dict(self.columns).get(role)
@@ -206,6 +253,7 @@ class RecordSpec:
         d["position"] = list(self.position)
         d["columns"] = dict(self.columns)
         d["units"] = dict(self.units)
+        d["na_values"] = list(self.na_values)
         return d
 
     @classmethod
@@ -213,6 +261,44 @@ class RecordSpec:
         """Build from a mapping (e.g. a TOML table); unknown keys are rejected by name."""
         check_keys(cls, d, required=["path"])
         return cls(**d)
+
+
+def _check_csv_options(spec):
+    """The CSV options of a RecordSpec: one-character separators and comment, a known decimal mark and zone."""
+    from .._validation import check_int
+
+    for f in ("sep", "comment"):
+        v = getattr(spec, f)
+        if v is None and f == "comment":
+            continue
+        if not isinstance(v, str) or len(v) != 1 or v in "\r\n\"" or (f == "comment" and v.isspace()):
+            raise ValueError(f"RecordSpec.{f}={v!r} is not a field {'separator' if f == 'sep' else 'comment mark'}; "
+                             f"allowed: one character other than a quote or a line end (e.g. ',', ';', '\\t')")
+    if spec.decimal not in (".", ","):
+        raise ValueError(f"RecordSpec.decimal={spec.decimal!r} is not a decimal mark; allowed: '.' or ','")
+    if spec.decimal == spec.sep:
+        raise ValueError(f"RecordSpec.decimal={spec.decimal!r} is also the separator sep={spec.sep!r}; allowed: "
+                         f"different characters (decimal commas go with sep=';')")
+    object.__setattr__(spec, "skiprows", check_int("RecordSpec.skiprows", spec.skiprows, lo=0, hi=10_000))
+    na = spec.na_values
+    if isinstance(na, (str, bytes, numbers.Real)) or not hasattr(na, "__iter__"):
+        na = (na,)
+    out = []
+    for i, w in enumerate(na):
+        if isinstance(w, str):
+            try:
+                x = float(w.replace(spec.decimal, "."))
+                w = x if math.isfinite(x) else w  # '-9999' is the number; 'NAN' a word
+            except ValueError:
+                pass
+        if isinstance(w, bool) or not isinstance(w, (str, numbers.Real)) or (not isinstance(w, str)
+                                                                             and not math.isfinite(w)):
+            raise ValueError(f"RecordSpec.na_values[{i}]={w!r} is not a missing-value marker; allowed: a word "
+                             f"('NAN', '-') or a finite number (-9999)")
+        out.append(w if isinstance(w, str) else float(w))
+    object.__setattr__(spec, "na_values", tuple(out))
+    if spec.timezone is not None:
+        check_timezone("RecordSpec.timezone", spec.timezone)
 
 
 def _role_map(field, value, roles):
@@ -416,6 +502,12 @@ class Record:
     units : dict
         Role -> the speed units the file's values were read in (converted to
         m/s).
+    start_time : pandas.Timestamp or None
+        The absolute time of the period's first sample, in the zone the file
+        wrote (``+02:00``, a TOA5 logger's ``timezone``, UTC for NetCDF's
+        ``... since DATE``; naive when the file says no zone), or None when
+        the times are plain numbers (or there is no time column).  The
+        samples are at ``start_time + time_s``.
     """
 
     spec: RecordSpec
@@ -429,10 +521,21 @@ class Record:
     time0: float = 0.0
     time0_ns: int = 0
     units: dict = dataclasses.field(default_factory=dict)
+    start_time: object = None
 
     @property
     def n_samples(self) -> int:
         return self.flags.size
+
+    @property
+    def time_s(self) -> np.ndarray:
+        """The samples' times from the period's first sample [s]: ``arange(n) / fs``."""
+        return np.arange(self.n_samples) / self.sample_rate
+
+    @property
+    def n_gaps(self) -> int:
+        """Samples missing in the file (empty, a missing-value marker, a fill value, a missing time) and filled."""
+        return int(np.count_nonzero(self.flags & FLAG_GAP))
 
     @property
     def duration(self) -> float:
@@ -521,8 +624,9 @@ def read_periods(spec: RecordSpec, period_duration: float | None = None) -> list
         for a in vals.values():
             a.setflags(write=False)
         flags.setflags(write=False)
-        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start,
-                          t0_ns + round(Fraction(k * m * 10**9) / Fraction(fs)), dict(units)))
+        k_ns = t0_ns + round(Fraction(k * m * 10**9) / Fraction(fs))
+        out.append(Record(spec, k, start, fs, vals, flags, U, rot, t0 + start, k_ns, dict(units),
+                          start_timestamp(t, k_ns)))
     return out
 
 

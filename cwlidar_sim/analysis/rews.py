@@ -496,6 +496,13 @@ def coherence_estimate(rotor_t, lidar_t, *, fs: float, U: float, segment_duratio
     Returns
     -------
     CoherenceEstimate
+
+    Notes
+    -----
+    Without gaps and ``f_edges``, ``coherence_f`` is
+    ``scipy.signal.coherence`` (``nperseg`` the segment, ``noverlap = 0``,
+    boxcar or Hann) to round-off, f = 0 left out; the interval and the gap
+    handling are this function's own.
     """
     from .spectra import bin_average, segment_spectra
 

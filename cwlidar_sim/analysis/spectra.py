@@ -22,6 +22,18 @@ Conventions
   analytic spectra too (:func:`cwlidar_sim.turbulence.one_point_spectra`,
   :func:`cwlidar_sim.analysis.misaligned_spectra`), which the measured ones
   estimate without any factor.
+
+scipy.signal
+------------
+Without gaps, :func:`segment_spectra` is ``scipy.signal.welch`` and
+``scipy.signal.csd`` (``nperseg = n_per``, ``noverlap = 0``, window
+``"boxcar"`` or ``"hann"``, ``detrend = "constant"`` or ``"linear"``,
+``scaling = "density"``) to round-off (a relative 1e-14 on a Mann line,
+tests/analysis/test_spectra_vs_scipy.py), with f = 0 left out and the
+cross-spectrum conjugated (scipy's is ``E[X^* Y]``).  The core is kept, not
+replaced by those calls: scipy has no per-segment gap rejection or filling
+(here a step before an ordinary Welch average), and the simulation's
+results stay bit-identical.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ import re
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 #: Where scripts are cited as commands or sources (the changelog keeps the paths of its day).
-CITING = ("README.md", "docs", "benchmarks", "studies", "tools", "tests", "notebooks", "examples")
+CITING = ("README.md", "docs", "benchmarks", "studies", "tools", "tests", "notebooks", "examples", "cwlidar_sim")
 #: Names that stand for any script (benchmarks/_protocol.py's "python benchmarks/x.py").
 PLACEHOLDERS = {"benchmarks/x.py"}
 

@@ -43,7 +43,7 @@ For the staring beam along the mean wind (A2012's geometry, misalignment 0):
 
 Every estimate of a campaign sees the same per-estimate physics, so the
 campaign's method 2 scatters about this ``T2`` (validated in
-``benchmarks/validate_estimator_theory.py``).  Failed estimates (NaN) are
+``studies/validate_estimator_theory.py``).  Failed estimates (NaN) are
 replaced by their line's mean and counted (``availability_e``).
 
 Effective probe length

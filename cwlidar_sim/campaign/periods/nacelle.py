@@ -39,7 +39,7 @@ Per period (:mod:`cwlidar_sim.campaign.scenes.nacelle`):
    circular scan only.  With 60-s segments the kernels' leakage of the
    coherent low frequencies raises the coherence near its fall: k at 0.5
    is 15-27 % above that of the spectra at the bin centres (bundled scene,
-   benchmarks/nacelle_coherence.py).  What the simulation has and the
+   studies/nacelle_coherence.py).  What the simulation has and the
    theory lacks: the box's grid (spacing, lateral size), the span's
    truncation (the tail sees the mean wind), 50 estimates swept over their
    dwells instead of N point beams; in the bundled scene they move k at

@@ -58,7 +58,7 @@ a doubled box has not a periodic box's covariance).  The box's x period is
 ``U T`` with U the mean of its records' mean speeds (per height in dwell
 mode), a node per record sample where the record is no denser than the
 scene's spacing; the lidar then sees the periodic image within its circle's
-reach of the record's ends (measured by ``benchmarks/twin_edge.py``).  The
+reach of the record's ends (measured by ``studies/twin_edge.py``).  The
 scene's cup, sonic, scanning lidar, VAD fits and CS's model run unchanged
 (:func:`cwlidar_sim.campaign.periods.conical.run_unit`).  Per period
 (``DIR/<scene>_twin_P<k>.nc``, dimensions ``twin``, ``height``, ``scan_s``):

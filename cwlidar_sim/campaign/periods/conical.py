@@ -17,30 +17,8 @@ The scene's results (:func:`summarise`) average the units of each height
 over the periods that pass CS's selection (mean points used in the fits
 >= 65 % of the maximum), on dimensions ``height`` [m] and ``scan_s`` [s].
 
-Example
--------
-.. code-block:: toml
-
-    name = "cs"
-    kind = "conical"
-    seed = 35
-    duration = 600.0
-
-    [scan]
-    heights = [40.0, 60.0, 80.0, 100.0]
-    scan_revs = [1, 3]
-
-    [lidar]                        # the keys of every scene's [lidar]
-    tier = "spectral"
-    cnr_db = -10.0
-
-    [turbulence]                   # or alpha_eps, length_scale, gamma for one tensor at every height
-    source = "mann1994"            # neutral surface layer at each height (Mann 1994's Kaimal fit)
-
-    [[period]]
-    name = "p0"
-    mean_speed = 10.0
-    wind_from_deg = 45.0           # meteorological (from, clockwise from north); or wind_direction_deg (toward)
+The scene file these units run is described, with an example, in
+:mod:`cwlidar_sim.campaign.scenes.conical`.
 """
 
 from __future__ import annotations
@@ -54,11 +32,10 @@ from ..._version import __version__
 from . import conical_simulation
 from .conical_simulation import cycle_reference_height
 from .._labels import WIND_DIRECTION_CONVENTION, duration_phrase, periods_phrase, wind_from_toward
-from ..scenes.conical import ConicalPeriodSpec, ConicalScene, ScanSpec, SurfaceTurbulenceSpec, default_spacing
+from ..scenes.conical import ConicalScene, default_spacing
 from ..scenes.spec import RESULTS_VERSION
 
-__all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "run_unit", "unit_dataset",
-           "summarise", "summary", "estimate_unit", "estimate_bytes"]
+__all__ = ["run_unit", "unit_dataset", "summarise", "summary", "estimate_unit", "estimate_bytes"]
 
 #: Scalars of one unit (period x height), with units and meaning ('{span}': the period's length, '10-min', '120-s').
 UNIT_VARS = {

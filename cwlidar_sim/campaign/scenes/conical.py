@@ -90,9 +90,8 @@ from ..._validation import check_bool, check_choice, check_int, check_real, chec
 from .._labels import wind_from_toward
 from .lidar_spec import ConicalLidarSpec, lidar_schema
 from .turbulence_spec import TurbulenceSpec
-from .spec import (SceneSpec, Spec, Table, check_distinct_reals, check_periods, check_scene_keys,
-                   check_scene_name, entry_label, periods_from_dict, resolve_path, set_field, spec_table,
-                   table_from_dict, turbulence_schema)
+from .spec import (SceneSpec, Spec, Table, check_distinct_reals, check_periods, check_scene_name, entry_label,
+                   resolve_path, set_field, spec_table, turbulence_schema)
 
 __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalScene", "CYCLE_KEYS", "default_spacing"]
 
@@ -486,6 +485,8 @@ class ConicalScene(SceneSpec):
 
     #: The scene file's tables and the spec class of each.
     _tables = {"scan": ScanSpec, "lidar": ConicalLidarSpec, "turbulence": SurfaceTurbulenceSpec}
+    _period_spec = ConicalPeriodSpec
+    _what = "conical scene"
 
     @classmethod
     def schema(cls) -> dict:
@@ -496,21 +497,6 @@ class ConicalScene(SceneSpec):
         out.update(turbulence_schema(cls._tables["turbulence"]))
         out["period[]"] = spec_table(ConicalPeriodSpec)
         return out
-
-    @classmethod
-    def from_dict(cls, d: dict, *, base_dir: str = ".") -> "ConicalScene":
-        """Build from a TOML-shaped mapping; unknown keys are rejected by name, every error names its TOML path."""
-        check_scene_keys(d, cls.schema(), ("name", "period"), "conical scene")
-        kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
-        for key, spec in cls._tables.items():
-            if key in d:
-                kw[key] = table_from_dict(spec, d[key], key)
-        kw["periods"] = periods_from_dict(d["period"], ConicalPeriodSpec)
-        return cls(base_dir=base_dir, **kw)
-
-    def replace(self, **changes) -> "ConicalScene":
-        """Copy with fields changed (validated)."""
-        return dataclasses.replace(self, **changes)
 
     def resolve(self, path: str) -> str:
         """A path of the scene file, relative to the scene's folder."""

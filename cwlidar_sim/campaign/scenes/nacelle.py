@@ -57,9 +57,8 @@ from ..._seeding import seed_int
 from ..._validation import check_bool, check_int, check_real, check_seed, check_str
 from .lidar_spec import LidarSpecBase, lidar_schema
 from .turbulence_spec import TurbulenceSpec
-from .spec import (SceneSpec, Spec, Table, check_distinct_reals, check_periods, check_scene_keys, check_scene_name,
-                   entry_label, periods_from_dict, resolve_path, set_field, spec_table, table_from_dict,
-                   turbulence_schema)
+from .spec import (SceneSpec, Spec, Table, check_distinct_reals, check_periods, check_scene_name, entry_label,
+                   resolve_path, set_field, spec_table, turbulence_schema)
 
 __all__ = ["NacelleScanSpec", "NacelleTurbulenceSpec", "NacellePeriodSpec", "NacelleLidarSpec",
            "NacellePlatformSpec", "PLATFORM_DOFS", "NacelleScene"]
@@ -460,6 +459,8 @@ class NacelleScene(SceneSpec):
     #: The scene file's tables and the spec class of each.
     _tables = {"scan": NacelleScanSpec, "lidar": NacelleLidarSpec, "turbulence": NacelleTurbulenceSpec,
                "platform": NacellePlatformSpec}
+    _period_spec = NacellePeriodSpec
+    _what = "nacelle scene"
 
     @classmethod
     def schema(cls) -> dict:
@@ -471,18 +472,3 @@ class NacelleScene(SceneSpec):
         out.update({"platform": spec_table(NacellePlatformSpec), "platform.phase_deg": Table(PLATFORM_DOFS),
                     "period[]": spec_table(NacellePeriodSpec)})
         return out
-
-    @classmethod
-    def from_dict(cls, d: dict, *, base_dir: str = ".") -> "NacelleScene":
-        """Build from a TOML-shaped mapping; unknown keys are rejected by name, every error names its TOML path."""
-        check_scene_keys(d, cls.schema(), ("name", "period"), "nacelle scene")
-        kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
-        for key, spec in cls._tables.items():
-            if key in d:
-                kw[key] = table_from_dict(spec, d[key], key)
-        kw["periods"] = periods_from_dict(d["period"], NacellePeriodSpec)
-        return cls(base_dir=base_dir, **kw)
-
-    def replace(self, **changes) -> "NacelleScene":
-        """Copy with fields changed (validated)."""
-        return dataclasses.replace(self, **changes)

@@ -144,7 +144,35 @@ def select_periods(scene, names, what: str = "periods"):
 
 
 class SceneSpec(Spec):
-    """Base of the scene kinds (staring, conical, nacelle): a copy with dotted keys changed."""
+    """Base of the scene kinds (staring, conical, nacelle): parsing from TOML, a copy with dotted keys changed.
+
+    A kind declares ``_tables`` (TOML table -> its spec class), ``_period_spec``
+    (the ``[[period]]`` class), ``_required`` (keys a file must have) and
+    ``_what`` (the noun in messages), and its ``schema()``.
+    """
+
+    _required = ("name", "period")
+    _what = "scene"
+
+    @classmethod
+    def _check_kind(cls, d: dict) -> None:
+        """Refuse a mapping of another kind (a kind whose files may omit ``kind`` overrides this)."""
+
+    @classmethod
+    def from_dict(cls, d: dict, *, base_dir: str = "."):
+        """Build from a TOML-shaped mapping; unknown keys are rejected by name, every error names its TOML path."""
+        check_scene_keys(d, cls.schema(), cls._required, cls._what)
+        cls._check_kind(d)
+        kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
+        for key, spec in cls._tables.items():
+            if key in d:
+                kw[key] = table_from_dict(spec, d[key], key)
+        kw["periods"] = periods_from_dict(d["period"], cls._period_spec)
+        return cls(base_dir=base_dir, **kw)
+
+    def replace(self, **changes):
+        """Copy with fields changed (validated)."""
+        return dataclasses.replace(self, **changes)
 
     def with_values(self, values: dict):
         """A copy of the scene with the dotted keys of ``values`` set, validated like a scene file.

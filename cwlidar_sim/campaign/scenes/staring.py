@@ -54,9 +54,8 @@ from ..._validation import check_bool, check_choice, check_int, check_real, chec
 from ...signal.chain import TIERS
 from .lidar_spec import LidarSpecBase, lidar_schema
 from ..registry import kind_names
-from .spec import (SceneSpec, Spec, Table, check_periods, check_scene_keys, check_scene_name,
-                   entry_label, periods_from_dict, resolve_path, set_field, spec_table,
-                   table_from_dict, turbulence_schema)
+from .spec import (SceneSpec, Spec, Table, check_periods, check_scene_name, entry_label, resolve_path, set_field,
+                   spec_table, turbulence_schema)
 from .turbulence_spec import TurbulenceSpec
 
 __all__ = [
@@ -318,6 +317,10 @@ class Scene(SceneSpec):
     description: str = ""
     base_dir: str = dataclasses.field(default=".", compare=False)
 
+    _tables = _TABLES
+    _period_spec = PeriodSpec
+    _required = ("name", "turbulence", "period")
+
     def __post_init__(self):
         check_scene_name(self.name)
         for key, cls in _TABLES.items():
@@ -379,22 +382,10 @@ class Scene(SceneSpec):
         return out
 
     @classmethod
-    def from_dict(cls, d: dict, *, base_dir: str = ".") -> "Scene":
-        """Build from a TOML-shaped mapping; unknown keys are rejected by name, every error names its TOML path."""
-        check_scene_keys(d, cls.schema(), ("name", "turbulence", "period"), "scene")
+    def _check_kind(cls, d: dict) -> None:
         if d.get("kind", "staring") != "staring":
             raise ValueError(f"kind = {d['kind']!r} is not a staring scene (load_scene reads every kind: "
                              f"{', '.join(kind_names())})")
-        kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
-        for key, spec in _TABLES.items():
-            if key in d:
-                kw[key] = table_from_dict(spec, d[key], key)
-        kw["periods"] = periods_from_dict(d["period"], PeriodSpec)
-        return cls(base_dir=base_dir, **kw)
-
-    def replace(self, **changes) -> "Scene":
-        """Copy with fields changed (validated)."""
-        return dataclasses.replace(self, **changes)
 
     def resolve(self, path: str) -> str:
         """A path of the scene file, relative to the scene's folder."""

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cwlidar_sim.campaign import loads_scene, read_results, run_scene
-from cwlidar_sim.campaign.periods.conical import ConicalScene
+from cwlidar_sim.campaign.scenes.conical import ConicalScene
 from cwlidar_sim.cli import main
 
 TEXT = """

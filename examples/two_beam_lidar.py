@@ -58,7 +58,7 @@ def measure_two_beams(field, lidar: TwoBeamLidar, duration: float, U: float, see
             vlos_ls, vlos_l = sampler.sample(time_e[idx[lo:hi]], np.broadcast_to(n3, (hi - lo, 3)))
             return vlos_ls[:, None, :], vlos_l, None  # one look per estimate, no cloud
 
-        groups.append(FocusGroup(instrument=inst, index_e=idx, time_e=time_e[idx], weight_s=cells.weight_c,
+        groups.append(FocusGroup(instrument=inst, index_e=idx, time_e=time_e[idx], weight_s=cells.weight_tail_s,
                                  tail=cells.tail_weight > 0.0, n_looks=1, sample=sample,
                                  seed=None if seeds is None else seeds[b],
                                  transverse_speed=U * math.sin(math.radians(15.0))))

@@ -52,7 +52,7 @@ def _aperture_cells(truncation, base):
         phi = weight_aperture(s.ravel(), opt, ap).reshape(s.shape)
         simpson = np.array([1.0] + [4.0, 2.0] * 7 + [4.0, 1.0]) / 48.0
         w = (phi @ simpson) * (e[1:] - e[:-1])
-        if c.sub_p.size != c.n_cells:
+        if c.sub_j.size != c.n_cells:
             raise SystemExit("aperture cells: sub-points per cell are not supported (use growth=0, cell = dx)")
         kept = float(w.sum())
         return dataclasses.replace(c, weight_s=w, kept_fraction=kept, truncated_fraction=max(0.0, 1 - kept),

@@ -60,8 +60,8 @@ def _cells_weighting(lid, r):
     from cwlidar_sim.beam import RangeCells
 
     c = lid.cells(r)
-    w = np.repeat(c.weight_s, np.diff(c.ptr_s)) * c.fraction_p
-    return RangeCells(s_s=c.sub_p, weight_s=w, edges=c.edges, kept_fraction=c.kept_fraction,
+    w = np.repeat(c.weight_s, np.diff(c.ptr_s)) * c.fraction_j
+    return RangeCells(s_s=c.sub_j, weight_s=w, edges=c.edges, kept_fraction=c.kept_fraction,
                       truncated_fraction=c.truncated_fraction, renormalised=False, weighting=c.weighting,
                       rayleigh_length=c.rayleigh_length)
 

@@ -1,6 +1,6 @@
 """The dimension-letter alphabet is closed: one letter, one meaning, documented once (the package docstring).
 
-Checked statically over the modules already cleaned (the sensors and the signal chain):
+Checked statically over the modules already cleaned (the sensors, the signal chain, the probe cells and the beam kernels):
 
 * the table in ``cwlidar_sim.__doc__`` gives every letter once;
 * every name those modules define (assigned, an argument, a field) that ends in a dimension suffix
@@ -19,7 +19,8 @@ import cwlidar_sim
 
 ROOT = pathlib.Path(cwlidar_sim.__file__).parent
 #: Modules whose array names follow the table (the others are listed in the CHANGELOG as still to clean).
-CLEANED = sorted((ROOT / "sensors").glob("*.py")) + [ROOT / "signal" / "chain.py"]
+CLEANED = sorted((ROOT / "sensors").glob("*.py")) + [ROOT / "signal" / "chain.py", ROOT / "beam" / "cells.py",
+                                                   ROOT / "beam" / "_kernels.py"]
 #: Words and units that end names without being dimension suffixes.
 WORDS = {"at", "in", "to", "or", "lo", "hi", "deg", "db", "rpm", "std", "rng", "key", "gap", "out", "bg", "sim",
          "cnr", "eff", "rev", "str", "int", "fft", "rho", "cl"}

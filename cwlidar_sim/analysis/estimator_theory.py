@@ -288,11 +288,11 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
 
     cells = _line_cells(instrument, weighting, span, cell_length, growth=cell_growth, tail=tail)
     w_s = np.ascontiguousarray(cells.weight_s, dtype=np.float64)
-    pos = -cells.sub_p / dx                   # sub-point offsets in grid steps (the beam looks upwind, -x)
+    pos = -cells.sub_j / dx                   # sub-point offsets in grid steps (the beam looks upwind, -x)
     m_s = np.floor(pos).astype(np.int64)
     f_s = pos - m_s
-    frac_p, ptr_s = cells.fraction_p, cells.ptr_s
-    grown = cells.sub_p.size > cells.n_cells
+    frac_j, ptr_s = cells.fraction_j, cells.ptr_s
+    grown = cells.sub_j.size > cells.n_cells
     insts = [instrument.replace(estimator=e) for e in est]
 
     nf = n_points // 2 + 1
@@ -325,13 +325,13 @@ def estimator_transfer(instrument, params, U, *, estimators=THEORY_ESTIMATORS, k
             i1 = (i0 + 1) % n_points
             vlos_es = U + (1.0 - f_s) * u_x[i0] + f_s * u_x[i1]
             if grown:  # a grown cell's speed is its sub-points' weighted mean, as the sensor samples it
-                vlos_es = U + np.add.reduceat((vlos_es - U) * frac_p, ptr_s[:-1], axis=1)
+                vlos_es = U + np.add.reduceat((vlos_es - U) * frac_j, ptr_s[:-1], axis=1)
             if mod_x is None:
                 mean, var, _ = continuum_moments(instrument, vlos_es, w_s, cnr_db, spread, correlation_time=tau)
             else:
                 mod_es = (1.0 - f_s) * mod_x[i0] + f_s * mod_x[i1]
                 if grown:
-                    mod_es = np.add.reduceat(mod_es * frac_p, ptr_s[:-1], axis=1)
+                    mod_es = np.add.reduceat(mod_es * frac_j, ptr_s[:-1], axis=1)
                 mean, var = _modulated_moments(instrument, vlos_es, w_s, mod_es, cnr_db, spread, tau)
             spec = sample_moments(mean, var, key, e0=c0)
             if gain != 1.0:

@@ -124,14 +124,14 @@ def los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, r, ex, ey, ez, 
 
 
 @numba.njit(**NJIT_PARALLEL)
-def los_cells_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_lc, range_p, fraction_p, ptr_s, weight_s, tail_weight,
+def los_cells_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_lc, range_j, fraction_j, ptr_s, weight_s, tail_weight,
                      time_l, U, add_mean, store, vlos_ls, vlos_l):
     """Line-of-sight speed of every range cell of every look, and their weighted sum: every sensor's sampler.
 
     For look ``l`` (direction ``n_lc[l]``, time ``time_l[l]``, the field
     advected at U along +x) and cell ``s`` with sub-points
-    ``p = ptr_s[s] .. ptr_s[s + 1] - 1`` at ranges ``range_p[p]``:
-    ``vlos_ls[l, s] = sum_p fraction_p[p] n . vel(origin + range_p[p] n)``
+    ``j = ptr_s[s] .. ptr_s[s + 1] - 1`` at ranges ``range_j[j]``:
+    ``vlos_ls[l, s] = sum_j fraction_j[j] n . vel(origin + range_j[j] n)``
     (:func:`los_point`); with ``tail_weight > 0`` one more column
     ``vlos_ls[l, n_s] = n . (U, 0, 0)`` (``0`` without ``add_mean``: the mean
     wind seen by the weight beyond the span,
@@ -151,7 +151,7 @@ def los_cells_kernel(u, v, w, grid, wrap_y, wrap_z, origin, n_lc, range_p, fract
         for js in range(n_s):
             vc = 0.0
             for jp in range(ptr_s[js], ptr_s[js + 1]):
-                vc += fraction_p[jp] * los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, range_p[jp],
+                vc += fraction_j[jp] * los_point(u, v, w, grid, nx, ny, nz, wrap_y, wrap_z, origin, range_j[jp],
                                                  ex, ey, ez, shift, U, add_mean)
             acc += weight_s[js] * vc
             if store:

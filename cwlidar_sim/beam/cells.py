@@ -88,10 +88,10 @@ class ProbeCells:
         (divided by ``kept_fraction`` for the 'renormalise' rule).
     edges : ndarray, shape (n_s + 1,)
         Cell edges [m].
-    sub_p : ndarray, shape (n_p,)
+    sub_j : ndarray, shape (n_j,)
         Sub-points, distance from the focus [m]; cell ``s`` owns
-        ``sub_p[ptr_s[s]:ptr_s[s + 1]]``.
-    fraction_p : ndarray, shape (n_p,)
+        ``sub_j[ptr_s[s]:ptr_s[s + 1]]``.
+    fraction_j : ndarray, shape (n_j,)
         Share of its cell's weight of each sub-point [-] (summing to 1 per cell).
     ptr_s : ndarray of int64, shape (n_s + 1,)
         Sub-point offsets of the cells.
@@ -111,8 +111,8 @@ class ProbeCells:
     s_s: np.ndarray
     weight_s: np.ndarray
     edges: np.ndarray
-    sub_p: np.ndarray
-    fraction_p: np.ndarray
+    sub_j: np.ndarray
+    fraction_j: np.ndarray
     ptr_s: np.ndarray
     tail_weight: float
     kept_fraction: float
@@ -129,18 +129,18 @@ class ProbeCells:
         return int(self.s_s.size)
 
     @property
-    def weight_c(self) -> np.ndarray:
+    def weight_tail_s(self) -> np.ndarray:
         """Weights of the chain's aerosol cells: the range cells, then the tail cell if any [-]."""
         return self.weight_s if self.tail_weight == 0.0 else np.append(self.weight_s, self.tail_weight)
 
     def transfer(self, k):
-        """Fourier transform of the sub-point weights, ``sum_p w_p exp(-i k s_p)`` [-], k in rad/m.
+        """Fourier transform of the sub-point weights, ``sum_j w_j exp(-i k s_j)`` [-], k in rad/m.
 
         The tail cell is not included (it sees the mean wind only).
         """
         k = np.asarray(k, dtype=np.float64)
-        w_p = self.fraction_p * np.repeat(self.weight_s, np.diff(self.ptr_s))
-        return np.exp(-1j * np.multiply.outer(k, self.sub_p)) @ w_p
+        w_j = self.fraction_j * np.repeat(self.weight_s, np.diff(self.ptr_s))
+        return np.exp(-1j * np.multiply.outer(k, self.sub_j)) @ w_j
 
 
 def _grown_edges(lo, hi, cl, g):
@@ -212,27 +212,27 @@ def probe_cells(optics: BeamOptics, weighting: str = "exact", span: float = 20.0
     truncated = pv.truncated_fraction(lo, half, kept)
     s = 0.5 * (edges[:-1] + edges[1:])
     length = np.diff(edges)
-    n_sub = np.maximum(1, np.ceil(length / cl - 1e-9).astype(np.int64))
-    ptr = np.concatenate([[0], np.cumsum(n_sub)]).astype(np.int64)
-    if np.all(n_sub == 1):
+    n_subpoints = np.maximum(1, np.ceil(length / cl - 1e-9).astype(np.int64))
+    ptr = np.concatenate([[0], np.cumsum(n_subpoints)]).astype(np.int64)
+    if np.all(n_subpoints == 1):
         sub, frac = s.copy(), np.ones(s.size)
     else:
         sub = np.empty(int(ptr[-1]))
         frac = np.empty(int(ptr[-1]))
         for c in range(s.size):
-            if n_sub[c] == 1:
+            if n_subpoints[c] == 1:
                 sub[ptr[c]], frac[ptr[c]] = s[c], 1.0
                 continue
-            e = np.linspace(edges[c], edges[c + 1], n_sub[c] + 1)
+            e = np.linspace(edges[c], edges[c + 1], n_subpoints[c] + 1)
             ws = np.diff(pv.primitive(e))
             sub[ptr[c]:ptr[c + 1]] = 0.5 * (e[:-1] + e[1:])
-            frac[ptr[c]:ptr[c + 1]] = ws / ws.sum() if ws.sum() > 0 else 1.0 / n_sub[c]
+            frac[ptr[c]:ptr[c + 1]] = ws / ws.sum() if ws.sum() > 0 else 1.0 / n_subpoints[c]
     if tail == "renormalise":
         w = w / kept
-        tail_w = 0.0
+        tail_weight_value = 0.0
     else:
-        tail_w = truncated
-    return ProbeCells(s_s=s, weight_s=w, edges=edges, sub_p=sub, fraction_p=frac, ptr_s=ptr, tail_weight=tail_w,
+        tail_weight_value = truncated
+    return ProbeCells(s_s=s, weight_s=w, edges=edges, sub_j=sub, fraction_j=frac, ptr_s=ptr, tail_weight=tail_weight_value,
                       kept_fraction=kept, truncated_fraction=truncated, tail=tail, weighting=pv.name,
                       rayleigh_length=zR, cell_length=cl, growth=g)
 

@@ -299,8 +299,8 @@ class BeamSampler:
         self.origin = np.ascontiguousarray(origin, dtype=np.float64)
         self.fld = _prepare_field(field, self.origin)
         self.cells = cells
-        self.range_p = np.ascontiguousarray(np.maximum(focus + cells.sub_p, 0.0))
-        self.fraction_p = np.ascontiguousarray(cells.fraction_p, dtype=np.float64)
+        self.range_j = np.ascontiguousarray(np.maximum(focus + cells.sub_j, 0.0))
+        self.fraction_j = np.ascontiguousarray(cells.fraction_j, dtype=np.float64)
         self.ptr_s = np.ascontiguousarray(cells.ptr_s, dtype=np.int64)
         self.weight_s = np.ascontiguousarray(cells.weight_s, dtype=np.float64)
         self.tail = float(cells.tail_weight)
@@ -309,7 +309,7 @@ class BeamSampler:
 
     def check_extent(self, n_dc) -> None:
         """The field must hold every sub-point along the directions ``n_dc`` (a ValueError says where not)."""
-        _check_extent(self.fld, self.origin, np.atleast_2d(n_dc), self.range_p, self.wrap, 1e-6)
+        _check_extent(self.fld, self.origin, np.atleast_2d(n_dc), self.range_j, self.wrap, 1e-6)
 
     def sample(self, time_l, n_lc):
         """``(vlos_ls, vlos_l)`` of the looks at times ``time_l`` [s] along directions ``n_lc`` (unit).
@@ -325,7 +325,7 @@ class BeamSampler:
         vlos_l = np.empty(n_l)
         f = self.fld
         los_cells_kernel(f.u, f.v, f.w, f.grid, self.wrap, self.wrap, self.origin, np.ascontiguousarray(n_lc),
-                         self.range_p, self.fraction_p, self.ptr_s, self.weight_s, self.tail,
+                         self.range_j, self.fraction_j, self.ptr_s, self.weight_s, self.tail,
                          np.ascontiguousarray(time_l, dtype=np.float64), self.U, True, True, vlos_ls, vlos_l)
         return vlos_ls, vlos_l
 

@@ -114,7 +114,7 @@ class StaringLidar(LidarBase):
         inst = self.instrument
         cells = self.cells()
         n3 = np.ascontiguousarray(self.direction, dtype=np.float64)
-        origin, _, time_e, _ = _prepare_beam(self.position, n3, times_e, np.maximum(inst.focus + cells.sub_p, 0.0))
+        origin, _, time_e, _ = _prepare_beam(self.position, n3, times_e, np.maximum(inst.focus + cells.sub_j, 0.0))
         time_e = np.ascontiguousarray(time_e, dtype=np.float64)
         sampler = BeamSampler(field, origin, inst.focus, cells, U, wrap)
         sampler.check_extent(n3)

@@ -254,7 +254,7 @@ def measure(field, sensor: Sensor, U: float, seed=None, *, variants=None, chunk:
     plan = sensor.plan_record(field, U, wrap=wrap, **when)
     n = len(plan.groups)
     seeds = [None] * n if sensor.tier == "los" else focus_seeds(seed, None if plan.fixed_focus else n)
-    groups = [FocusGroup(instrument=f.instrument, index_e=f.index_e, time_e=f.time_e, weight_s=f.cells.weight_c,
+    groups = [FocusGroup(instrument=f.instrument, index_e=f.index_e, time_e=f.time_e, weight_s=f.cells.weight_tail_s,
                          tail=f.cells.tail_weight > 0.0, n_looks=f.n_looks, sample=f.sample, seed=s,
                          transverse_speed=f.transverse_speed, subcell_spread=sensor.subcell_spread_in(f.field)[0],
                          cloud_weight=f.cloud_weight, calibration_time=calibration_time)

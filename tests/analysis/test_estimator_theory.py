@@ -77,7 +77,7 @@ def test_the_theory_cells_are_the_staring_lidars(weighting, span, cell, focus, g
     ours = _line_cells(inst, weighting, span, cell, growth=growth)
     theirs = StaringLidar(instrument=inst, weighting=weighting, span=span, cell_length=cell,
                           cell_growth=growth).cells()
-    for a in ("s_s", "weight_s", "sub_p", "fraction_p", "ptr_s"):
+    for a in ("s_s", "weight_s", "sub_j", "fraction_j", "ptr_s"):
         np.testing.assert_array_equal(getattr(ours, a), getattr(theirs, a))
     assert ours.truncated_fraction == theirs.truncated_fraction and ours.tail_weight == theirs.tail_weight
     with pytest.raises(ValueError, match="weighting"):

@@ -22,14 +22,14 @@ def test_equal_cells_are_the_truncated_weighting_and_the_tail_sees_the_mean():
         np.testing.assert_array_equal(c.weight_s, ref.weight_s)
         np.testing.assert_array_equal(c.s_s, ref.s_s)
         # one sub-point per cell, at its centre, the whole weight
-        np.testing.assert_array_equal(c.sub_p, c.s_s)
-        np.testing.assert_array_equal(c.fraction_p, 1.0)
+        np.testing.assert_array_equal(c.sub_j, c.s_s)
+        np.testing.assert_array_equal(c.fraction_j, 1.0)
         # the weight beyond the span is the tail cell's: a uniform wind is returned exactly
         assert c.weight_s.sum() + c.tail_weight == pytest.approx(1.0, abs=1e-14)
         assert c.tail_weight == pytest.approx(ref.truncated_fraction, rel=1e-12)
         r = probe_cells(OPT, "exact", span, cl, tail="renormalise")
         assert r.tail_weight == 0.0 and r.weight_s.sum() == pytest.approx(1.0, abs=1e-14)
-        assert r.weight_c.size == r.n_cells and c.weight_c.size == c.n_cells + 1
+        assert r.weight_tail_s.size == r.n_cells and c.weight_tail_s.size == c.n_cells + 1
 
 
 def test_lorentzian_tail_weight_is_two_over_pi_span():
@@ -60,9 +60,9 @@ def test_grown_cells_keep_the_weighting_and_cost_fewer_cells(growth):
     # sub-points every <= cl, each cell's fractions sum to 1, and their weights are the exact integrals
     n_sub = np.diff(gr.ptr_s)
     assert np.all(length / n_sub <= cl + 1e-9)
-    sums = np.add.reduceat(gr.fraction_p, gr.ptr_s[:-1])
+    sums = np.add.reduceat(gr.fraction_j, gr.ptr_s[:-1])
     np.testing.assert_allclose(sums, 1.0, rtol=1e-12)
-    w_p = gr.fraction_p * np.repeat(gr.weight_s, n_sub)
+    w_p = gr.fraction_j * np.repeat(gr.weight_s, n_sub)
     c = int(np.argmax(n_sub))
     e = np.linspace(gr.edges[c], gr.edges[c + 1], n_sub[c] + 1)
     exact = [integrate.quad(lambda s: weight_exact(s, OPT.focus), a, b)[0] for a, b in zip(e[:-1], e[1:])]

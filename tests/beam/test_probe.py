@@ -69,11 +69,11 @@ def test_each_weighting_integrates_to_one_over_the_cells(name):
     pv = ProbeVolume(OPT, name)
     c = probe_cells(OPT, name, 20.0, 0.5)
     assert c.weighting == name
-    assert c.weight_c.sum() == pytest.approx(1.0, abs=1e-12)
+    assert c.weight_tail_s.sum() == pytest.approx(1.0, abs=1e-12)
     r = probe_cells(OPT, name, 20.0, 0.5, tail="renormalise")
-    assert r.weight_c.sum() == pytest.approx(1.0, abs=1e-12)
+    assert r.weight_tail_s.sum() == pytest.approx(1.0, abs=1e-12)
     g = probe_cells(OPT, name, 200.0, 0.5, growth=0.1)  # grown cells: the same total
-    assert g.weight_c.sum() == pytest.approx(1.0, abs=1e-12)
+    assert g.weight_tail_s.sum() == pytest.approx(1.0, abs=1e-12)
     if name == "point":
         assert c.tail_weight == 0.0 and np.count_nonzero(c.weight_s) == 1
         assert c.s_s[np.argmax(c.weight_s)] == pytest.approx(0.0, abs=0.25)
@@ -107,7 +107,7 @@ def test_a_parameterised_weighting_is_an_instance_wherever_a_name_is():
     np.testing.assert_allclose(ProbeVolume(OPT, w).transfer(k), transfer_aperture(k, OPT, TruncatedAperture(1.0)),
                                rtol=1e-12)
     c = probe_cells(OPT, w, 20.0, 0.5)
-    assert c.weight_c.sum() == pytest.approx(1.0, abs=1e-12)
+    assert c.weight_tail_s.sum() == pytest.approx(1.0, abs=1e-12)
     # the clipped pupil has a longer depth of focus: less weight within +-z_R than the Gaussian's
     assert ProbeVolume(OPT, w).interval(-ZR, ZR) < ProbeVolume(OPT, "exact").interval(-ZR, ZR) - 0.02
     with pytest.raises(ValueError, match="truncation"):

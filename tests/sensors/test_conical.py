@@ -141,23 +141,23 @@ def test_scan_kernel_matches_reference(growth):
     for c in "uvw":
         box[c].values[...] = rng.standard_normal(box[c].shape)
     cells = lid.cells(40.0)
-    assert (cells.sub_p.size > cells.n_cells) == (growth > 0)
+    assert (cells.sub_j.size > cells.n_cells) == (growth > 0)
     sampler = BeamSampler(box, np.zeros(3), lid.focus(40.0), cells, 7.0, False)
-    range_p = np.maximum(lid.focus(40.0) + cells.sub_p, 0.0)
+    range_j = np.maximum(lid.focus(40.0) + cells.sub_j, 0.0)
     t_l = np.linspace(0.0, 2.0, 17)
     n_lc = lid.direction(np.linspace(0.0, 400.0, 17))
     vl_ls, vl_l = sampler.sample(t_l, n_lc)
     _, ref_p = beam_sample_points(sampler.fld.u, sampler.fld.v, sampler.fld.w, sampler.fld.grid, False, np.zeros(3),
-                                  n_lc, range_p, t_l, 7.0, True)
+                                  n_lc, range_j, t_l, 7.0, True)
     # a cell's speed is its sub-points' weighting-weighted mean
-    ref = np.stack([ref_p[:, cells.ptr_s[s]:cells.ptr_s[s + 1]] @ cells.fraction_p[cells.ptr_s[s]:cells.ptr_s[s + 1]]
+    ref = np.stack([ref_p[:, cells.ptr_s[s]:cells.ptr_s[s + 1]] @ cells.fraction_j[cells.ptr_s[s]:cells.ptr_s[s + 1]]
                     for s in range(cells.n_cells)], axis=1)
     np.testing.assert_allclose(vl_ls[:, :-1], ref, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(vl_ls[:, -1], 7.0 * n_lc[:, 0], rtol=1e-15)
     np.testing.assert_allclose(vl_l, ref @ cells.weight_s + cells.truncated_fraction * 7.0 * n_lc[:, 0],
                                rtol=1e-12, atol=1e-12)
     # tier 1 is the same sum as equal cells of the base length: growth regroups the sub-points, nothing else
-    w_p = cells.fraction_p * np.repeat(cells.weight_s, np.diff(cells.ptr_s))
+    w_p = cells.fraction_j * np.repeat(cells.weight_s, np.diff(cells.ptr_s))
     np.testing.assert_allclose(vl_l, ref_p @ w_p + cells.truncated_fraction * 7.0 * n_lc[:, 0], rtol=1e-12, atol=1e-12)
 
 

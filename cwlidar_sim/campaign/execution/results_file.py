@@ -18,6 +18,7 @@ import json
 import os
 import re
 
+from ..._validation import available_memory
 from ..registry import kind_names
 from ..scenes.spec import RESULTS_VERSION, open_regular_file
 from .store import ENGINE
@@ -79,10 +80,9 @@ def results_problem(ds) -> str | None:
 
 
 def _available_memory() -> float:
-    try:
-        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_AVPHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):
-        return float("inf")
+    # the package's one memory check (psutil, capped by a cgroup's limit); unknown: no refusal
+    avail = available_memory()
+    return float("inf") if avail is None else float(avail)
 
 
 def open_results(path, *, sensor=None, what: str = "results file"):

@@ -76,7 +76,7 @@ f   frequency bin
 s   range cell along a beam (the probe volume's cells, then the
     mean-wind tail or a cloud cell)
 j   sub-point of a range cell (the points a cell's weight is
-    spread over, :class:`~cwlidar_sim.beam.ProbeCells`)
+    spread over, :class:`~cwlidar_sim.beam.cells.ProbeCells`)
 l   look: an equal sub-interval of an estimate's dwell (a
     scanning beam's sweep)
 b   signal block (512 samples)

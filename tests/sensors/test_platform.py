@@ -89,7 +89,7 @@ def test_the_scene_states_the_limit_and_keeps_its_identity_without_it(tmp_path):
     from cwlidar_sim.campaign import loads_scene
 
     spec = importlib.util.spec_from_file_location(
-        "nac_scene_tests", pathlib.Path(__file__).resolve().parents[1] / "campaign" / "test_nacelle_scene.py")
+        "nac_scene_tests", pathlib.Path(__file__).resolve().parents[1] / "campaign" / "scenes" / "test_nacelle_scene.py")
     small = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(small)
     t = np.concatenate([np.arange(0, 300) / 10.0, 130.0 + np.arange(0, 300) / 10.0])

@@ -3,7 +3,7 @@
 A scene is a tree of frozen, validated dataclasses.  Every table of the TOML
 file maps onto one of them; unknown keys are rejected by name, values out of
 range are rejected with the field, the value and the allowed range, and
-:meth:`Scene.as_dict` / :meth:`Scene.from_dict` round-trip.
+:meth:`Scene.as_dict` / ``Scene.from_dict`` round-trip.
 
 Geometry (A2012's set-up)
 -------------------------
@@ -365,7 +365,7 @@ class Scene(SceneSpec):
         return seed_int(child)
 
     def as_dict(self) -> dict:
-        """Plain dict (TOML-shaped; round-trips through :meth:`from_dict`)."""
+        """Plain dict (TOML-shaped; round-trips through ``from_dict``)."""
         d = super().as_dict()
         d.pop("base_dir", None)
         d["period"] = d.pop("periods")

@@ -264,7 +264,7 @@ def expand(spec: CampaignSpec) -> list[Task]:
     for where, keys in [("[set]", spec.set)] + [(f"sweep[{i}]", g) for i, g in enumerate(spec.sweep)]:
         for key in keys:  # every dotted key names a key of the base scene's tables, before any task is built
             with at_path(f"campaign {where}"):
-                check_dotted_key(key, schema, f"{base.kind} scene" if base.kind != "staring" else "scene")
+                check_dotted_key(key, schema, type(base)._what)
     tree = base.as_dict()
     for p in tree["period"]:
         p.pop("seed", None)

@@ -117,6 +117,7 @@ class MastScene(SceneSpec):
 
     kind = "mast"
     _tables = {"mast": MastSpec, "turbulence": MastTurbulenceSpec}
+    _what = "mast scene"
 
     def __post_init__(self):
         check_scene_name(self.name)
@@ -154,7 +155,7 @@ class MastScene(SceneSpec):
 
     @classmethod
     def from_dict(cls, d: dict, *, base_dir: str = ".") -> "MastScene":
-        check_scene_keys(d, cls.schema(), ("name", "period"), "mast scene")
+        check_scene_keys(d, cls.schema(), ("name", "period"), cls._what)
         kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
         for key, spec in cls._tables.items():
             if key in d:

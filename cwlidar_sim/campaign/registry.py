@@ -45,9 +45,9 @@ __all__ = ["ENTRY_POINT_GROUP", "BUILTIN_KINDS", "KIND_MEMBERS", "SCENE_MEMBERS"
 ENTRY_POINT_GROUP = "cwlidar_sim.scene_kinds"
 #: The kinds of this package: name -> ``"module:attribute"`` of its :class:`SceneKind` object.
 BUILTIN_KINDS = {
-    "staring": "cwlidar_sim.campaign.kinds:STARING",
-    "conical": "cwlidar_sim.campaign.kinds:CONICAL",
-    "nacelle": "cwlidar_sim.campaign.kinds:NACELLE",
+    "staring": "cwlidar_sim.campaign.kinds.builtin:STARING",
+    "conical": "cwlidar_sim.campaign.kinds.builtin:CONICAL",
+    "nacelle": "cwlidar_sim.campaign.kinds.builtin:NACELLE",
 }
 #: Members every kind provides (:class:`SceneKind`); ``name`` and ``scene_class`` are attributes, ``twin`` an
 #: attribute that may be None, the rest callables.

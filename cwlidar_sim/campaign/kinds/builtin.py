@@ -16,15 +16,15 @@ from __future__ import annotations
 
 import dataclasses
 
-from .figures import conical as conical_figures, nacelle as nacelle_figures, staring as staring_figures
-from .periods import conical, nacelle, staring
-from .periods.staring_auto import resolve as resolve_auto
-from .periods.staring_field import choose_field, scene_params as staring_params
-from .registry import KindBase
-from .scenes.conical import ConicalScene
-from .scenes.nacelle import NacelleScene
-from .scenes.staring import Scene
-from .twin.run import ConicalTwin, StaringTwin
+from ..figures import conical as conical_figures, nacelle as nacelle_figures, staring as staring_figures
+from ..periods import conical, nacelle, staring
+from ..periods.staring_auto import resolve as resolve_auto
+from ..periods.staring_field import choose_field, scene_params as staring_params
+from ..registry import KindBase
+from ..scenes.conical import ConicalScene
+from ..scenes.nacelle import NacelleScene
+from ..scenes.staring import Scene
+from ..twin.run import ConicalTwin, StaringTwin
 
 __all__ = ["UnitModuleKind", "StaringKind", "ConicalKind", "NacelleKind", "STARING", "CONICAL", "NACELLE"]
 

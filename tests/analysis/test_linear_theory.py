@@ -104,16 +104,16 @@ def test_x_only_field_is_cs_filter_model():
 
 def test_nacelle_rews_agrees_with_rews_theory():
     """A 4-beam nacelle lidar's REWS estimate against a rotor of grid nodes: rews_theory's spectra and coherence."""
-    lid = rt.circular_scan(4, 15.0, 80.0, revolution_time=0.0)
+    lid = rt.circular_scan(4, 15.0, 80.0, revolution_time=0.0)  # the exact weighting: phi_hat complex
     yy, zz = np.meshgrid(np.linspace(-40, 40, 5), np.linspace(-40, 40, 5))
     inside = np.hypot(yy, zz) <= 45.0
     yn, zn = yy[inside], zz[inside]
     wn = np.full(yn.size, 1.0 / yn.size)
     k1 = np.geomspace(3e-3, 0.1, 3)
-    ref = rt.rews_spectra(k1, P, (yn, zn, wn), lid, U, weighting="lorentzian", resolution=240)
+    ref = rt.rews_spectra(k1, P, (yn, zn, wn), lid, U, weighting="exact", resolution=240)
     pts = lid.focus_points_bc
     # each beam's preview shift T_b = -p_bx / U is the look's time t_l = -T_b
-    looks = lt.Looks(pts, lid.direction_bc, pts[:, 0] / U, rt.beam_transfer(80.0, "lorentzian"))
+    looks = lt.Looks(pts, lid.direction_bc, pts[:, 0] / U, rt.beam_transfer(80.0, "exact"))
     lidar = lt.lidar_functional(looks, lid.weight_b / lid.direction_bc[:, 0], ["lidar"])
     rotor_looks = lt.Looks(np.stack([0 * yn, yn, zn], axis=1), np.tile([1.0, 0.0, 0.0], (yn.size, 1)))
     rotor = lt.LinearFunctional(rotor_looks, wn[None, :, None] * np.array([1.0, 0.0, 0.0]), ["rotor"])

@@ -154,7 +154,7 @@ class LinearFunctional:
         """Number of outputs."""
         return self.weight_olc.shape[0]
 
-    def transfer(self, k1: float, k2, k3, U: float) -> np.ndarray:
+    def transfer(self, k1: float, k2, k3, U: float, *, probes=None) -> np.ndarray:
         """Transfer vectors ``g_oc(k)`` at ``(k1, k2_n, k3_n)`` [-], complex, shape (n_o, n_nodes, 3).
 
         Parameters
@@ -165,23 +165,25 @@ class LinearFunctional:
             Lateral wavenumbers [rad/m].
         U : float
             Mean wind speed [m/s] along +x.
+        probes : sequence of callables or None, optional
+            Stand-ins for ``looks.probe_l`` (the same functions, e.g. tabulated).
         """
         k2 = np.asarray(k2, dtype=float)
         k3 = np.asarray(k3, dtype=float)
         lk = self.looks
-        out = np.zeros((self.n_outputs, k2.size, 3), dtype=complex)
-        for i in range(lk.n_looks):
-            w_oc = self.weight_olc[:, i, :]
-            if not np.any(w_oc):
-                continue
-            p, n = lk.point_lc[i], lk.direction_lc[i]
-            e = _cis(k1 * (p[0] - U * lk.time_l[i]) + k2 * p[1] + k3 * p[2])
-            if lk.probe_l[i] is not None:
-                e *= np.conj(np.asarray(lk.probe_l[i](k1 * n[0] + k2 * n[1] + k3 * n[2]), dtype=complex))
+        probes = lk.probe_l if probes is None else probes
+        used = np.nonzero(np.any(self.weight_olc != 0.0, axis=(0, 2)))[0]
+        p, n = lk.point_lc[used], lk.direction_lc[used]
+        e_ln = _cis(np.multiply.outer(k1 * (p[:, 0] - U * lk.time_l[used]), np.ones(k2.size))
+                    + np.multiply.outer(p[:, 1], k2) + np.multiply.outer(p[:, 2], k3))
+        for j, i in enumerate(used):
+            if probes[i] is not None:
+                e_ln[j] *= np.conj(np.asarray(probes[i](k1 * n[j, 0] + k2 * n[j, 1] + k3 * n[j, 2]), dtype=complex))
             if lk.response_l[i] is not None:
-                e *= complex(np.asarray(lk.response_l[i](np.array([-k1 * U])), dtype=complex).ravel()[0])
-            out += w_oc[:, None, :] * e[None, :, None]
-        return out
+                e_ln[j] *= complex(np.asarray(lk.response_l[i](np.array([-k1 * U])), dtype=complex).ravel()[0])
+        w = self.weight_olc[:, used, :]  # (o, l, c)
+        g = np.transpose(w, (0, 2, 1)).reshape(-1, used.size).astype(complex) @ e_ln  # (o c, n)
+        return np.transpose(g.reshape(self.n_outputs, 3, k2.size), (0, 2, 1))
 
 
 def lidar_functional(looks: Looks, coef_ol, names=None) -> LinearFunctional:

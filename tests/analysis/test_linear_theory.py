@@ -37,8 +37,9 @@ def test_aligned_staring_beam_is_eq9():
     """Along the wind the beam's probe is a pure filter in k1: F_lidar / F_sonic = exp(-2 k1 zR) (A2012 Eq. 9)."""
     zr = 10.0
     s = lt.functional_spectra(K, P, [_beam([1, 0, 0], zr, "lidar"), _beam([1, 0, 0], 0.0, "sonic")], U)
-    np.testing.assert_allclose(s.spectrum("0.lidar") / s.spectrum("1.sonic"), np.exp(-2.0 * K * zr), rtol=1e-9)
-    np.testing.assert_allclose(s.cross(0, 1).real / s.spectrum(1), np.exp(-K * zr), rtol=1e-9)
+    # the probe's tabulated transform (linear_theory._Table) is within 1e-7 of exp(-zR |q|): 6e-6 of exp(-20)
+    np.testing.assert_allclose(s.spectrum("0.lidar") / s.spectrum("1.sonic"), np.exp(-2.0 * K * zr), rtol=2e-5)
+    np.testing.assert_allclose(s.cross(0, 1).real / s.spectrum(1), np.exp(-K * zr), rtol=2e-5)
 
 
 @pytest.mark.parametrize("theta", [30.0, 90.0])

@@ -187,7 +187,7 @@ class LinearFunctional:
 
 
 def lidar_functional(looks: Looks, coef_ol, names=None) -> LinearFunctional:
-    """Outputs ``A_o = sum_l c_ol v_l`` of the looks' line-of-sight speeds ``v_l = n_l . u`` (weighted).
+    """Outputs ``A_o = sum_l c_ol v_l`` of the looks' line-of-sight speeds ``v_l = n_l.u`` (weighted).
 
     ``W_olc = c_ol n_lc``: a staring beam's average (``c = 1 / n_l``), a VAD
     or reconstruction fit (:func:`least_squares_functional`), a nacelle

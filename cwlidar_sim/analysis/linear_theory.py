@@ -61,7 +61,7 @@ with F the tensor's two-sided one-point spectra
 (:func:`cwlidar_sim.turbulence.one_point_spectra`): the 1-D filter models of
 :mod:`.cs_model`.  :func:`lattice_spectra` replaces the integral by the sum
 over a box's own modes (the discrete spectra the generator draws,
-:mod:`cwlidar_sim.turbulence._discrete`).
+``turbulence._discrete.DiscreteField``).
 
 Included: frozen turbulence, every look's probe weighting along its own
 beam, time offsets (scan timing, preview shifts), per-look causal time

@@ -16,6 +16,8 @@ of ``benchmarks/_protocol.py``), and keeps its full report under
 * ``nacelle``: ``bench_nacelle.py`` -- the nacelle reproduction against its tier-1 floor;
 * ``estimator_theory``: ``bench_estimator_theory.py`` -- the estimator-aware
   theory against one campaign period;
+* ``linear_theory``: ``bench_linear_theory.py`` -- the general linear theory at one
+  height of the CS scene against CS's 1-D filter model;
 * ``scaling``: ``bench_scaling.py`` -- campaign throughput, 1 and N workers;
 * ``speed_vs_accuracy``: ``speed_vs_accuracy.py`` -- the fidelity chart;
 * ``speed_vs_accuracy_conical``: ``speed_vs_accuracy_conical.py --measure`` -- the
@@ -99,6 +101,12 @@ def ratios_estimator_theory(rep):
     return out
 
 
+def ratios_linear_theory(rep):
+    rows = rep.get("rows", [])
+    return {"wall_s": rows[0]["wall_s"], "per_k1_s": rows[0]["per_k1_s"],
+            "over_cs_model": rows[0]["ratio_to_baseline"]} if rows else {}
+
+
 def ratios_scaling(rep):
     return {f"{r['workers']}w_x_{r['threads']}t": {"sim_h_per_wall_h": r["sim_h_per_wall_h"],
                                                    "efficiency": r["efficiency"]} for r in rep.get("runs", [])}
@@ -168,6 +176,7 @@ BENCHMARKS = {
     "campaign": ("bench_campaign.py", [], ["--quick", "--children", "1"], ratios_campaign, "--json"),
     "cs": ("bench_cs.py", [], ["--quick"], ratios_cs, "--json"),
     "estimator_theory": ("bench_estimator_theory.py", [], ["--quick"], ratios_estimator_theory, "--json"),
+    "linear_theory": ("bench_linear_theory.py", [], ["--quick"], ratios_linear_theory, "--json"),
     "scaling": ("bench_scaling.py", [], ["--quick"], ratios_scaling, "--json"),
     "speed_vs_accuracy": ("speed_vs_accuracy.py", [], ["--quick"], ratios_speed, "--out"),
     "nacelle": ("bench_nacelle.py", [], ["--quick"], ratios_cs, "--json"),

@@ -1114,3 +1114,44 @@ def bladed_wnd_bytes(u, v, w, dz, dy, dx, mean_speed, z_centre, ti_percent, seed
                 for c in range(3):
                     out += struct.pack("<h", _nint16(sign[c] * (comps[c][t][k][j] - mean[c]) / scale[c]))
     return bytes(out)
+
+
+# =============================================================================
+# analysis stage (cwlidar_sim/analysis/linear_theory.py): spectra of linear functionals
+# =============================================================================
+def linear_functional_cross_spectrum(k1, alpha_eps, L, gamma, U, looks_a, looks_b, h=0.05):
+    """Two-sided ``integral g_a^H Phi g_b dk2 dk3`` at one k1 > 0 for horizontal point looks, plain numpy.
+
+    ``looks_*`` are lists of ``(weight, (nx, ny), (x, y, z), t)``: the
+    functional ``sum weight * (nx u + ny v)(x, y, z)`` taken at time t under
+    Taylor's hypothesis (mean wind U along +x), so
+    ``g = sum weight (nx, ny) exp(i (k.p - k1 U t))``.  The tensor is
+    :func:`mann_phi_components` (no package code); the (k2, k3) plane is
+    summed on a tensor product of the trapezoid rule in ``v`` with ``k = +-exp(v)``
+    in each direction, step ``h`` over ``[ln(min scale) - 20, ln(max scale) + 9]``.
+    """
+    lo = math.log(min(k1, 1.0 / L)) - 20.0
+    hi = math.log(max(k1, 1.0 / L)) + 9.0
+    v = np.arange(lo, hi + h, h)
+    ev = np.exp(v)
+    q = np.concatenate([-ev[::-1], ev])
+    wq = np.concatenate([ev[::-1], ev]) * h
+    total = 0.0 + 0.0j
+    for k2, w2 in zip(q, wq):
+        k3 = q
+        P11, P22, P12, _ = mann_phi_components(k1, k2, k3, alpha_eps, L, gamma)
+
+        def g(looks):
+            gx = np.zeros(k3.size, dtype=complex)
+            gy = np.zeros(k3.size, dtype=complex)
+            for c, (nx, ny), (x, y, z), t in looks:
+                e = np.exp(1j * (k1 * (x - U * t) + k2 * y + k3 * z))
+                gx += c * nx * e
+                gy += c * ny * e
+            return gx, gy
+
+        ax, ay = g(looks_a)
+        bx, by = g(looks_b)
+        val = np.conj(ax) * (P11 * bx + P12 * by) + np.conj(ay) * (P12 * bx + P22 * by)
+        total += w2 * np.sum(wq * val)
+    return total

@@ -1,0 +1,525 @@
+"""One linear theory for every instrument: spectra of linear functionals of a Mann field.
+
+Every statistic the simulator publishes is, to first order, a linear
+functional of the wind field: a staring beam's weighted line-of-sight
+average, a VAD fit's harmonics, a nacelle lidar's rotor-effective wind, a
+multi-beam reconstruction, a sonic's or a cup's reading.  This module
+describes such a functional as plain arrays (no sensor is imported: the
+analysis layer sits beside ``sensors``) and gives its spectra, cross-spectra,
+coherences and period variances from the Mann tensor, on the continuum or on
+a box's own lattice of wavenumbers.
+
+The functional
+--------------
+A :class:`LinearFunctional` has looks l (:class:`Looks`): a point ``p_l``
+[m], a unit direction ``n_l`` along which a probe weighting ``phi_l(s)``
+(unit integral) averages the field, a time ``t_l`` [s] at which the look is
+taken relative to the statistic's time, and optionally a causal time filter
+``h_l`` (a cup's first-order response, a dwell's block average).  Its output
+o is ::
+
+    A_o(t) = sum_l sum_c W_olc (h_l * integral phi_l(s) u_c(p_l + s n_l, t + t_l) ds)(t)
+
+with the estimator weights ``W_olc`` [-] (one per output, look and velocity
+component): a lidar look enters through ``n_l . u`` (``W_olc = c_ol n_lc``,
+:func:`lidar_functional`), a sonic through each component
+(:func:`point_functional`).  A staring average, a VAD least-squares fit
+(:func:`least_squares_functional`), a nacelle lidar's REWS, a three-beam
+reconstruction matrix and a rotor's disc average are all of this form.
+
+Frozen turbulence, Taylor's hypothesis with the mean wind ``U`` along +x:
+``u(x, t) = u_0(x - U t e1)`` and ``u_0(x) = integral u_hat(k) exp(i k.x) d^3k``,
+``E[u_hat(k) u_hat(k')^H] = Phi(k) delta(k - k')``.  Then
+``A_o(t) = integral exp(-i k1 U t) g_o(k) . u_hat(k) d^3k`` with the transfer
+vector ::
+
+    g_oc(k) = sum_l W_olc exp(i (k.p_l - k1 U t_l)) conj(phi_hat_l(k.n_l)) H_l(-k1 U),
+
+``phi_hat(q) = integral phi(s) exp(-i q s) ds`` (the package's convention,
+:meth:`cwlidar_sim.beam.ProbeVolume.fourier`) and ``H(omega) = integral
+h(tau) exp(-i omega tau) d tau``.  A point probe has ``phi_hat = 1``.
+
+Spectrum convention
+-------------------
+One-sided in k1 [rad/m], as everywhere in :mod:`cwlidar_sim.analysis`:
+``F_AB(k1) = 2 integral g_A^H Phi g_B dk2 dk3`` for ``k1 > 0``, so that
+``cov(A, B) = Re integral_0^inf F_AB dk1`` and ``var A = integral_0^inf F_AA
+dk1``.  ``F_AB`` has the ordering of a measured ``E[X_A X_B^*]`` with
+``X(f) = integral x(t) exp(-2 pi i f t) dt`` at ``f = U k1 / (2 pi)`` (a
+sensor at rest); per Hz, ``S(f) = (2 pi / U) F(k1)``
+(:func:`per_hertz`).  Coherence ``|F_AB|^2 / (F_AA F_BB)``.
+
+Quadrature
+----------
+``quadrature="plane"`` (default): polar nodes in (k2, k3), those of
+:mod:`.rews_theory` (geometric Gauss-Legendre panels in ``kappa``, no wider
+than ``1 / X`` inside the disc that resolves the looks' lateral separations,
+``64 + 1.5 kappa S`` angles; ``X`` the larger of half the looks' lateral span
+S and ``L / 10``), refined by ``resolution``.  ``quadrature="x_only"``: the
+field taken to vary along x only, ``Phi(k) -> F(k1) delta(k2) delta(k3)``
+with F the tensor's two-sided one-point spectra
+(:func:`cwlidar_sim.turbulence.one_point_spectra`): the 1-D filter models of
+:mod:`.cs_model`.  :func:`lattice_spectra` replaces the integral by the sum
+over a box's own modes (the discrete spectra the generator draws,
+``turbulence._discrete.DiscreteField``).
+
+Included: frozen turbulence, every look's probe weighting along its own
+beam, time offsets (scan timing, preview shifts), per-look causal time
+filters.  Not included: evolving turbulence (see :mod:`.rews_theory` for the
+eddy-lifetime planes), a box's trilinear interpolation between its nodes,
+the nonlinearity of speeds (|u_h| taken as u, ``U + u'``), speckle, noise and
+the estimators' own response (:mod:`.estimator_theory`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .._validation import check_choice, check_int, check_real
+from ._linear_functionals import (
+    LinearFunctional,
+    Looks,
+    block_response,
+    conical_looks,
+    first_order_response,
+    least_squares_functional,
+    lidar_functional,
+    lorentzian_probe,
+    point_functional,
+)
+from .rews_theory import _GL_W, _GL_X, _panels
+
+__all__ = [
+    "Looks",
+    "LinearFunctional",
+    "lidar_functional",
+    "point_functional",
+    "least_squares_functional",
+    "conical_looks",
+    "lorentzian_probe",
+    "first_order_response",
+    "block_response",
+    "FunctionalSpectra",
+    "functional_spectra",
+    "lattice_spectra",
+    "per_hertz",
+    "period_variance",
+]
+
+#: Nodes per chunk of the (k2, k3) quadrature (memory: n_looks x chunk complex values).
+_CHUNK = 8192
+#: Most angles on one circle of the polar quadrature.
+_MAX_ANGLES = 1024
+
+
+# --------------------------------------------------------------------------
+# spectra
+# --------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class FunctionalSpectra:
+    """One-sided spectra and cross-spectra (in k1) of the outputs of one or more functionals.
+
+    Attributes
+    ----------
+    k1_k : ndarray, shape (n_k,)
+        Wavenumbers [rad/m] (``f = U k1 / (2 pi)``).
+    names : tuple of str
+        Output names, ``"<functional index>.<output name>"`` when more than
+        one functional was given, else the output names.
+    matrix_kab : ndarray, complex, shape (n_k, n_a, n_a)
+        ``F_ab(k1)`` [m^3 s^-2] (module notes): Hermitian in (a, b), real
+        non-negative diagonal.
+    """
+
+    k1_k: np.ndarray
+    names: tuple
+    matrix_kab: np.ndarray
+
+    def _index(self, name):
+        if isinstance(name, (int, np.integer)):
+            return int(name)
+        if name not in self.names:
+            raise ValueError(f"no output {name!r}; allowed: {list(self.names)}")
+        return self.names.index(name)
+
+    def spectrum(self, a) -> np.ndarray:
+        """``F_aa(k1)`` [m^3 s^-2] of output ``a`` (name or index)."""
+        i = self._index(a)
+        return self.matrix_kab[:, i, i].real.copy()
+
+    def cross(self, a, b) -> np.ndarray:
+        """``F_ab(k1)`` [m^3 s^-2], complex."""
+        return self.matrix_kab[:, self._index(a), self._index(b)].copy()
+
+    def coherence(self, a, b) -> np.ndarray:
+        """Magnitude-squared coherence ``|F_ab|^2 / (F_aa F_bb)`` [-]."""
+        return np.abs(self.cross(a, b)) ** 2 / (self.spectrum(a) * self.spectrum(b))
+
+
+def _check_functionals(functionals):
+    fs = [functionals] if isinstance(functionals, LinearFunctional) else list(functionals)
+    if not fs:
+        raise ValueError("functionals must hold at least one LinearFunctional")
+    for i, f in enumerate(fs):
+        if not isinstance(f, LinearFunctional):
+            raise TypeError(f"functionals[{i}] must be a LinearFunctional, got {type(f).__name__}")
+    names = fs[0].names if len(fs) == 1 else tuple(f"{i}.{n}" for i, f in enumerate(fs) for n in f.names)
+    return fs, names
+
+
+def _check_k1(k1):
+    k = np.array(k1, dtype=float, ndmin=1)
+    if k.ndim != 1 or not np.all(np.isfinite(k) & (k > 0)):
+        raise ValueError("k1 must be a 1-D array of wavenumbers > 0 rad/m")
+    return k
+
+
+class _Table:
+    """``phi_hat`` of a probe tabulated on ``|q|`` (log-spaced, 4000 per decade, 13 decades about 1/scale).
+
+    Linear interpolation in ln|q|, ``phi_hat(-q) = conj(phi_hat(q))`` (a real
+    weighting), ``phi_hat(0)`` below the table, 0 above it.  Used only where
+    the table's midpoints reproduce the function within 1e-5 (``phi_hat(0) =
+    1``; else the function itself is used): smooth weightings' transforms.
+    The focused beam's exact weighting: within 1.2e-7 where ``|phi_hat| >
+    0.1``, within 5e-6 in its small oscillating tail from the cut at the
+    telescope (about ``4e-4 / (q [rad/m])``).
+    """
+
+    def __init__(self, f, scale):
+        self.lq = np.linspace(math.log(1e-6 / scale), math.log(1e7 / scale), 52001)
+        q = np.exp(self.lq)
+        v = np.asarray(f(q), dtype=complex)
+        self.re, self.im = v.real.copy(), v.imag.copy()
+        self.v0 = complex(np.asarray(f(np.zeros(1)), dtype=complex)[0])
+        mid = np.exp(0.5 * (self.lq[1:] + self.lq[:-1]))[::3]
+        self.ok = bool(np.max(np.abs(self(mid) - np.asarray(f(mid), dtype=complex))) < 1e-5)
+
+    def __call__(self, q):
+        q = np.asarray(q, dtype=float)
+        a = np.abs(q)
+        lq = self.lq
+        u = (np.log(np.maximum(a, 1e-300)) - lq[0]) * ((lq.size - 1) / (lq[-1] - lq[0]))
+        i = np.clip(u.astype(np.int64), 0, lq.size - 2)
+        t = np.clip(u - i, 0.0, 1.0)
+        out = np.empty(q.shape, dtype=complex)
+        out.real = self.re[i] + t * (self.re[i + 1] - self.re[i])
+        out.imag = self.im[i] + t * (self.im[i + 1] - self.im[i])
+        out[u < 0] = self.v0
+        out[u > lq.size - 1] = 0.0
+        np.conjugate(out, out=out, where=q < 0)
+        return out
+
+
+def _fast_probes(fs):
+    """Per functional, its looks' probes with each smooth one replaced by its :class:`_Table` (built once)."""
+    made = {}
+    out = []
+    for f in fs:
+        row = []
+        for g in f.looks.probe_l:
+            if g is not None and id(g) not in made:
+                scale = Looks([[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], None, g).probe_scale()
+                t = _Table(g, max(scale, 1e-3))
+                made[id(g)] = t if t.ok else g
+            row.append(None if g is None else made[id(g)])
+        out.append(tuple(row))
+    return out
+
+
+def _accumulate(fs, k1, k2, k3, w, phi_n33, U, out_ab, probes):
+    """``out += 2 sum_n w_n g_a^H Phi g_b`` over the nodes, chunked."""
+    for lo in range(0, k2.size, _CHUNK):
+        sl = slice(lo, lo + _CHUNK)
+        g = np.concatenate([f.transfer(k1, k2[sl], k3[sl], U, probes=pr) for f, pr in zip(fs, probes)], axis=0)
+        pg = np.einsum("nij,bnj->bni", phi_n33[sl], g)
+        out_ab += 2.0 * np.einsum("ani,bni,n->ab", np.conj(g), pg, w[sl])
+
+
+def _polar_nodes(k1, L, X, S, resolution):
+    """(k2, k3, weight) over the plane for one k1 (the module's Quadrature notes).
+
+    :mod:`.rews_theory`'s polar rule: 6-node Gauss-Legendre panels in kappa,
+    geometric from ``1e-3 min(k1, 1/L)``, no wider than ``1 / X`` up to
+    ``K = max(resolution / X, 6 max(k1, 1/L))``, geometric beyond to ``1e5
+    max(k1, 1/L)``; ``64 + 1.5 kappa S`` angles (128 + ... for ``k1 L <
+    0.2``), at most :data:`_MAX_ANGLES`, at least 128 beyond K.  Here X and S
+    also cover the probe weightings' scale, whose kinks (``k.n = 0``) run
+    across the plane to infinity.
+    """
+    s, t = min(k1, 1.0 / L), max(k1, 1.0 / L)
+    K = max(resolution / X, 6.0 * t)
+    kap_in, w_in = _panels(1e-3 * s, K, 1.0 / X)
+    e_out = K * 2.0 ** np.arange(0, int(math.ceil(math.log2(1e5 * t / K))) + 1)
+    a, b = e_out[:-1, None], e_out[1:, None]
+    kap = np.concatenate([kap_in, (0.5 * (b - a) * _GL_X + 0.5 * (b + a)).ravel()])
+    w = np.concatenate([w_in, (0.5 * (b - a) * _GL_W).ravel()])
+    base = 64 if k1 * L >= 0.2 else 128
+    nn = np.minimum(2 * np.ceil((base + 1.5 * kap * S) / 2).astype(int), _MAX_ANGLES)
+    nn = np.where(kap > K, np.maximum(nn, 128), nn)
+    k2, k3, ww = [], [], []
+    for n_a in np.unique(nn):
+        sel = nn == n_a
+        psi = (np.arange(n_a) + 0.5) * (2.0 * math.pi / n_a)
+        kk = kap[sel][:, None]
+        k2.append((kk * np.cos(psi)).ravel())
+        k3.append((kk * np.sin(psi)).ravel())
+        ww.append(np.repeat(kap[sel] * w[sel] * (2.0 * math.pi / n_a), n_a))
+    return np.concatenate(k2), np.concatenate(k3), np.concatenate(ww)
+
+
+def functional_spectra(k1, params, functionals, mean_speed: float, *, quadrature: str = "plane",
+                       resolution: float = 60.0) -> FunctionalSpectra:
+    """One-sided spectra and cross-spectra of linear functionals of a frozen Mann field (module notes).
+
+    Parameters
+    ----------
+    k1 : array_like
+        Wavenumbers [rad/m], > 0.
+    params : MannParameters
+    functionals : LinearFunctional or sequence of them
+        Their outputs, concatenated, are the rows and columns of the result.
+    mean_speed : float
+        U [m/s], > 0, along +x.
+    quadrature : {"plane", "x_only"}
+        The (k2, k3) integral (module notes), or a field varying along x only.
+    resolution : float
+        Inner disc of the polar quadrature in units of ``1 / X`` (>= 1); the
+        default 60 is what :mod:`.rews_theory` uses; doubling it moves the
+        ratios of the tests' cases by less than 1e-3.
+
+    Returns
+    -------
+    FunctionalSpectra
+    """
+    from ..turbulence.spectra import one_point_spectra
+    from ..turbulence.tensor import _check_params, spectral_tensor
+
+    _check_params(params)
+    fs, names = _check_functionals(functionals)
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    check_choice("quadrature", quadrature, ("plane", "x_only"))
+    resolution = check_real("resolution", resolution, lo=1.0)
+    k1 = _check_k1(k1)
+    n_a = sum(f.n_outputs for f in fs)
+    out = np.zeros((k1.size, n_a, n_a), dtype=complex)
+    probes = _fast_probes(fs)
+    if quadrature == "x_only":
+        F11, F22, F33, F13 = (0.5 * F for F in one_point_spectra(k1, params))  # two-sided
+        zero = np.zeros(1)
+        for j, kk in enumerate(k1):
+            phi = np.array([[[F11[j], 0.0, F13[j]], [0.0, F22[j], 0.0], [F13[j], 0.0, F33[j]]]])
+            _accumulate(fs, kk, zero, zero, np.ones(1), phi, U, out[j], probes)
+        return FunctionalSpectra(k1, names, out)
+    span = max(f.looks.lateral_span() for f in fs)
+    ell = max(f.looks.probe_scale() for f in fs)
+    X = max(0.5 * span, 0.1 * params.length_scale, ell)
+    S = max(span, 16.0 * ell)
+    for j, kk in enumerate(k1):
+        k2, k3, w = _polar_nodes(float(kk), params.length_scale, X, S, resolution)
+        _accumulate(fs, kk, k2, k3, w, spectral_tensor(kk, k2, k3, params), U, out[j], probes)
+    return FunctionalSpectra(k1, names, out)
+
+
+def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, rows=None, correction: str = "cell",
+                    hf_compensation: bool = False) -> FunctionalSpectra:
+    """The spectra of :func:`functional_spectra` as a box of this grid holds them: sums over its own modes.
+
+    A box ``u(x) = sum_k S(k) exp(i k.x)`` (periodic, advected through the
+    looks at U) makes each output a sum of lines at the box's ``k1_n = 2 pi
+    n / (N1 dx)``; row n holds the variance ``2 sum_{k2, k3} g^H Phi_d g``
+    (``Phi_d`` the discrete spectral matrix the generator draws each mode
+    from, cell corrections and gains included), returned as a density
+    (divided by ``dk1``) comparable with the continuum's ``F(k1_n)``; its
+    sum over the rows times ``dk1`` is the box's variance of the output.  The
+    k2, k3 of the modes are numpy's fftfreq order (the Nyquist at the
+    negative wavenumber), the generator's.
+
+    Parameters
+    ----------
+    params : MannParameters
+    functionals : LinearFunctional or sequence of them
+    mean_speed : float
+        U [m/s], > 0.
+    shape : (N1, N2, N3)
+        The generated box's shape (before any lateral cropping).
+    spacing : (dx, dy, dz)
+        Its spacing [m].
+    rows : array_like of int, optional
+        Rows n in ``1 .. N1 // 2``; default all of them.  The Nyquist row
+        ``N1 / 2`` (even N1) is a single row and not doubled.
+    correction : str
+        The box's low-wavenumber correction (``generate_box``'s).
+    hf_compensation : bool
+        The box's high-frequency compensation (``generate_box``'s).
+
+    Returns
+    -------
+    FunctionalSpectra
+        On the rows' ``k1_n`` [rad/m].
+    """
+    from ..turbulence._discrete import discrete_field
+    from ..turbulence.box import _check_grid
+    from ..turbulence.tensor import _check_params
+
+    _check_params(params)
+    fs, names = _check_functionals(functionals)
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    shape, spacing = _check_grid(shape, spacing)
+    if len(shape) != 3:
+        raise ValueError(f"shape must be a box's (N1, N2, N3), got {shape!r}")
+    n1 = shape[0]
+    rows = np.arange(1, n1 // 2 + 1) if rows is None else np.array(rows, dtype=np.int64, ndmin=1)
+    if rows.ndim != 1 or np.any(rows < 1) or np.any(rows > n1 // 2):
+        raise ValueError(f"rows must be row indices in 1 .. {n1 // 2} (N1 // 2)")
+    df = discrete_field("box", params, shape, spacing, correction=correction, hf_compensation=hf_compensation)
+    q2 = 2.0 * math.pi * np.fft.fftfreq(shape[1], spacing[1])
+    q3 = 2.0 * math.pi * np.fft.fftfreq(shape[2], spacing[2])
+    g2, g3 = (a.ravel() for a in np.meshgrid(q2, q3, indexing="ij"))
+    k1 = df.k1_of_rows(rows).astype(float)
+    n_a = sum(f.n_outputs for f in fs)
+    out = np.zeros((rows.size, n_a, n_a), dtype=complex)
+    probes = _fast_probes(fs)
+    ones = np.ones(g2.size)
+    for j, r in enumerate(rows):
+        p6 = df.phi_rows(np.array([r]))[0].reshape(-1, 6)
+        phi = np.empty((g2.size, 3, 3))
+        for c, (a, b) in enumerate(((0, 0), (1, 1), (2, 2), (0, 2), (0, 1), (1, 2))):
+            phi[:, a, b] = phi[:, b, a] = p6[:, c]
+        _accumulate(fs, float(k1[j]), g2, g3, ones, phi, U, out[j], probes)
+        if 2 * r == n1:
+            out[j] *= 0.5
+    return FunctionalSpectra(np.abs(k1), names, out / df.dk1)
+
+
+def per_hertz(spectrum_k, mean_speed: float):
+    """A one-sided spectrum in k1 [m^3 s^-2] as one-sided per Hz [m^2 s^-2 / Hz]: ``(2 pi / U) F``."""
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    return (2.0 * math.pi / U) * np.asarray(spectrum_k)
+
+
+# --------------------------------------------------------------------------
+# period statistics
+# --------------------------------------------------------------------------
+def _loglog(k_src, F_src, k):
+    """Log-log interpolation of a positive spectrum, flat below its grid, its last power law above."""
+    lk = np.log(k_src)
+    lf = np.log(np.maximum(F_src, 1e-300))
+    x = np.log(np.maximum(k, k_src[0]))
+    slope = (lf[-1] - lf[-2]) / (lk[-1] - lk[-2])
+    return np.exp(np.where(x > lk[-1], lf[-1] + slope * (x - lk[-1]), np.interp(x, lk, lf)))
+
+
+def _dirichlet2(x, n):
+    """``|sum_{m<n} exp(i m x)|^2 / n^2`` [-]."""
+    s = np.sin(0.5 * x)
+    small = np.abs(s) < 1e-12
+    return np.where(small, 1.0, (np.sin(0.5 * n * x) / (n * np.where(small, 1.0, s))) ** 2)
+
+
+def period_variance(k1, spectrum_k, mean_speed: float, period: float, *, sample_interval: float | None = None,
+                    block: float | None = None, lines: bool = False) -> dict:
+    """Expected variance of a statistic's samples within a period (mean removed) and of the period's mean.
+
+    For a statistic with one-sided spectrum ``F(k1)``, seen at rest
+    (``omega = U k1``), sampled every ``sample_interval`` over ``period``
+    (``N = period / sample_interval`` samples) or continuously, each sample
+    optionally a block average over ``block`` [s]:
+
+    * ``within = integral F B (1 - D_N)`` -- the expected (1/N) sample
+      variance about the period's own mean;
+    * ``of_mean = integral F B D_N`` -- the variance of the period mean,
+
+    with ``B = sinc^2(omega block / 2)`` and ``D_N = |sum_m exp(i m omega
+    dt)|^2 / N^2`` (``sinc^2(omega T / 2)`` when continuous).  Sampling's
+    aliasing is included (``D_N`` is periodic in omega); ``within + of_mean``
+    is the variance.
+
+    Parameters
+    ----------
+    k1, spectrum_k : array_like
+        A spectrum [m^3 s^-2] on an increasing grid of k1 [rad/m], log-log
+        interpolated (200 per decade give 1e-4 about a knee), held flat below the
+        grid and extended by its last power law above; with ``lines=True``
+        the lines of :func:`lattice_spectra` (density times ``dk1`` is each
+        line's variance; nothing outside them).
+    mean_speed : float
+        U [m/s].
+    period : float
+        T [s], > 0.
+    sample_interval : float, optional
+        dt [s]; None: continuous.
+    block : float, optional
+        Block-average duration [s]; None: none.
+    lines : bool
+
+    Returns
+    -------
+    dict
+        ``within``, ``of_mean``, ``total`` [m^2 s^-2].
+    """
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    T = check_real("period", period, lo=0.0, lo_open=True)
+    k_src = _check_k1(k1)
+    F_src = np.asarray(spectrum_k, dtype=float).ravel()
+    if F_src.shape != k_src.shape or not np.all(np.isfinite(F_src)):
+        raise ValueError("spectrum_k must be finite, one value per k1")
+    n = None
+    if sample_interval is not None:
+        dt = check_real("sample_interval", sample_interval, lo=0.0, lo_open=True)
+        n = check_int("period / sample_interval", int(round(T / dt)), lo=1)
+    b = 0.0 if block is None else check_real("block", block, lo=0.0)
+
+    def kernels(k):
+        om = U * k
+        B = np.sinc(om * b / (2.0 * math.pi)) ** 2
+        D = np.sinc(om * T / (2.0 * math.pi)) ** 2 if n is None else _dirichlet2(om * dt, n)
+        return B * (1.0 - D), B * D
+
+    if lines:
+        if np.any(np.diff(k_src) <= 0):
+            raise ValueError("k1 must increase")
+        dk = 2.0 * math.pi / U / T if k_src.size == 1 else float(np.min(np.diff(k_src)))
+        kw, km = kernels(k_src)
+        var = F_src * dk
+        w_, m_ = float(np.sum(var * kw)), float(np.sum(var * km))
+        return {"within": w_, "of_mean": m_, "total": w_ + m_}
+    if k_src.size < 2 or np.any(np.diff(k_src) <= 0):
+        raise ValueError("k1 must hold at least 2 increasing wavenumbers")
+
+    def FB(k):
+        return _loglog(k_src, F_src, k) * np.sinc(U * k * b / (2.0 * math.pi)) ** 2
+
+    dk_t = 2.0 * math.pi / (U * T)  # the spacing of the period's own harmonics in k1
+    h = dk_t / 16.0
+    # total: uniform nodes over the low band, geometric above, the last power law's tail in closed form
+    k_band = 200.0 * dk_t
+    ku = (np.arange(int(math.ceil(k_band / h))) + 0.5) * h
+    k_end = max(k_src[-1], k_band) * 1e4
+    kg = np.geomspace(ku[-1] + 0.5 * h, k_end, 8001)
+    lg = np.log(kg)
+    kc = np.exp(0.5 * (lg[1:] + lg[:-1]))
+    total = float(np.sum(FB(ku)) * h + np.sum(FB(kc) * np.diff(kg)))
+    slope = math.log(F_src[-1] / F_src[-2]) / math.log(k_src[-1] / k_src[-2]) if F_src[-2] > 0 else -math.inf
+    if slope < -1.0 and b == 0.0:
+        total += float(_loglog(k_src, F_src, np.array([k_end]))[0]) * k_end / (-slope - 1.0)
+    if n is None:
+        # of the mean: sinc^2(U k T / 2) resolved over the low band; above it its average 1 / (2 x^2)
+        x = 0.5 * U * T * kc
+        of_mean = float(np.sum(FB(ku) * np.sinc(U * ku * T / (2.0 * math.pi)) ** 2) * h
+                        + np.sum(FB(kc) * np.diff(kg) / (2.0 * x * x)))
+    else:
+        # sampled: fold onto the base band [0, k_s / 2] over 64 aliases, D_N's average 1 / N beyond
+        k_s = 2.0 * math.pi / (U * dt)
+        kb = (np.arange(int(math.ceil(0.5 * k_s / h))) + 0.5) * (0.5 * k_s / int(math.ceil(0.5 * k_s / h)))
+        hb = 0.5 * k_s / kb.size
+        acc = FB(kb)
+        for m in range(1, 65):
+            acc = acc + FB(m * k_s - kb) + FB(m * k_s + kb)
+        of_mean = float(np.sum(acc * _dirichlet2(U * kb * dt, n)) * hb)
+        beyond = kc > 64.5 * k_s
+        of_mean += float(np.sum(FB(kc[beyond]) * np.diff(kg)[beyond])) / n
+    return {"within": total - of_mean, "of_mean": of_mean, "total": total}

@@ -13,7 +13,9 @@ what a period compares:
   revolutions at one height (every sub-dwell look at its own azimuth and
   time, the estimates' mid-azimuths in the fit, as
   :meth:`cwlidar_sim.sensors.ConicalLidar.plan_record` samples them) and a
-  cup at that height (first-order response of its distance constant).
+  cup at that height (first-order response of its distance constant);
+* :func:`nacelle_functionals`: a nacelle lidar's REWS estimate over one
+  revolution (delays and preview) and a rotor of weighted nodes.
 
 The field's frame: the mean wind U along +x.  A look's probe is its beam's
 continuous weighting (:func:`cwlidar_sim.analysis.rews_theory.beam_transfer`
@@ -26,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...analysis import linear_theory as lt
-from ...analysis.rews_theory import beam_transfer
+from ...analysis.rews_theory import beam_transfer, scan_beams
 from ..._validation import check_int, check_real
 
 
@@ -119,3 +121,56 @@ def conical_functionals(lidar, height: float, mean_speed: float, *, revolutions:
     if cup is None:
         return vad
     return vad, lt.point_functional(cup.position, ("u",), response=lt.first_order_response(cup.distance_constant / U))
+
+
+def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, n_beams: int = 8,
+                        preview_shift: float | None = None):
+    """A nacelle lidar's REWS estimate over one revolution and a rotor of weighted nodes, as linear functionals.
+
+    The scan as :func:`cwlidar_sim.analysis.rews_theory.scan_beams` discretises
+    the lidar's cone (its geometry, revolution time and first azimuth, in the
+    nacelle frame, the hub at the origin): ``n_beams`` beams evenly over the
+    revolution, beam b's sample ``tau_b = (N - 1 - b) T / N`` old when the
+    estimate is formed (the phase after the last beam); each beam's
+    line-of-sight speed enters as ``v_b / n_bx`` with weight 1/N.  The
+    estimate is shifted by the preview ``preview_shift`` [s] (default
+    ``r cos a / U``, the focus's upwind distance).
+
+    Parameters
+    ----------
+    lidar : NacelleLidar
+        The lidar (:class:`cwlidar_sim.sensors.NacelleLidar`); its ``position`` relative to the hub.
+    focus : float
+        One of ``lidar.focus_distances`` [m].
+    mean_speed : float
+        U [m/s].
+    rotor_nodes : (y_n, z_n, w_n)
+        The rotor's nodes in the rotor plane (x = 0) relative to the hub [m]
+        and their weights (summing to 1).
+    n_beams : int
+        N >= 1.
+    preview_shift : float, optional
+        The shift of the estimate [s].
+
+    Returns
+    -------
+    (LinearFunctional, LinearFunctional)
+        Outputs ``"rotor"`` (the nodes' weighted u) and ``"lidar"``.
+    """
+    r = check_real("focus", focus)
+    if r not in tuple(lidar.focus_distances):
+        raise ValueError(f"focus={focus!r} m is not one of the lidar's focus_distances {tuple(lidar.focus_distances)}")
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    n = check_int("n_beams", n_beams, lo=1, hi=10_000)
+    y_n, z_n, w_n = (np.asarray(a, dtype=float).ravel() for a in rotor_nodes)
+    if not (y_n.size == z_n.size == w_n.size) or abs(w_n.sum() - 1.0) > 1e-9:
+        raise ValueError("rotor_nodes must be (y_n, z_n, w_n) of one length with weights summing to 1")
+    beams = scan_beams(lidar.geometry, n, r, all_phases=False, origin=lidar.position)
+    shift = lidar.preview_distance(r) / U if preview_shift is None else check_real("preview_shift", preview_shift)
+    inst = lidar.instrument_at(r)
+    # the look sees u_0(p - U (t + t_l) e1): a sample tau_b old and shifted by T is taken at t_l = -(T + tau_b)
+    looks = lt.Looks(beams.focus_points_bc, beams.direction_bc, -(shift + beams.delay_pb[0]), _probe(lidar, inst))
+    est = lt.lidar_functional(looks, beams.weight_b / beams.direction_bc[:, 0], ["lidar"])
+    rotor_looks = lt.Looks(np.stack([0.0 * y_n, y_n, z_n], axis=1), np.tile([1.0, 0.0, 0.0], (y_n.size, 1)))
+    rotor = lt.LinearFunctional(rotor_looks, w_n[None, :, None] * np.array([1.0, 0.0, 0.0]), ["rotor"])
+    return rotor, est

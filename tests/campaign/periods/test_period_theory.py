@@ -82,3 +82,31 @@ def test_conical_bad_input_names_the_field():
         th.conical_functionals(lidar, 50.0, 8.0)
     with pytest.raises(ValueError, match="revolutions"):
         th.conical_functionals(lidar, 60.0, 8.0, revolutions=2)
+
+
+def test_nacelle_scan_is_rews_theory():
+    """The nacelle scene's lidar (its cone, 1-s revolution, exact weighting) as a REWS functional with a rotor of
+    grid nodes: rews_theory.rews_spectra's spectra, cross-spectrum (phase: delays and preview) and coherence."""
+    from cwlidar_sim.analysis import rews_theory as rt
+
+    scene = bundled_scene("nacelle")
+    p = scene.periods[0]
+    r, U = 100.0, p.mean_speed
+    lidar = scene.sensor(p, (r,))
+    params = scene.period_params(p)
+    yy, zz = np.meshgrid(np.linspace(-60, 60, 5), np.linspace(-60, 60, 5))
+    inside = np.hypot(yy, zz) <= 65.0
+    nodes = (yy[inside], zz[inside], np.full(int(inside.sum()), 1.0 / inside.sum()))
+    rotor, est = th.nacelle_functionals(lidar, r, U, nodes, n_beams=6, preview_shift=9.0)
+    k1 = np.geomspace(3e-3, 0.1, 3)
+    beams = rt.scan_beams(lidar.geometry, 6, r, all_phases=False, origin=lidar.position)
+    opt = lidar.instrument_at(r).optics()
+    ref = rt.rews_spectra(k1, params, nodes, beams, U, weighting=lidar.weighting, preview_shift=9.0,
+                          resolution=240, wavelength=opt.wavelength, radius=opt.radius)
+    s = lt.functional_spectra(k1, params, [rotor, est], U, resolution=240)
+    np.testing.assert_allclose(s.spectrum(0), 2.0 * ref.rotor_k, rtol=1e-3)  # one-sided: twice rews' two-sided
+    np.testing.assert_allclose(s.spectrum(1), 2.0 * ref.lidar_k, rtol=1e-3)
+    # the cross-spectrum to 1e-3 of sqrt(F_rotor F_lidar) (at k1 = 0.1 the coherence is 1e-3: 2e-3 of itself)
+    scale = np.sqrt(s.spectrum(0) * s.spectrum(1))
+    assert np.all(np.abs(s.cross(0, 1) - 2.0 * ref.cross_k) < 1e-3 * scale)
+    assert lidar.revolution_time > 0 and np.ptp(est.looks.time_l) > 0.5  # the delays matter here

@@ -52,10 +52,11 @@ sensor at rest); per Hz, ``S(f) = (2 pi / U) F(k1)``
 Quadrature
 ----------
 ``quadrature="plane"`` (default): polar nodes in (k2, k3), those of
-:mod:`.rews_theory` (geometric Gauss-Legendre panels in ``kappa``, no wider
-than ``1 / X`` inside the disc that resolves the looks' lateral separations,
-``64 + 1.5 kappa S`` angles; ``X`` the larger of half the looks' lateral span
-S and ``L / 10``), refined by ``resolution``.  ``quadrature="x_only"``: the
+:mod:`.rews_theory` (geometric Gauss-Legendre panels in ``kappa``, inside the
+disc that resolves the looks' lateral separations no wider than the smallest
+of ``3 / (S / 2)``, ``1 / (L / 10)`` and ``1 / ell`` (the probes' scale),
+``64 + 1.5 kappa S`` angles; S the looks' lateral span), refined by
+``resolution``.  The sums over the nodes run in a fused numba kernel.  ``quadrature="x_only"``: the
 field taken to vary along x only, ``Phi(k) -> F(k1) delta(k2) delta(k3)``
 with F the tensor's two-sided one-point spectra
 (:func:`cwlidar_sim.turbulence.one_point_spectra`): the 1-D filter models of
@@ -111,8 +112,14 @@ __all__ = [
 
 #: Nodes per chunk of the (k2, k3) quadrature (memory: n_looks x chunk complex values).
 _CHUNK = 8192
+#: The fused numba kernel (:mod:`._linear_kernels`); False: the plain numpy path, the tests' reference.
+_FUSED = True
+#: Nodes per parallel block of the fused kernel (fixed: the sum's order does not depend on the threads).
+_BLOCK = 2048
 #: Most angles on one circle of the polar quadrature.
 _MAX_ANGLES = 1024
+#: Panel width of the polar quadrature in units of ``1 / (half the looks' lateral span)`` (the phases' scale).
+_PANEL = 3.0
 
 
 # --------------------------------------------------------------------------
@@ -230,8 +237,88 @@ def _fast_probes(fs):
     return out
 
 
-def _accumulate(fs, k1, k2, k3, w, phi_n33, U, out_ab, probes):
-    """``out += 2 sum_n w_n g_a^H Phi g_b`` over the nodes, chunked."""
+class _Plan:
+    """The looks of all functionals as the fused kernel's flat arrays (:mod:`._linear_kernels`); None if it can't.
+
+    Built once per call: every look with a nonzero weight, concatenated over
+    the functionals, each probe a :class:`_Table` row (a probe that could not
+    be tabulated sends the call to the numpy path).
+    """
+
+    def __init__(self, fs, probes):
+        tables, rows = [], {}
+        pts, dirs, times, tab_l, resp, blocks = [], [], [], [], [], []
+        for f, pr in zip(fs, probes):
+            used = np.nonzero(np.any(f.weight_olc != 0.0, axis=(0, 2)))[0]
+            for i in used:
+                g = pr[i]
+                if g is None:
+                    tab_l.append(-1)
+                elif isinstance(g, _Table):
+                    if id(g) not in rows:
+                        rows[id(g)] = len(tables)
+                        tables.append(g)
+                    tab_l.append(rows[id(g)])
+                else:
+                    raise _NoPlan
+                resp.append(f.looks.response_l[i])
+            pts.append(f.looks.point_lc[used])
+            dirs.append(f.looks.direction_lc[used])
+            times.append(f.looks.time_l[used])
+            blocks.append(f.weight_olc[:, used, :])
+        self.p_lc, self.n_lc, self.t_l = (np.concatenate(a) for a in (pts, dirs, times))
+        self.table_l = np.array(tab_l, dtype=np.int64)
+        self.response_l = resp
+        n_a, n_l = sum(b.shape[0] for b in blocks), self.t_l.size
+        self.weight_alc = np.zeros((n_a, n_l, 3))
+        a0 = l0 = 0
+        for b in blocks:
+            self.weight_alc[a0:a0 + b.shape[0], l0:l0 + b.shape[1]] = b
+            a0, l0 = a0 + b.shape[0], l0 + b.shape[1]
+        if not tables:
+            tables = [_Table(lambda q: np.ones(np.shape(q), dtype=complex), 1.0)]
+        self.re_tq = np.stack([t.re for t in tables])
+        self.im_tq = np.stack([t.im for t in tables])
+        self.lq0_t = np.array([t.lq[0] for t in tables])
+        self.inv_t = np.array([(t.lq.size - 1) / (t.lq[-1] - t.lq[0]) for t in tables])
+        self.v0_t = np.array([t.v0 for t in tables], dtype=complex)
+
+    def __call__(self, k1, k2, k3, w, phi_n33, U, out_ab):
+        from .._config import apply_numba_threads
+        from ._linear_kernels import accumulate_kernel
+
+        apply_numba_threads()
+        resp = np.array([1.0 if h is None else complex(np.asarray(h(np.array([-k1 * U])), dtype=complex).ravel()[0])
+                         for h in self.response_l], dtype=complex)
+        a_l = k1 * (self.p_lc[:, 0] - U * self.t_l)
+        n_a = self.weight_alc.shape[0]
+        out = np.zeros(((k2.size + _BLOCK - 1) // _BLOCK, n_a, n_a), dtype=complex)
+        accumulate_kernel(float(k1), np.ascontiguousarray(k2, dtype=float), np.ascontiguousarray(k3, dtype=float),
+                          np.ascontiguousarray(w, dtype=float), np.ascontiguousarray(phi_n33, dtype=float),
+                          a_l, self.p_lc[:, 1].copy(), self.p_lc[:, 2].copy(), self.n_lc[:, 0].copy(),
+                          self.n_lc[:, 1].copy(), self.n_lc[:, 2].copy(), self.table_l, resp, self.weight_alc,
+                          self.re_tq, self.im_tq, self.lq0_t, self.inv_t, self.v0_t, _BLOCK, out)
+        out_ab += 2.0 * out.sum(axis=0)
+
+
+class _NoPlan(Exception):
+    """A probe that the fused kernel cannot take (not tabulated)."""
+
+
+def _plan(fs, probes, fused):
+    if not fused:
+        return None
+    try:
+        return _Plan(fs, probes)
+    except _NoPlan:
+        return None
+
+
+def _accumulate(fs, k1, k2, k3, w, phi_n33, U, out_ab, probes, plan=None):
+    """``out += 2 sum_n w_n g_a^H Phi g_b`` over the nodes: the fused kernel (``plan``) or numpy, chunked."""
+    if plan is not None:
+        plan(k1, k2, k3, w, phi_n33, U, out_ab)
+        return
     for lo in range(0, k2.size, _CHUNK):
         sl = slice(lo, lo + _CHUNK)
         g = np.concatenate([f.transfer(k1, k2[sl], k3[sl], U, probes=pr) for f, pr in zip(fs, probes)], axis=0)
@@ -239,11 +326,12 @@ def _accumulate(fs, k1, k2, k3, w, phi_n33, U, out_ab, probes):
         out_ab += 2.0 * np.einsum("ani,bni,n->ab", np.conj(g), pg, w[sl])
 
 
-def _polar_nodes(k1, L, X, S, resolution):
+def _polar_nodes(k1, L, X, S, resolution, width=None):
     """(k2, k3, weight) over the plane for one k1 (the module's Quadrature notes).
 
     :mod:`.rews_theory`'s polar rule: 6-node Gauss-Legendre panels in kappa,
-    geometric from ``1e-3 min(k1, 1/L)``, no wider than ``1 / X`` up to
+    geometric from ``1e-3 min(k1, 1/L)``, no wider than ``width`` (default
+    ``1 / X``) up to
     ``K = max(resolution / X, 6 max(k1, 1/L))``, geometric beyond to ``1e5
     max(k1, 1/L)``; ``64 + 1.5 kappa S`` angles (128 + ... for ``k1 L <
     0.2``), at most :data:`_MAX_ANGLES`, at least 128 beyond K.  Here X and S
@@ -252,7 +340,7 @@ def _polar_nodes(k1, L, X, S, resolution):
     """
     s, t = min(k1, 1.0 / L), max(k1, 1.0 / L)
     K = max(resolution / X, 6.0 * t)
-    kap_in, w_in = _panels(1e-3 * s, K, 1.0 / X)
+    kap_in, w_in = _panels(1e-3 * s, K, 1.0 / X if width is None else width)
     e_out = K * 2.0 ** np.arange(0, int(math.ceil(math.log2(1e5 * t / K))) + 1)
     a, b = e_out[:-1, None], e_out[1:, None]
     kap = np.concatenate([kap_in, (0.5 * (b - a) * _GL_X + 0.5 * (b + a)).ravel()])
@@ -307,20 +395,24 @@ def functional_spectra(k1, params, functionals, mean_speed: float, *, quadrature
     n_a = sum(f.n_outputs for f in fs)
     out = np.zeros((k1.size, n_a, n_a), dtype=complex)
     probes = _fast_probes(fs)
+    plan = _plan(fs, probes, _FUSED)
     if quadrature == "x_only":
         F11, F22, F33, F13 = (0.5 * F for F in one_point_spectra(k1, params))  # two-sided
         zero = np.zeros(1)
         for j, kk in enumerate(k1):
             phi = np.array([[[F11[j], 0.0, F13[j]], [0.0, F22[j], 0.0], [F13[j], 0.0, F33[j]]]])
-            _accumulate(fs, kk, zero, zero, np.ones(1), phi, U, out[j], probes)
+            _accumulate(fs, kk, zero, zero, np.ones(1), phi, U, out[j], probes, plan)
         return FunctionalSpectra(k1, names, out)
     span = max(f.looks.lateral_span() for f in fs)
     ell = max(f.looks.probe_scale() for f in fs)
     X = max(0.5 * span, 0.1 * params.length_scale, ell)
     S = max(span, 16.0 * ell)
+    # panels: 1 / ell across the probes' kinks and fall, 1 / (L / 10) for the tensor, and 3 / (span / 2) for the
+    # looks' lateral phases (six Gauss-Legendre nodes integrate 6 rad of phase per panel to 1e-6)
+    width = 1.0 / max(0.5 * span / _PANEL, 0.1 * params.length_scale, ell)
     for j, kk in enumerate(k1):
-        k2, k3, w = _polar_nodes(float(kk), params.length_scale, X, S, resolution)
-        _accumulate(fs, kk, k2, k3, w, spectral_tensor(kk, k2, k3, params), U, out[j], probes)
+        k2, k3, w = _polar_nodes(float(kk), params.length_scale, X, S, resolution, width)
+        _accumulate(fs, kk, k2, k3, w, spectral_tensor(kk, k2, k3, params), U, out[j], probes, plan)
     return FunctionalSpectra(k1, names, out)
 
 
@@ -383,13 +475,14 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
     n_a = sum(f.n_outputs for f in fs)
     out = np.zeros((rows.size, n_a, n_a), dtype=complex)
     probes = _fast_probes(fs)
+    plan = _plan(fs, probes, _FUSED)
     ones = np.ones(g2.size)
     for j, r in enumerate(rows):
         p6 = df.phi_rows(np.array([r]))[0].reshape(-1, 6)
         phi = np.empty((g2.size, 3, 3))
         for c, (a, b) in enumerate(((0, 0), (1, 1), (2, 2), (0, 2), (0, 1), (1, 2))):
             phi[:, a, b] = phi[:, b, a] = p6[:, c]
-        _accumulate(fs, float(k1[j]), g2, g3, ones, phi, U, out[j], probes)
+        _accumulate(fs, float(k1[j]), g2, g3, ones, phi, U, out[j], probes, plan)
         if 2 * r == n1:
             out[j] *= 0.5
     return FunctionalSpectra(np.abs(k1), names, out / df.dk1)

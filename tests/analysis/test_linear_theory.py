@@ -221,3 +221,46 @@ def test_bad_input_names_the_field():
         lt.least_squares_functional(lt.Looks([[0, 0, 0]], [[1.0, 0, 0]]))
     with pytest.raises(TypeError, match="probe_l"):
         lt.Looks([[0, 0, 0]], [[1.0, 0, 0]], None, 3.0)
+
+
+def _small_cs(n_looks=12, probe=True):
+    """A short conical scan (the exact weighting, or point looks), each look at its own time, and a cup."""
+    th = 2.0 * math.pi * (np.arange(n_looks) + 0.5) / n_looks
+    looks = lt.conical_looks(100.0, 30.0, th, time_l=th / (2.0 * math.pi) - 0.5,
+                             probe=rt.beam_transfer(100.0 / math.cos(math.radians(30.0)), "exact") if probe else None)
+    vad = lt.least_squares_functional(looks, ("u", "v", "w"))
+    cup = lt.point_functional((3.0, 0.0, 100.0), ("u",), response=lt.first_order_response(2.3 / U), time=0.4)
+    return [vad, cup]
+
+
+def test_fused_kernel_is_the_numpy_path(monkeypatch):
+    """The fused numba kernel (analysis/_linear_kernels.py) gives the plain numpy path's sums to round-off:
+    plane, x-only and lattice, complex probes, time filters and delays, two functionals; for any thread count."""
+    from cwlidar_sim import _config
+
+    fs = _small_cs()
+    k1 = np.array([2e-3, 0.04])
+    fused = [lt.functional_spectra(k1, P, fs, U), lt.functional_spectra(k1, P, fs, U, quadrature="x_only"),
+             lt.lattice_spectra(P, fs, U, (32, 16, 16), (8.0, 8.0, 8.0), rows=[1, 3])]
+    monkeypatch.setattr(_config, "_num_threads", 1)
+    one = lt.functional_spectra(k1, P, fs, U)
+    np.testing.assert_array_equal(one.matrix_kab, fused[0].matrix_kab)  # the blocks' fixed order
+    monkeypatch.setattr(lt, "_FUSED", False)
+    plain = [lt.functional_spectra(k1, P, fs, U), lt.functional_spectra(k1, P, fs, U, quadrature="x_only"),
+             lt.lattice_spectra(P, fs, U, (32, 16, 16), (8.0, 8.0, 8.0), rows=[1, 3])]
+    for a, b in zip(fused, plain):
+        scale = np.sqrt(np.abs(np.einsum("kaa,kbb->kab", b.matrix_kab, b.matrix_kab)))
+        assert np.max(np.abs(a.matrix_kab - b.matrix_kab) / scale) < 1e-12
+
+
+def test_wider_panels_converge_for_a_conical_scan(monkeypatch):
+    """The conical scan's panels (3 / (span / 2), module constant _PANEL; point looks, so that the lateral phases
+    set them) against panels three times narrower: spectra and coherence of the VAD's u and the cup move < 1e-3."""
+    fs = _small_cs(probe=False)
+    k1 = np.array([3e-3, 0.05, 0.3])
+    a = lt.functional_spectra(k1, P, fs, U)
+    monkeypatch.setattr(lt, "_PANEL", 1.0)
+    b = lt.functional_spectra(k1, P, fs, U)
+    np.testing.assert_allclose(a.spectrum("0.u"), b.spectrum("0.u"), rtol=1e-3)
+    np.testing.assert_allclose(a.spectrum("1.u"), b.spectrum("1.u"), rtol=1e-3)
+    np.testing.assert_allclose(a.coherence("0.u", "1.u"), b.coherence("0.u", "1.u"), rtol=1e-3)

@@ -1,6 +1,7 @@
 """The CS std ratio against the probe volume's weighting, with the turbulence held fixed (issue 33).
 
     python studies/cs_weighting.py [--heights 40 100] [--periods 6] [--tier los] [--json PATH] [--markdown PATH]
+    python studies/cs_weighting.py --summarise LOG [--markdown PATH]   # the table from a run's printed lines
 
 The bundled ``cs`` scene's units (its period templates, seeds, settings: tier ``spectral``, span
 30, the mean-wind tail) at each height, each run once per weighting with everything else the same:
@@ -130,7 +131,7 @@ def summarise(out):
 
 
 LABELS = {"exact": "weighting exact (default)", "lorentzian": "weighting lorentzian (cut at the telescope)",
-          "lorentzian_to_tail": "lorentzian, its weight behind the telescope to the mean-wind tail (before issue 33)",
+          "lorentzian_to_tail": "lorentzian, weight behind the telescope to the tail (before issue 33)",
           "aperture_t13": f"weighting aperture, T = {TRUNCATION:g}"}
 
 
@@ -157,7 +158,20 @@ def main(argv=None) -> int:
     ap.add_argument("--tier", default=None, help="lidar tier (default: the scene's, spectral)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--markdown", default=None)
+    ap.add_argument("--summarise", default=None, help="a run's printed output (one JSON line per unit): its table")
     a = ap.parse_args(argv)
+    if a.summarise:  # a run stopped early (or its JSON lost): the units it printed
+        with open(a.summarise, encoding="utf-8") as f:
+            units = [json.loads(line) for line in f if line.startswith("{")]
+        weights = [w for w in WEIGHTS if w in units[0]]
+        out = {"units": units, "weightings": weights, "heights": sorted({u["height"] for u in units})}
+        out["summary"] = summarise(out)
+        md = markdown(out)
+        print(md)
+        if a.markdown:
+            with open(a.markdown, "w", encoding="utf-8") as f:
+                f.write(md)
+        return 0
     t, c = time.perf_counter(), time.process_time()
     load0 = os.getloadavg()
     out = run(a.heights, a.periods, a.weightings, a.tier)

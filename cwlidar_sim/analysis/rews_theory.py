@@ -239,7 +239,8 @@ def beam_transfer(focus: float, weighting="exact", *, wavelength=None, radius=No
         telescope): ``(exp(-i q s0 - gamma |q|) - tail(q)) / (1 - eps)`` with
         the part behind the telescope in closed form through the complex
         exponential integral (checked against :func:`cwlidar_sim.beam.fourier_exact`);
-        "lorentzian": ``exp(-z_R |q|)`` (A2012 Eq. 4); "point": 1 (z_R -> 0);
+        "lorentzian": A2012 Eq. 4 cut at the telescope like the exact one (``exp(-z_R |q|)``
+        within O(z_R / r)); "point": 1 (z_R -> 0);
         or a :class:`~cwlidar_sim.beam.RangeCells`: its discrete weights (what
         :func:`cwlidar_sim.beam.los_average` applies), tabulated on a grid of
         q and interpolated (error below 1e-4).

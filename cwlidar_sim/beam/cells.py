@@ -332,9 +332,11 @@ def weight_truncated(
         Half-width of the kept span in Rayleigh lengths [-]; > 0.  The cells
         cover ``[-span z_R, +span z_R]`` around the focus, clipped at the
         telescope (s = -r) for both weightings (no aerosol lies behind the
-        telescope).  A clipped Lorentzian span is asymmetric, so its
-        truncated fraction is then ``1 - kept_fraction`` rather than
-        :func:`~cwlidar_sim.beam.truncated_fraction_lorentzian`.
+        telescope, and every weighting is zero there and integrates to 1
+        in front of it).  The Lorentzian is Eq. 4 cut at the telescope and
+        renormalised, so its truncated fraction is
+        :func:`~cwlidar_sim.beam.truncated_fraction_lorentzian`'s only for
+        ``r >> span z_R``.
     n_cells : int
         Number of equal cells over the span; >= 1.
     renormalise : bool

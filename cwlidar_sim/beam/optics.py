@@ -152,6 +152,22 @@ def _cauchy_exact(focus: float, wavelength: float, radius: float):
     return s0, gamma, eps
 
 
+def _cut_cauchy_density(s, r, s0, g, eps):
+    """Cauchy density (centre s0, half-width g) cut at the telescope, over ``1 - eps``, at s [1/m]."""
+    s = np.asarray(s, dtype=float)
+    d = s - s0
+    phi = g / (math.pi * (1.0 - eps) * (d * d + g * g))
+    return np.where(s > -r, phi, 0.0)
+
+
+def _cut_cauchy_cdf(s, r, s0, g, eps):
+    """Its cumulative weight from the telescope (s = -r) to s [-]."""
+    s = np.asarray(s, dtype=float)
+    lo = math.atan((-r - s0) / g)
+    c = (np.arctan((np.maximum(s, -r) - s0) / g) - lo) / (math.pi * (1.0 - eps))
+    return np.clip(c, 0.0, 1.0)
+
+
 def _as_float_array(name: str, value) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=np.float64)
@@ -241,10 +257,7 @@ def weight_exact(s, focus: float, wavelength: float = WAVELENGTH, radius: float 
     """
     s = _as_float_array("s", s)
     opt = _optics_args(focus, wavelength, radius)
-    s0, g, eps = _cauchy_exact(opt.focus, opt.wavelength, opt.radius)
-    d = s - s0
-    phi = g / (math.pi * (1.0 - eps) * (d * d + g * g))
-    return _ret(np.where(s > -opt.focus, phi, 0.0))
+    return _ret(_cut_cauchy_density(s, opt.focus, *_cauchy_exact(opt.focus, opt.wavelength, opt.radius)))
 
 
 def cdf_lorentzian(s, zR: float):
@@ -258,10 +271,7 @@ def cdf_exact(s, focus: float, wavelength: float = WAVELENGTH, radius: float = T
     """Cumulative weight of :func:`weight_exact` from the telescope (s = -r) to ``s`` [-]."""
     s = _as_float_array("s", s)
     opt = _optics_args(focus, wavelength, radius)
-    s0, g, eps = _cauchy_exact(opt.focus, opt.wavelength, opt.radius)
-    lo = math.atan((-opt.focus - s0) / g)
-    c = (np.arctan((np.maximum(s, -opt.focus) - s0) / g) - lo) / (math.pi * (1.0 - eps))
-    return _ret(np.clip(c, 0.0, 1.0))
+    return _ret(_cut_cauchy_cdf(s, opt.focus, *_cauchy_exact(opt.focus, opt.wavelength, opt.radius)))
 
 
 def truncated_fraction_lorentzian(span: float, zR: float) -> float:

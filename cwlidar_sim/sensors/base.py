@@ -112,7 +112,7 @@ class LidarBase(LidarFields):
     weighting : str
         Probe-volume weighting, a name of the registry
         :data:`cwlidar_sim.beam.WEIGHTINGS`: 'exact' (A2012 Eq. 3 as
-        corrected in :mod:`cwlidar_sim.beam.optics`), 'lorentzian' (Eq. 4),
+        corrected in :mod:`cwlidar_sim.beam.optics`), 'lorentzian' (Eq. 4, cut at the telescope),
         'aperture', 'point' or one registered by the user.
     span : float
         Half-width of the simulated span [z_R]; in (0, 10000].

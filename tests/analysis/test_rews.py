@@ -280,10 +280,27 @@ def test_axial_point_lidar_gives_the_point_to_rews_coherence():
 
 
 def test_axial_lorentzian_beam_is_a2012_eq9():
+    """Eq. 9's exp(-2 zR k) for the Lorentzian on the whole line; the weighting is it cut at the telescope.
+
+    phi_hat(k) = (exp(-k zR) - int_{s < -r} L(s) exp(-i k s) ds) / (1/2 + arctan(r / zR) / pi), the part behind
+    the telescope by QUADPACK's Fourier integral (QAWF).
+    """
+    from scipy.integrate import quad
+
     F = one_point_spectra(K1, P)[0] / 2.0  # two-sided, as rews_spectra
-    zR = BeamOptics(50.0).rayleigh_length
-    s = rews_spectra(K1, P, RotorDisc(16.0), circular_scan(1, 0.0, 50.0), U, weighting="lorentzian")
-    np.testing.assert_allclose(s.lidar_k, F * np.exp(-2 * zR * K1), rtol=3e-6)
+    r = 50.0
+    zR = BeamOptics(r).rayleigh_length
+    s = rews_spectra(K1, P, RotorDisc(16.0), circular_scan(1, 0.0, r), U, weighting="lorentzian")
+
+    def behind(k):  # s = -r - v: exp(-i k s) = exp(i k r) exp(i k v)
+        c, sn = (quad(lambda v: zR / math.pi / (zR**2 + (r + v) ** 2), 0.0, np.inf, weight=w, wvar=k)[0]
+                 for w in ("cos", "sin"))
+        return np.exp(1j * k * r) * (c + 1j * sn)
+
+    ph = np.array([np.exp(-k * zR) - behind(k) for k in K1]) / (0.5 + math.atan(r / zR) / math.pi)
+    np.testing.assert_allclose(s.lidar_k, F * np.abs(ph) ** 2, rtol=3e-6)
+    # Eq. 9 within the cut's share 2 arctan(zR / r) / pi (and its slow transform)
+    np.testing.assert_allclose(s.lidar_k, F * np.exp(-2 * zR * K1), rtol=4 * math.atan(zR / r) / math.pi)
 
 
 def test_lidar_focused_on_the_hub_is_the_rews_of_a_point():

@@ -11,6 +11,8 @@ from cwlidar_sim.beam.cells import interval_weight, probe_cells
 
 OPT = BeamOptics(focus=67.5)  # A2012: z_R = 5.61 m
 ZR = OPT.rayleigh_length
+#: The line Lorentzian's weight in front of the telescope (s > -r): the cut one is it over this.
+FRONT_LOR = 0.5 + math.atan(OPT.focus / ZR) / math.pi
 
 
 def test_equal_cells_are_the_truncated_weighting_and_the_tail_sees_the_mean():
@@ -33,11 +35,13 @@ def test_equal_cells_are_the_truncated_weighting_and_the_tail_sees_the_mean():
 
 
 def test_lorentzian_tail_weight_is_two_over_pi_span():
-    # A2012 Eq. 4 beyond +-S z_R on both sides (the focus far from the telescope): 1 - (2/pi) arctan(S)
+    # A2012 Eq. 4 beyond +-S z_R on both sides (the focus far from the telescope), of the weight in front of
+    # the telescope, 1/2 + arctan(r / z_R) / pi (nothing behind it): 1 - (2/pi) arctan(S) / front
     far = BeamOptics(focus=100.0, radius=0.2)  # z_R = 0.12 m: +-100 z_R stays in front of the telescope
+    front = 0.5 + math.atan(far.focus / far.rayleigh_length) / math.pi
     for span in (5.0, 20.0, 100.0):
         c = probe_cells(far, "lorentzian", span, far.rayleigh_length / 4)
-        assert c.tail_weight == pytest.approx(1.0 - 2.0 / math.pi * math.atan(span), rel=1e-9)
+        assert c.tail_weight == pytest.approx(1.0 - 2.0 / math.pi * math.atan(span) / front, rel=1e-9)
 
 
 @pytest.mark.parametrize("growth", [0.05, 0.2, 1.0])
@@ -84,10 +88,11 @@ def test_interval_weight_is_the_integral_of_the_weighting():
         ref = integrate.quad(lambda s: weight_exact(s, OPT.focus), a, b, limit=200)[0]
         assert interval_weight(OPT, "exact", a, b) == pytest.approx(ref, rel=1e-8)
         lor = integrate.quad(lambda s: ZR / math.pi / (ZR**2 + s**2), a, b, limit=200)[0]
-        assert interval_weight(OPT, "lorentzian", a, b) == pytest.approx(lor, rel=1e-8)
-    # a far cloud: the tail density z_R / (pi s^2) times its depth
+        assert interval_weight(OPT, "lorentzian", a, b) == pytest.approx(lor / FRONT_LOR, rel=1e-8)
+    # a far cloud: the tail density z_R / (pi s^2) times its depth, of the weight in front of the telescope
     s0 = 1600.0 - OPT.focus
-    assert interval_weight(OPT, "lorentzian", s0, s0 + 10.0) == pytest.approx(ZR / math.pi * 10.0 / s0**2, rel=0.01)
+    assert interval_weight(OPT, "lorentzian", s0, s0 + 10.0) == pytest.approx(
+        ZR / math.pi * 10.0 / s0**2 / FRONT_LOR, rel=0.01)
 
 
 def test_bad_input_is_named():

@@ -45,15 +45,20 @@ def discretisation_bound(k, zR, ds):
     return 1.5 * (np.abs(k) * ds**2 / (6 * np.pi * zR) + k**2 * ds**2 / 8) + 1e-12  # + round-off
 
 
+def front(zR):
+    """The line Lorentzian's weight in front of the telescope (s > -FOCUS): the weighting is it cut there, over this."""
+    return 0.5 + math.atan(FOCUS / zR) / math.pi
+
+
 def lorentzian_truncated_transform(k, zR, half):
-    """int_{-half}^{half} phi(s) exp(-iks) ds = exp(-|k| zR) - 2 int_half^inf phi cos(ks) ds (QUADPACK QAWF)."""
+    """int_{-half}^{half} phi(s) exp(-iks) ds = (exp(-|k| zR) - 2 int_half^inf phi_L cos(ks) ds) / front (QAWF)."""
     out = np.empty(k.size)
     for i, kk in enumerate(np.abs(k)):
         if kk == 0:
-            out[i] = 1 - (2 / np.pi) * math.atan2(zR, half)
+            out[i] = (1 - (2 / np.pi) * math.atan2(zR, half)) / front(zR)
             continue
         tail, _ = quad(weight_lorentzian, half, np.inf, args=(zR,), weight="cos", wvar=kk)
-        out[i] = math.exp(-kk * zR) - 2 * tail
+        out[i] = (math.exp(-kk * zR) - 2 * tail) / front(zR)
     return out
 
 
@@ -74,12 +79,13 @@ def test_lorentzian_power_transfer_along_the_wind():
     theory = lorentzian_truncated_transform(k[sel], zR, HALF)
     bound = discretisation_bound(k[sel], zR, DX)
     assert np.all(np.abs(H[sel] - theory) <= bound)
-    # 3) the power transfer function against A2012 Eq. 9: off by at most twice the missing tail weight
-    #    plus the discretisation (|a^2 - b^2| <= 2|a - b| for a, b <= 1)
-    trunc = res.truncated_fraction
-    assert trunc == pytest.approx(1 - (2 / np.pi) * math.atan(HALF / zR), rel=1e-12)
+    # 3) the power transfer function against A2012 Eq. 9: off by at most twice the line Lorentzian's missing
+    #    tail weight and its share behind the telescope eps (cut off), over the front weight 1 - eps, plus the
+    #    discretisation (|a^2 - b^2| <= 2|a - b| for a, b <= 1)
+    line_trunc, eps = 1 - (2 / np.pi) * math.atan(HALF / zR), 1 - front(zR)
+    assert res.truncated_fraction == pytest.approx(1 - (1 - line_trunc) / front(zR), rel=1e-12)
     power_dev = np.abs(np.abs(H[sel]) ** 2 - np.exp(-2 * np.abs(k[sel]) * zR))
-    assert np.all(power_dev <= 2 * (trunc + bound))
+    assert np.all(power_dev <= 2 * ((line_trunc + eps) / front(zR) + bound))
     # with the tail restored (the truncated transform) the agreement is at the discretisation level
     assert np.all(np.abs(np.abs(H[sel]) ** 2 - theory**2) <= 2 * bound)
 
@@ -121,8 +127,9 @@ def test_uniform_field_gives_back_the_value(weighting):
                        renormalise=False)
     np.testing.assert_allclose(keep.vlos_t, (n @ c) * keep.kept_fraction, rtol=1e-12)
     assert keep.truncated_fraction == pytest.approx(1 - keep.kept_fraction, abs=1e-15)
-    if weighting == "lorentzian":
-        assert keep.truncated_fraction == pytest.approx(1 - (2 / np.pi) * math.atan(20.0), rel=1e-12)
+    if weighting == "lorentzian":  # of the weight in front of the telescope (nothing behind it)
+        front = 0.5 + math.atan(opt.focus / opt.rayleigh_length) / math.pi
+        assert keep.truncated_fraction == pytest.approx(1 - (2 / np.pi) * math.atan(20.0) / front, rel=1e-12)
     # add_mean: the total wind (U + u, v, w)
     tot = los_average(field, opt, [2.0, 10.0, 6.0], n, t, 5.0, weighting, span=20.0, n_cells=101, add_mean=True)
     np.testing.assert_allclose(tot.vlos_t, n @ (c + [5.0, 0, 0]), rtol=1e-12)

@@ -164,16 +164,18 @@ def test_exact_transfer_tends_to_lorentzian_for_short_range():
 def test_truncated_lorentzian_cells():
     opt = BeamOptics(focus=67.5)
     zR = opt.rayleigh_length
+    front = 0.5 + math.atan(opt.focus / zR) / math.pi  # Eq. 4's weight in front of the telescope
     for n in (2.0, 10.0):
         rc = weight_truncated(opt, "lorentzian", span=n, n_cells=101, renormalise=False)
-        expected = 1 - (2 / math.pi) * math.atan(n)
-        assert rc.truncated_fraction == pytest.approx(expected, rel=1e-12)
-        assert truncated_fraction_lorentzian(n * zR, zR) == pytest.approx(expected, rel=1e-12)
-        assert rc.weight_s.sum() == pytest.approx(1 - expected, rel=1e-12)
+        line = 1 - (2 / math.pi) * math.atan(n)  # Eq. 4 outside +-n z_R
+        assert truncated_fraction_lorentzian(n * zR, zR) == pytest.approx(line, rel=1e-12)
+        # the weighting is Eq. 4 cut at the telescope and renormalised over s > -r
+        assert rc.truncated_fraction == pytest.approx(1 - (1 - line) / front, rel=1e-12)
+        assert rc.weight_s.sum() == pytest.approx((1 - line) / front, rel=1e-12)
         # each cell weight is the integral of phi over the cell
         i = 37
         cell, _ = quad(weight_lorentzian, rc.edges[i], rc.edges[i + 1], args=(zR,), epsabs=1e-14)
-        assert rc.weight_s[i] == pytest.approx(cell, rel=1e-10)
+        assert rc.weight_s[i] == pytest.approx(cell / front, rel=1e-10)
         rn = weight_truncated(opt, "lorentzian", span=n, n_cells=101, renormalise=True)
         assert rn.weight_s.sum() == pytest.approx(1.0, rel=1e-13)
         assert rn.truncated_fraction == rc.truncated_fraction
@@ -181,7 +183,7 @@ def test_truncated_lorentzian_cells():
     rc = weight_truncated(opt, "lorentzian", span=20.0, n_cells=50)
     assert rc.edges[0] == -67.5
     assert rc.truncated_fraction == pytest.approx(
-        1 - (math.atan(20.0) + math.atan(67.5 / zR)) / math.pi, rel=1e-10
+        1 - (math.atan(20.0) + math.atan(67.5 / zR)) / math.pi / front, rel=1e-10
     )
 
 

@@ -41,15 +41,18 @@ def test_cloud_weight_is_the_weighting_integral_over_the_cloud():
     i_exact = cauchy_interval(a, b, r, CS_SERIES.wavelength, CS_SERIES.telescope_radius)
     assert lid.cloud_weight(z) == pytest.approx(strength * i_exact, rel=1e-9)
     assert lid.cloud_fraction(z) == pytest.approx(strength * i_exact / (1 + strength * i_exact), rel=1e-9)
-    # Lorentzian weighting: (arctan(b / z_R) - arctan(a / z_R)) / pi
+    # Lorentzian weighting: (arctan(b / z_R) - arctan(a / z_R)) / pi, cut at the telescope: over its weight in
+    # front of it, 1/2 + arctan(r / z_R) / pi
     zr = 0.0013 * r**2
+    front = 0.5 + math.atan(r / zr) / math.pi
     lor = lid.replace(weighting="lorentzian")
-    assert lor.cloud_weight(z) == pytest.approx(strength * (math.atan(b / zr) - math.atan(a / zr)) / math.pi,
-                                                rel=1e-9)
-    # far tail, thin layer: ~ strength * depth / cos(Phi) * z_R / (pi s^2)
+    assert lor.cloud_weight(z) == pytest.approx(
+        strength * (math.atan(b / zr) - math.atan(a / zr)) / math.pi / front, rel=1e-9)
+    # far tail, thin layer: ~ strength * depth / cos(Phi) * z_R / (pi s^2) / front
     thin = lor.replace(cloud_base=3000.0, cloud_depth=0.01)
     s = 3000.0 / math.cos(PHI) - r
-    assert thin.cloud_weight(z) == pytest.approx(strength * 0.01 / math.cos(PHI) * zr / (math.pi * s * s), rel=1e-4)
+    assert thin.cloud_weight(z) == pytest.approx(strength * 0.01 / math.cos(PHI) * zr / (math.pi * s * s) / front,
+                                                 rel=1e-4)
     assert ConicalLidar(heights=(z,)).cloud_weight(z) == 0.0
 
 

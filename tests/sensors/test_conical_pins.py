@@ -33,7 +33,8 @@ def _range_wave_box(lid, kz, amp, z_focus, dz=0.2, d=4.0, nx=16):
 def test_focus_and_probe_length_per_height_seen_through_a_range_varying_wind(z):
     # The beam at r = z / cos Phi along n = (sin Phi cos theta, sin Phi sin theta, cos Phi) sees w(s) =
     # a cos(kz cos Phi s) at distance s from its focus; the Lorentzian of half-width zR = lambda r^2 / (pi a0^2)
-    # over +-span zR (the tail sees the mean wind: 0 here) averages it to a cos Phi int L(s) cos(kz cos Phi s) ds.
+    # over +-span zR (the tail sees the mean wind: 0 here) averages it to a cos Phi int L(s) cos(kz cos Phi s) ds,
+    # L cut at the telescope and renormalised: over its weight in front of it, 1/2 + arctan(r / zR) / pi.
     # A focus at z instead of z / cos Phi shifts the wave's phase, a zR at the wrong range its attenuation.
     r = z / math.cos(PHI)
     inst = CS_SERIES.replace(focus=r)
@@ -47,7 +48,8 @@ def test_focus_and_probe_length_per_height_seen_through_a_range_varying_wind(z):
     rec = measure_conical(_range_wave_box(lid, kz, amp, z), lid, 1.0, U)
     half = lid.span * zR
     kappa = kz * math.cos(PHI)
-    gain = 2 * quad(lambda s: zR / math.pi / (zR**2 + s**2), 0.0, half, weight="cos", wvar=kappa)[0]
+    front = 0.5 + math.atan(r / zR) / math.pi
+    gain = 2 * quad(lambda s: zR / math.pi / (zR**2 + s**2), 0.0, half, weight="cos", wvar=kappa)[0] / front
     want = U * math.sin(PHI) * np.cos(np.radians(rec.azimuth_e)) + amp * math.cos(PHI) * gain
     # cells of 0.25 m sampled at their centres: relative (kappa cl)^2 / 24 = 1e-5; the grid's 0.2 m: 3e-5
     np.testing.assert_allclose(rec.vlos_e, want, rtol=0, atol=2e-4)
@@ -159,6 +161,7 @@ def test_cross_wind_structure_lands_in_the_radial_variance_that_the_1d_model_lea
     g = np.array([2 * quad(lambda s: zR / math.pi / (zR**2 + s**2), 0.0, half, weight="cos",
                            wvar=abs(k * math.sin(PHI) * st))[0] if st != 0 else 1 - 2 * math.atan2(zR, half) / math.pi
                   for st in np.sin(th)])
+    g /= 0.5 + math.atan(r / zR) / math.pi  # the Lorentzian cut at the telescope: over its weight in front
     vr = math.sin(PHI) * np.cos(th) * (U + a * np.cos(k * r * math.sin(PHI) * np.sin(th)) * g)
     np.testing.assert_allclose(rec.vlos_e, vr, rtol=0, atol=1e-4)  # 0.25 m cells, 0.2 m grid: 3e-5 seen
     sel = rec.select(z)

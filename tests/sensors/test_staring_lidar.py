@@ -113,7 +113,9 @@ def test_tier1_is_the_weighted_line_of_sight_average_of_the_total_wind(field):
     """Tier 1 against a plain-Python reference built from the physics, not from the package's cells.
 
     A2012 Eq. 4: the Lorentzian weight (zR / pi) / (zR^2 + s^2) with zR = lambda r^2 / (pi a0^2)
-    (Eq. 1) integrates to (arctan(b / zR) - arctan(a / zR)) / pi over a cell [a, b]; the cells
+    (Eq. 1) integrates to (arctan(b / zR) - arctan(a / zR)) / pi over a cell [a, b], and to
+    1/2 + arctan(r / zR) / pi in front of the telescope, where all the air is (the weighting is
+    Eq. 4 cut there and renormalised: nothing behind the telescope); the cells
     cut [max(-20 zR, -r), 20 zR] into equal lengths.  Each cell's centre samples the total wind
     (U + u, v, w) of the frozen field advected by U (reference.beam_sample_points, trilinear
     interpolation in plain Python), projected on the beam; the weight outside the span sees the
@@ -127,7 +129,7 @@ def test_tier1_is_the_weighted_line_of_sight_average_of_the_total_wind(field):
     assert zR == pytest.approx(5.61, abs=0.005)
     n = lid.n_cells
     edges = np.linspace(max(-20 * zR, -P.focus), 20 * zR, n + 1)
-    w = np.diff(np.arctan(edges / zR)) / math.pi
+    w = np.diff(np.arctan(edges / zR)) / math.pi / (0.5 + math.atan(P.focus / zR) / math.pi)
     n3 = np.array([1.0, 0.0, 0.0])  # azimuth 0, elevation 0: along +x
     np.testing.assert_allclose(lid.direction, n3, atol=1e-15)
     x = field.x.values

@@ -142,6 +142,8 @@ def test_a_box_written_in_each_format_flies_as_it_does_in_memory(tmp_path, monke
         step = 0.001 * max(float(box[c].std()) * 3 for c in "uvw")
     assert np.max(np.abs(got - exact)) <= step + 1e-6
     assert np.std(exact) > 0.1  # turbulence, not a constant
+    in_memory(monkeypatch, 0.0 * box)  # the scene's field is the file's: a calm one gives the mean wind alone
+    assert np.ptp(run(STARING, tmp_path, spec)["lidar_speed"].values) == 0.0
 
 
 def _captured(monkeypatch):
@@ -162,7 +164,7 @@ def test_conical_and_nacelle_scenes_fly_through_a_turbsim_file(tmp_path, monkeyp
     """The box a kind generates, written by our TurbSim writer and named in the scene: the tier-los results are the
     box's read back, in memory, bit for bit, and within the 16-bit step of the generated box's (placed alike)."""
     boxes = _captured(monkeypatch)
-    direct = run(text, tmp_path)
+    generated = run(text, tmp_path)
     box = boxes[0]
     write_turbsim(box, tmp_path / "f.bts", mean_speed=U)
     got = run(text, tmp_path, 'file = "f.bts"')
@@ -178,6 +180,7 @@ def test_conical_and_nacelle_scenes_fly_through_a_turbsim_file(tmp_path, monkeyp
     main = "lidar_mean" if "lidar_mean" in got else "rews_std"
     assert np.nanmax(np.abs(got[main].values - direct[main].values)) <= step
     assert np.all(np.abs(direct[main].values) > 0.05)
+    assert not np.array_equal(got[main].values, generated[main].values)  # placed as stated, not as generated
 
 
 def test_a_field_smaller_than_the_scan_is_refused_naming_the_sizes(tmp_path, monkeypatch):

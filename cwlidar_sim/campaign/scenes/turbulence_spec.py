@@ -211,7 +211,7 @@ class TurbulenceSpec(Spec):
         (:class:`cwlidar_sim.analysis.records.RecordSpec`): ``sep``,
         ``decimal``, ``skiprows``, ``comment``, ``na_values``, ``timezone``,
         ``columns``, ``units``, ``sample_rate``, ``max_gap``,
-        ``max_filled_fraction`` (:data:`FIT_TO_OPTIONS`); other keys are
+        ``max_filled_fraction`` (``FIT_TO_OPTIONS``); other keys are
         refused by name.  Default: the reader's.
     file : FieldFile, optional
         A turbulence field file to sample instead of a generated box (module

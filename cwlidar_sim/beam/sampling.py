@@ -33,6 +33,11 @@ across the period).
 Field types
 -----------
 * box: dims ("x", "y", "z");
+* time-resolved box: dims ("t", "x", "y", "z") with a ``t`` coordinate [s]
+  (an LES's output): not advected; the velocity at p and t is the linear
+  interpolation in time between the two snapshots around t, each sampled at p
+  (trilinear), the mean ``U`` still added to u with ``add_mean``
+  (:func:`time_weights`); a time outside the snapshots raises ValueError;
 * plane: dims ("x", "y") at height ``attrs["z"]``; every point must lie within
   ``offplane_tol`` of that height (only x and y are interpolated);
 * line: dims ("x",) at ``attrs["y"]``, ``attrs["z"]`` when present, else at
@@ -59,6 +64,9 @@ __all__ = [
     "ConicalScan",
     "conical_scan",
     "sample_los",
+    "is_time_resolved",
+    "time_weights",
+    "combine_snapshots",
     "LosAverage",
     "los_average",
 ]
@@ -339,6 +347,55 @@ def _check_extent(fld: _Field, origin, n_tc, range_s, wrap: bool, offplane_tol: 
 # ---------------------------------------------------------------------------
 # sampling
 # ---------------------------------------------------------------------------
+def is_time_resolved(field) -> bool:
+    """Whether ``field`` is time-resolved: u on ("t", "x", "y", "z") (module notes)."""
+    return "t" in getattr(field, "dims", ())
+
+
+def time_weights(time_k, time_l):
+    """``(k_l, a_l)``: the snapshot at or before each time and the next one's weight (linear in t).
+
+    ``time_k``: the snapshots' times [s], at least 2, increasing; ``time_l``
+    the sample times [s], each within ``[time_k[0], time_k[-1]]`` (a
+    ValueError naming the span otherwise).  The value at ``time_l[l]`` is
+    ``(1 - a_l) f[k_l] + a_l f[k_l + 1]``.
+    """
+    t_k = np.asarray(time_k, dtype=np.float64)
+    t_l = np.asarray(time_l, dtype=np.float64)
+    if t_k.size < 2 or not np.all(np.diff(t_k) > 0):
+        raise ValueError(f"a time-resolved field needs at least 2 increasing snapshot times [s], got {t_k.size}")
+    slack = 1e-9 * (t_k[-1] - t_k[0])
+    if t_l.size and (t_l.min() < t_k[0] - slack or t_l.max() > t_k[-1] + slack):
+        raise ValueError(f"times [{t_l.min():.6g}, {t_l.max():.6g}] s leave the time-resolved field's snapshots "
+                         f"[{t_k[0]:.6g}, {t_k[-1]:.6g}] s; allowed: times within them")
+    k_l = np.clip(np.searchsorted(t_k, t_l, side="right") - 1, 0, t_k.size - 2)
+    a_l = np.clip((t_l - t_k[k_l]) / (t_k[k_l + 1] - t_k[k_l]), 0.0, 1.0)
+    return k_l, a_l
+
+
+def combine_snapshots(field, times, sample):
+    """A sampler's outputs on a time-resolved field: the snapshots' outputs at t = 0, weighted linearly in t.
+
+    ``sample(snapshot, zeros, sel)`` samples the frozen ``snapshot`` (dims
+    x, y, z) at the times ``times[sel]`` set to 0 (no advection) and
+    returns a tuple of arrays whose first axis runs over those times; the
+    outputs are linear in the field, so the weighted sum is the sample of the
+    field interpolated in time (module notes).
+    """
+    time_l = np.asarray(times, dtype=np.float64).reshape(-1)
+    k_l, a_l = time_weights(field["t"].values, time_l)
+    out = None
+    for k in np.unique(k_l):
+        sel = np.flatnonzero(k_l == k)
+        for kk, w in ((k, 1.0 - a_l[sel]), (k + 1, a_l[sel])):
+            parts = sample(field.isel(t=int(kk)), np.zeros(sel.size), sel)
+            if out is None:
+                out = tuple(np.zeros((time_l.size,) + p.shape[1:], dtype=np.float64) for p in parts)
+            for o, p in zip(out, parts):
+                o[sel] += w.reshape((-1,) + (1,) * (p.ndim - 1)) * p
+    return out
+
+
 def sample_los(
     field,
     origin,
@@ -388,6 +445,10 @@ def sample_los(
         Line-of-sight projection ``n . (u, v, w)`` [m/s] (positive away from
         the lidar).
     """
+    if is_time_resolved(field):
+        return combine_snapshots(field, times, lambda snap, t, sel: sample_los(
+            snap, origin, np.asarray(direction)[sel] if np.ndim(direction) == 2 else direction, ranges, t, U,
+            wrap=wrap, add_mean=add_mean, offplane_tol=offplane_tol))
     origin, n_tc, time_t, range_s = _prepare_beam(origin, direction, times, ranges)
     fld = _prepare_field(field, origin)
     U = check_real("U", U)

@@ -38,7 +38,7 @@ from .._lidar_fields import LidarFields
 from .._validation import check_choice, check_keys, check_real, check_str
 from ..beam.cells import TAIL_RULES, ProbeCells, interval_weight, probe_cells
 from ..beam.probe import get_weighting
-from ..beam.sampling import _check_extent, _prepare_field
+from ..beam.sampling import _check_extent, _prepare_field, is_time_resolved, time_weights
 from ..signal.chain import ChainSettings
 from ..signal.instrument import PRESETS, PROTOTYPE_2003, Instrument
 
@@ -297,7 +297,11 @@ class BeamSampler:
 
     def __init__(self, field, origin, focus, cells: ProbeCells, U, wrap):
         self.origin = np.ascontiguousarray(origin, dtype=np.float64)
-        self.fld = _prepare_field(field, self.origin)
+        # a time-resolved field (t, x, y, z): its snapshots, sampled unadvected and weighted linearly in t
+        self.time_k = np.asarray(field["t"].values, dtype=np.float64) if is_time_resolved(field) else None
+        self.snaps = (None if self.time_k is None else
+                      [_prepare_field(field.isel(t=k), self.origin) for k in range(self.time_k.size)])
+        self.fld = _prepare_field(field, self.origin) if self.snaps is None else self.snaps[0]
         self.cells = cells
         self.range_j = np.ascontiguousarray(np.maximum(focus + cells.sub_j, 0.0))
         self.fraction_j = np.ascontiguousarray(cells.fraction_j, dtype=np.float64)
@@ -318,12 +322,30 @@ class BeamSampler:
         range cells, then the tail cell if any) in look ``l``; ``vlos_l`` their
         weighted sum (tier 1).
         """
+        if self.snaps is not None:
+            return self._combine(self._sample, time_l, n_lc)
+        return self._sample(self.fld, time_l, n_lc)
+
+    def _combine(self, fn, time_l, n_lc, *args):
+        """``fn``'s outputs on a time-resolved field: its snapshots at t = 0, weighted linearly in t."""
+        k_l, a_l = time_weights(self.time_k, time_l)
+        out = None
+        for k in np.unique(k_l):
+            sel = np.flatnonzero(k_l == k)
+            for kk, w in ((k, 1.0 - a_l[sel]), (k + 1, a_l[sel])):
+                parts = fn(self.snaps[kk], np.zeros(sel.size), np.ascontiguousarray(n_lc[sel]), *args)
+                if out is None:
+                    out = tuple(np.zeros((time_l.size,) + p.shape[1:]) for p in parts)
+                for o, p in zip(out, parts):
+                    o[sel] += w.reshape((-1,) + (1,) * (p.ndim - 1)) * p
+        return out
+
+    def _sample(self, f, time_l, n_lc):
         from ..beam._kernels import los_cells_kernel  # lazily: importing the sensors does not import numba
 
         n_l = time_l.size
         vlos_ls = np.empty((n_l, self.n_s))
         vlos_l = np.empty(n_l)
-        f = self.fld
         los_cells_kernel(f.u, f.v, f.w, f.grid, self.wrap, self.wrap, self.origin, np.ascontiguousarray(n_lc),
                          self.range_j, self.fraction_j, self.ptr_s, self.weight_s, self.tail,
                          np.ascontiguousarray(time_l, dtype=np.float64), self.U, True, True, vlos_ls, vlos_l)
@@ -331,11 +353,16 @@ class BeamSampler:
 
     def velocity_at(self, time_t, n_tc, ranges):
         """(u, v, w) of the total wind at ``ranges`` along ``n_tc`` at ``time_t``, shape (n_t, n_r, 3) [m/s]."""
+        r = np.ascontiguousarray(np.atleast_1d(ranges), dtype=np.float64)
+        if self.snaps is not None:
+            return self._combine(self._velocity, np.asarray(time_t, dtype=np.float64), np.asarray(n_tc), r)
+        return self._velocity(self.fld, time_t, n_tc, r)
+
+    def _velocity(self, f, time_t, n_tc, r):
         from ..beam import _kernels as BK
 
-        r = np.ascontiguousarray(np.atleast_1d(ranges), dtype=np.float64)
         vel_tsc, vlos_ts = BK.empty_outputs(time_t.size, r.size)
-        BK.sample_points_kernel(self.fld.u, self.fld.v, self.fld.w, self.fld.grid, self.wrap, self.wrap, self.origin,
+        BK.sample_points_kernel(f.u, f.v, f.w, f.grid, self.wrap, self.wrap, self.origin,
                                 np.ascontiguousarray(n_tc), r, np.ascontiguousarray(time_t, dtype=np.float64),
                                 self.U, True, vel_tsc, vlos_ts)
         return vel_tsc, vlos_ts

@@ -209,8 +209,13 @@ def cover_yz(region: Region, spacing, *, params=None, min_extent: float | None =
 def cover_box(region: Region, U: float, duration: float, params, seed: int, *, spacing,
               lateral_doubling: bool = True, min_extent: float | None = None, extent=None,
               period_x: float | None = None, hf_compensation: bool = False, dtype=np.float32, condition=None,
-              evolution=None, planes=None):
+              evolution=None, planes=None, source=None):
     """A Mann box holding ``region`` for a record, placed in the field frame (module notes).
+
+    With ``source``, the field a user already has instead: ``source(region,
+    U, duration)`` reads and places it, or refuses it naming the sizes
+    (:meth:`cwlidar_sim.turbulence.io_source.FieldFile.place`); the
+    generation settings then play no part.
 
     Parameters
     ----------
@@ -239,6 +244,9 @@ def cover_box(region: Region, U: float, duration: float, params, seed: int, *, s
         (:func:`cwlidar_sim.turbulence.evolution.iter_evolving_boxes`).
     planes : sequence of float, optional
         With ``evolution``: the planes' x positions [m], the first the chain's root.
+    source : callable, optional
+        ``source(region, U, duration) -> xarray.Dataset``: the field read from
+        a file and placed (neither ``condition`` nor ``evolution`` with it).
 
     Returns
     -------
@@ -252,6 +260,11 @@ def cover_box(region: Region, U: float, duration: float, params, seed: int, *, s
 
     from .box import generate_box, keep_lateral_rows
 
+    if source is not None:
+        if condition is not None or evolution is not None:
+            raise ValueError("a field read from a file (source) is neither conditioned (condition) nor evolved "
+                             "(evolution): give source alone")
+        return source(_check_region(region), check_real("U", U, lo=0.0, hi=1000.0), duration)
     if not isinstance(params, MannParameters):
         raise TypeError(f"params must be MannParameters, got {type(params).__name__}")
     U = check_real("U", U, lo=0.0, hi=1000.0)

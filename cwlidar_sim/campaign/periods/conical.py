@@ -167,7 +167,8 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
     kw = dict(speed=p.mean_speed, duration=scene.period_duration(p), scan_revs=s.scan_revs, tier=tier,
               sub_dwells=sub_dwells, spacing=spacing, lateral_doubling=s.lateral_doubling, params=tensor,
               reference=s.reference, wind_direction_deg=p.toward_deg, variants=scene.lidar.variant_list,
-              condition=condition, box_options=box_options)
+              condition=condition, box_options=box_options,
+              field_source=scene.turbulence.field_source(scene.base_dir))
     if s.cycle:
         revs, refocus = lidar.pop("revs_per_height"), lidar.pop("refocus_time")
         rows = conical_simulation.simulate_conical_cycle(z, scene.unit_seed(index), revs_per_height=revs,

@@ -101,7 +101,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
                             sub_dwells: int = 8, model: bool = True, lidar_overrides: dict | None = None,
                             excluded_flags: int | None = None, wind_direction_deg: float = 0.0, variants=None,
                             field_span: float | None = None, box_options: dict | None = None,
-                            condition=None) -> dict:
+                            condition=None, field_source=None) -> dict:
     """Simulate one period: a Mann box, the conical lidar, a cup and a sonic at one height.
 
     Parameters
@@ -161,6 +161,10 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         before its lateral half is kept (the virtual twin,
         :mod:`cwlidar_sim.campaign.twin.run`); see
         :func:`cwlidar_sim.turbulence.cover.cover_box`.
+    field_source : callable, optional
+        ``field_source(region, U, duration) -> Dataset``: a field the user
+        has, read and placed instead of the generated box
+        (:meth:`cwlidar_sim.campaign.scenes.turbulence_spec.TurbulenceSpec.field_source`).
 
     Returns
     -------
@@ -196,7 +200,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
                      lateral_doubling=lateral_doubling, params=params, reference=reference, sub_dwells=sub_dwells,
                      model=model, lidar_overrides=lidar_overrides, excluded_flags=excluded_flags,
                      wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span,
-                     box_options=box_options, condition=condition)[0]
+                     box_options=box_options, condition=condition, field_source=field_source)[0]
 
 
 def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_time: float = 0.0,
@@ -205,7 +209,7 @@ def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_
                            reference: str = "previous", sub_dwells: int = 8, model: bool = True,
                            lidar_overrides: dict | None = None, excluded_flags: int | None = None,
                            wind_direction_deg: float = 0.0, variants=None, field_span: float | None = None,
-                           box_options: dict | None = None, condition=None) -> list:
+                           box_options: dict | None = None, condition=None, field_source=None) -> list:
     """Simulate one period of a lidar cycling through several heights in one box (module notes).
 
     The lidar measures ``revs_per_height`` revolutions at each height in
@@ -249,7 +253,7 @@ def simulate_conical_cycle(heights, seed: int, *, revs_per_height: int, refocus_
                      lateral_doubling=lateral_doubling, params=params, reference=reference, sub_dwells=sub_dwells,
                      model=model, lidar_overrides=overrides, excluded_flags=excluded_flags,
                      wind_direction_deg=wind_direction_deg, variants=variants, field_span=field_span,
-                     box_options=box_options, condition=condition)
+                     box_options=box_options, condition=condition, field_source=field_source)
 
 
 def _conical_lidar(heights, tier, cell_length, sub_dwells, lidar_overrides, wind_direction_deg):
@@ -266,7 +270,7 @@ def _conical_lidar(heights, tier, cell_length, sub_dwells, lidar_overrides, wind
 
 def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, lateral_doubling, params, reference,
               sub_dwells, model, lidar_overrides, excluded_flags, wind_direction_deg, variants=None,
-              field_span=None, box_options=None, condition=None) -> list:
+              field_span=None, box_options=None, condition=None, field_source=None) -> list:
     """The box, the lidar at ``heights`` (one: dwell, several: cycle), cups and sonics, fits: one dict per height."""
     from ...analysis.vad import sonic_radial_variance
     from ...sensors import Cup, Sonic, nearest_node, sample_cup, sample_sonic
@@ -311,7 +315,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
     box_kw = _box_options(box_options, d)
     field = cover_box(box_lidar.box_region(box_kw["spacing"]), U, duration, params,
                           seed_int(box_seq),
-                          lateral_doubling=lateral_doubling, condition=condition, **box_kw)
+                          lateral_doubling=lateral_doubling, condition=condition, source=field_source, **box_kw)
     cost["box"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     rec = measure_conical(field, lidar, duration, U, np.random.default_rng(lid_seq), variants=variants)

@@ -129,9 +129,17 @@ def period_records(scene: NacelleScene, index: int, *, status=None):
     t0 = time.perf_counter()
     if status is not None:
         status(f"{p.name}: box")
+    source = scene.turbulence.field_source(scene.base_dir)
+    if source is not None and evolution is not None:
+        raise ValueError(f"{p.name!r}: lifetime = {p.lifetime!r} evolves the boxes it generates; a field read from "
+                         f"turbulence.file is flown as it is: drop the period's lifetime or the file")
     boxes = cover_box(lidar_all.box_region(s.spacing, s.rotor_radius), U, dur, params, scene.unit_seed(index),
                       spacing=s.spacing, lateral_doubling=s.lateral_doubling, evolution=evolution,
-                      planes=None if evolution is None else lidar_all.box_planes())
+                      planes=None if evolution is None else lidar_all.box_planes(), source=source)
+    if source is not None and "t" in boxes.dims:
+        raise ValueError("turbulence.file: a time-resolved field (t, x, y, z) is not taken by a nacelle scene: its "
+                         "rotor-effective wind speed (cwlidar_sim.analysis.rews.rews_from_box) samples a frozen box "
+                         "advected at the mean speed; allowed: a frozen (x, y, z) field")
     rotor_box = boxes if evolution is None else boxes[0]
     cost["box"] = time.perf_counter() - t0
     recs = {}
@@ -151,7 +159,7 @@ def period_records(scene: NacelleScene, index: int, *, status=None):
     rews = rews_from_box(rotor_box, RotorDisc(s.rotor_radius, s.rotor_exponent), pos[1], pos[2], x=pos[0],
                          times=any_rec.time_e, U=U)
     shape = tuple(int(n) for n in rotor_box.u.shape)
-    info = {"box_shape": shape, "generated_shape": rotor_box.attrs["generated_shape"], "cost_s": cost,
+    info = {"box_shape": shape, "generated_shape": rotor_box.attrs.get("generated_shape", shape), "cost_s": cost,
             "evolution": None if evolution is None else evolution.as_dict()}
     return rews, any_rec.time_e, recs, info
 

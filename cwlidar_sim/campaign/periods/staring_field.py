@@ -51,6 +51,8 @@ class FieldPlan:
         Sonic position [m].
     wrap : bool
         Whether y and z are periodic for the sampling (planes and boxes).
+    field : xarray.Dataset or None
+        The field read from ``turbulence.file``, placed (None: generated).
     """
 
     kind: str
@@ -61,6 +63,7 @@ class FieldPlan:
     direction: np.ndarray
     sonic_position: np.ndarray
     wrap: bool
+    field: object = dataclasses.field(default=None, repr=False, compare=False)
 
 
 #: Largest relative difference between a ``fit_to`` record's mean speed and a period's ``mean_speed``: the
@@ -73,7 +76,9 @@ def scene_params(scene: Scene):
     """Mann parameters of a scene: given, or fitted to its sonic record.
 
     The record (``turbulence.fit_to``) is read by the twin's reader
-    (:func:`cwlidar_sim.analysis.records.read_record`: units converted,
+    (:func:`cwlidar_sim.analysis.records.read_record`, with the file options
+    of ``turbulence.fit_to_options``: separator, decimal mark, preamble, time
+    zone...; units converted,
     sizes checked before reading, short gaps filled and counted), with u
     along the mean wind (no rotation, no despiking).  A record's fit is kept
     for the process, keyed by the record's contents (a SHA-256 of its bytes,
@@ -102,7 +107,8 @@ def scene_params(scene: Scene):
         return (None if t.depends_on_speed else t.params()), None
     path = scene.resolve(scene.turbulence.fit_to)
     digest = file_digest(path, "turbulence.fit_to")
-    key = (os.path.abspath(path), digest, json.dumps(scene.analysis.as_dict(), sort_keys=True))
+    key = (os.path.abspath(path), digest, json.dumps(scene.analysis.as_dict(), sort_keys=True),
+           json.dumps(t.fit_to_options, sort_keys=True))
     if key not in _FIT_CACHE:
         if len(_FIT_CACHE) > 16:
             _FIT_CACHE.clear()
@@ -153,7 +159,7 @@ def theory_params(scene: Scene, params=None):
 def _fit_record(path, scene):
     """(MannParameters, summary) of the fit to the record at ``path`` with the scene's analysis settings."""
     spec = RecordSpec(path, kind="sonic", rotation="none", despike_threshold=0.0, min_mean_speed=0.5,
-                      name="turbulence.fit_to")
+                      name="turbulence.fit_to", **(scene.turbulence.fit_to_options or {}))
     rec = read_record(spec)
     if rec.n_samples < 64:
         raise ValueError(f"turbulence.fit_to: {path!r} has {rec.n_samples} samples; allowed: >= 64")
@@ -217,6 +223,8 @@ def plan_field(scene: Scene, index: int, params) -> FieldPlan:
     from ...beam.sampling import direction_from_angles
 
     period = scene.periods[index]
+    if scene.turbulence.file is not None:
+        return _file_plan(scene, period)
     kind, reason = choose_field(scene, period)
     inst = scene.lidar.build_instrument()
     r = inst.focus
@@ -251,10 +259,39 @@ def plan_field(scene: Scene, index: int, params) -> FieldPlan:
                      kind != "line")
 
 
+def _sensor_points(scene: Scene, period):
+    """Beam direction and the points the sensors reach, relative to the telescope [m]: ``(n, rel)``."""
+    from ...beam.sampling import direction_from_angles
+
+    inst = scene.lidar.build_instrument()
+    r, reach = inst.focus, scene.lidar.span * inst.rayleigh_length
+    n = np.asarray(direction_from_angles(180.0 + period.misalignment_deg, scene.lidar.elevation_deg), dtype=np.float64)
+    rel = np.stack([max(0.0, r - reach) * n, (r + reach) * n, r * n + np.asarray(scene.sonic.offset), np.zeros(3)])
+    return n, rel
+
+
+def _file_plan(scene: Scene, period) -> FieldPlan:
+    """The plan of a period flown through ``turbulence.file``: the field read and placed, the telescope at 0."""
+    from ...turbulence.cover import Region
+
+    n, rel = _sensor_points(scene, period)
+    lo, hi = rel.min(axis=0), rel.max(axis=0)
+    region = Region(float(lo[0]), float(hi[0] - lo[0]), float(0.5 * (lo[1] + hi[1])), float(0.5 * (hi[1] - lo[1])),
+                    float(0.5 * (lo[2] + hi[2])), float(0.5 * (hi[2] - lo[2])))
+    field = scene.turbulence.field_source(scene.base_dir)(region, period.mean_speed, scene.period_duration(period))
+    shape = tuple(int(field.sizes[a]) for a in ("x", "y", "z"))
+    spacing = tuple(float(field.attrs[f"d{a}"]) for a in "xyz")
+    what = "time-resolved" if "t" in field.dims else "frozen, advected at the period's mean speed"
+    return FieldPlan("box", f"read from turbulence.file {scene.turbulence.file.path!r} ({what})", shape, spacing,
+                     np.zeros(3), n, rel[2].copy(), False, field)
+
+
 def generate_field(plan: FieldPlan, params, seed):
-    """The turbulence field of ``plan`` (line, plane or box), seeded."""
+    """The turbulence field of ``plan`` (line, plane or box), seeded; a file's field as read and placed."""
     from ...turbulence import generate_box, generate_line, generate_plane
 
+    if plan.field is not None:
+        return plan.field
     if plan.kind == "line":
         return generate_line(params, plan.shape[0], plan.spacing[0], seed)
     if plan.kind == "plane":

@@ -24,9 +24,15 @@ def scene_from_dict(d: dict, *, base_dir: str = "."):
 
     The kind is looked up in :mod:`cwlidar_sim.campaign.registry`: an unknown
     one is a ValueError naming the closest kinds and every registered one.
+    The files the scene's ``[turbulence]`` table names (``file``) must exist
+    (relative paths from ``base_dir``): a FileNotFoundError names the key.
     """
     name = d.get("kind", "staring") if isinstance(d, dict) else "staring"
-    return get_kind(name).scene_class.from_dict(d, base_dir=base_dir)
+    scene = get_kind(name).scene_class.from_dict(d, base_dir=base_dir)
+    check = getattr(getattr(scene, "turbulence", None), "check_files", None)
+    if check is not None:  # the files a scene names (turbulence.file) exist, relative to its folder
+        check(base_dir)
+    return scene
 
 
 def load_scene(path):

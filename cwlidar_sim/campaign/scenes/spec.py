@@ -277,6 +277,8 @@ def turbulence_schema(cls) -> dict:
         from ...analysis.records import RecordSpec
 
         out["turbulence.condition_on[]"] = spec_table(RecordSpec)
+    for key, table in getattr(cls, "_sub_tables", {}).items():  # [turbulence.file], [turbulence.fit_to_options]
+        out[f"turbulence.{key}"] = table
     return out
 
 

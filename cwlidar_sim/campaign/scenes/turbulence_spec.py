@@ -30,6 +30,28 @@ pick one of four ways to set the Mann (1994) tensor:
 * **fitted** (staring only): ``fit_to``, a sonic record the three
   parameters are fitted to (:func:`cwlidar_sim.campaign.periods.staring_field.scene_params`).
 
+A field the user already has
+----------------------------
+``file`` names a turbulence field to fly the instruments through instead of
+generating a Mann box, in every kind: ``file = "box.bts"``, or a table
+``[turbulence.file]`` with ``path`` and the reader's options: ``format``
+('turbsim', 'bladed', 'hawc2', 'netcdf'; default from the suffix),
+``convention`` and ``reverse_x`` (HAWC2's orientation), ``shape`` and
+``spacing`` (HAWC2 without its JSON sidecar), ``left_hand_rule`` (Bladed
+without its ``.sum``), ``dims`` (NetCDF: our names t, x, y, z -> the
+file's).  A NetCDF file on (t, x, y, z) is time-resolved (an LES's output).
+Relative paths are taken from the scene file's folder; the files must exist
+when the scene is loaded.  Frozen fields are advected at each period's mean
+speed; a field too small for a period's record is refused, naming the sizes,
+before any sampling (:mod:`cwlidar_sim.turbulence.io_source`).  The tensor
+keys keep their meaning and their kind's defaults: the tensor is the theory
+the results are compared with (and the staring lidar's transverse speed),
+no longer the field's source.  ``file`` is its own key, not a value of
+``source``: ``source`` picks a tensor (a model), a file is a realisation,
+and a scene can want both (``source = "mann1994"`` as the theory of an LES's
+field).  Not with ``condition_on`` (the twin conditions the boxes it
+generates).
+
 A table giving none of the keys that pick a way (``alpha_eps``,
 ``length_scale``, ``gamma``, ``ti``, ``sigma_u``, ``iec_class``,
 ``source``, ``fit_to``) is the kind's default: a staring scene has none
@@ -77,9 +99,10 @@ import math
 
 from ..._validation import check_choice, check_real, check_str
 from ...turbulence.limits import MAX_TURBULENCE_INTENSITY, check_frozen_turbulence, longitudinal_std
+from ...turbulence.io_source import FieldFile
 from ...turbulence.parameters import MannParameters
 from ...turbulence.surface_layer import surface_layer_parameters
-from .spec import Spec, check_condition_on, check_scene_keys, entry_label, set_field
+from .spec import Spec, Table, at_path, check_condition_on, check_scene_keys, entry_label, set_field, spec_table
 
 __all__ = ["TurbulenceSpec", "IEC_REFERENCE_INTENSITY", "IEC_NTM_B", "IEC_GAMMA", "iec_sigma_u", "iec_length_scale"]
 
@@ -96,6 +119,10 @@ SURFACE_SIGMA_U_OVER_USTAR = 2.4
 MODE_KEYS = ("alpha_eps", "length_scale", "gamma", "ti", "sigma_u", "iec_class", "source", "fit_to")
 KNOWN_KEYS = ("ti", "sigma_u", "iec_class")
 SOURCES = ("mann1994", "iec", "fixed")
+#: The record-file options ``turbulence.fit_to_options`` passes to the fit's reader
+#: (:class:`cwlidar_sim.analysis.records.RecordSpec`: how the file is written, not how the fit treats it).
+FIT_TO_OPTIONS = ("columns", "units", "sample_rate", "sep", "decimal", "skiprows", "comment", "na_values", "timezone",
+                  "max_gap", "max_filled_fraction")
 
 
 def iec_sigma_u(iec_class: str, speed: float) -> float:
@@ -179,6 +206,17 @@ class TurbulenceSpec(Spec):
         bound is warned about and flagged (see
         :func:`cwlidar_sim.campaign.periods.staring_field.scene_params`).  Exclusive with
         every other way.
+    fit_to_options : dict, optional
+        With ``fit_to``: how the record file is written, passed to its reader
+        (:class:`cwlidar_sim.analysis.records.RecordSpec`): ``sep``,
+        ``decimal``, ``skiprows``, ``comment``, ``na_values``, ``timezone``,
+        ``columns``, ``units``, ``sample_rate``, ``max_gap``,
+        ``max_filled_fraction`` (``FIT_TO_OPTIONS``); other keys are
+        refused by name.  Default: the reader's.
+    file : FieldFile, optional
+        A turbulence field file to sample instead of a generated box (module
+        notes: ``file = "box.bts"`` or a ``[turbulence.file]`` table of
+        :class:`cwlidar_sim.turbulence.io_source.FieldFile` keys).
     condition_on : tuple of RecordSpec
         Staring and conical scenes: measured records the field is
         conditioned on (the virtual twin, :mod:`cwlidar_sim.campaign.twin.run`):
@@ -204,6 +242,8 @@ class TurbulenceSpec(Spec):
     height: float | None = None
     fit_to: str | None = None
     condition_on: tuple = ()
+    fit_to_options: dict | None = None
+    file: FieldFile | None = None
 
     #: The scene kind whose table this is (its defaults and refusals).
     _kind = "staring"
@@ -218,8 +258,12 @@ class TurbulenceSpec(Spec):
     #: The kind's twin needs one tensor for the whole scene (its periods are the records').
     _twin_needs_one_tensor = True
 
+    #: The sub-tables of ``[turbulence]`` (the scene files' schema).
+    _sub_tables = {"file": spec_table(FieldFile), "fit_to_options": Table(FIT_TO_OPTIONS)}
+
     def __post_init__(self):
         set_field(self, "condition_on", check_condition_on(self.condition_on))
+        self._check_file()
         given = {k for k in MODE_KEYS + ("z0", "obukhov_length", "height") if getattr(self, k) is not None}
         if not given & set(MODE_KEYS):
             if self._default is None:
@@ -297,6 +341,60 @@ class TurbulenceSpec(Spec):
                              f"{why}; give height [m]" + ("" if mode == "surface" else " or length_scale [m]"))
         if self.height is not None and self.obukhov_length is not None:
             self.resolve(self.height, 10.0)  # |L_MO| >= height / 2, named
+
+    def _check_file(self):
+        """``file`` as a :class:`FieldFile` and ``fit_to_options`` checked (each error names its TOML path)."""
+        f = self.file
+        if f is not None and not isinstance(f, FieldFile):
+            if isinstance(f, str):
+                f = {"path": f}
+            if not isinstance(f, dict):
+                raise TypeError(f"turbulence.file must be a path or a table (path, format, ...), got "
+                                f"{type(f).__name__} {f!r}")
+            keys = [x.name for x in dataclasses.fields(FieldFile)]
+            unknown = sorted(set(f) - set(keys))
+            if unknown:
+                raise ValueError(f"turbulence.file: unknown keys {unknown}; allowed: {keys}")
+            if "path" not in f:
+                raise ValueError("turbulence.file is missing the required key 'path'")
+            with at_path("turbulence.file", keys, owner="FieldFile"):
+                f = FieldFile(**f)
+            set_field(self, "file", f)
+        if f is not None and self.condition_on:
+            raise ValueError("turbulence.file: the virtual twin conditions the boxes it generates "
+                             "(turbulence.condition_on); give file or condition_on, not both")
+        opts = self.fit_to_options
+        if opts is not None:
+            if not isinstance(opts, dict):
+                raise TypeError(f"turbulence.fit_to_options must be a table of record-file options, got {opts!r}")
+            unknown = sorted(set(opts) - set(FIT_TO_OPTIONS))
+            if unknown:
+                raise ValueError(f"turbulence.fit_to_options: unknown keys {unknown}; allowed: {list(FIT_TO_OPTIONS)}")
+            if self.fit_to is None:
+                raise ValueError("turbulence.fit_to_options says how the fit_to record is written; it needs fit_to")
+            from ...analysis.records import RecordSpec
+
+            with at_path("turbulence.fit_to_options", FIT_TO_OPTIONS, owner="RecordSpec"):
+                RecordSpec("record.csv", **opts)  # the values, checked by the reader's own rules
+            set_field(self, "fit_to_options", dict(opts))
+
+    def check_files(self, base_dir: str = ".") -> None:
+        """The files the table names exist (``file``; relative paths from ``base_dir``, the scene file's folder)."""
+        if self.file is not None:
+            self.file.check_files(base_dir, "turbulence.file")
+
+    def field_source(self, base_dir: str = "."):
+        """``source(region, U, duration) -> Dataset`` of ``file``, read and placed, or None (a generated box).
+
+        The one place every kind gets its field file from
+        (:meth:`cwlidar_sim.turbulence.io_source.FieldFile.place`, through
+        :func:`cwlidar_sim.turbulence.cover.cover_box`'s ``source``).
+        """
+        if self.file is None:
+            return None
+        import functools
+
+        return functools.partial(self.file.place, base_dir=base_dir, label="turbulence.file")
 
     def _check_values(self):
         """Types and ranges of the keys given (each error names ``turbulence.<key>``, the value and the range)."""

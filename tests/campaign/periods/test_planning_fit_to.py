@@ -88,3 +88,28 @@ def test_a_good_fit_gives_no_warning(tmp_path, line):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         scene_params(_scene(tmp_path))
+
+
+def test_fit_to_takes_the_record_file_options_of_the_scene(tmp_path, line):
+    """A logger's CSV (a preamble, ';' between fields, decimal commas) read with [turbulence.fit_to_options] fits
+    the tensor the same record as NetCDF fits (written in full: the fit is sensitive to the 9th digit); without the
+    options the reader cannot read it."""
+    _write(tmp_path, line)
+    p_nc, _ = scene_params(_scene(tmp_path))
+    rows = ["logger X1 serial 42", "site: test", "time;u;v;w"]
+    rows += [";".join(repr(float(x)).replace(".", ",") for x in (i / FS, line["u"][i], line["v"][i], line["w"][i]))
+             for i in range(N)]
+    (tmp_path / "r.csv").write_text("\n".join(rows) + "\n")
+    text = SCENE.format(U=U).replace('fit_to = "r.nc"', 'fit_to = "r.csv"\n[turbulence.fit_to_options]\n'
+                                     'sep = ";"\ndecimal = ","\nskiprows = 2')
+    p_csv, info = scene_params(loads_scene(text, base_dir=str(tmp_path)))
+    np.testing.assert_allclose([p_csv.alpha_eps, p_csv.length_scale, p_csv.gamma],
+                               [p_nc.alpha_eps, p_nc.length_scale, p_nc.gamma], rtol=1e-6)
+    plain = SCENE.format(U=U).replace('fit_to = "r.nc"', 'fit_to = "r.csv"')
+    with pytest.raises(ValueError):
+        scene_params(loads_scene(plain, base_dir=str(tmp_path)))
+    with pytest.raises(ValueError, match=r"unknown key\(s\) in turbulence.fit_to_options: \['rotation'\].*allowed: "
+                                         r"\['columns', 'comment', 'decimal'"):
+        loads_scene(text.replace("skiprows = 2", 'skiprows = 2\nrotation = "double"'), base_dir=str(tmp_path))
+    with pytest.raises(ValueError, match=r"turbulence.fit_to_options.decimal"):
+        loads_scene(text.replace('decimal = ","', 'decimal = ";"'), base_dir=str(tmp_path))

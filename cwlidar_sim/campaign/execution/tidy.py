@@ -17,8 +17,9 @@ no code per kind here:
   ``std_ratio_unit``): one row per period row and per value of its further
   dimensions (``scan_s``, ``focus``, ``estimate``, ...: a column each, empty
   in the other rows), ``statistic = "value"``;
-* a series (a variable on ``period`` and a time dimension whose coordinate is
-  in ``s``, e.g. a staring scene's ``lidar_10hz``): its 10-minute blocks from
+* a series (a variable on ``period`` and a time dimension: a dimension
+  coordinate in ``s`` named ``time...`` or with ``axis = "T"``, e.g. a staring
+  scene's ``lidar_10hz`` on ``time_10hz``): its 10-minute blocks from
   the period's start (:data:`BLOCK_S`; a shorter period is one block), each
   block's ``mean``, ``std`` (ddof 1), ``min``, ``max`` and ``count`` of its
   finite samples.
@@ -53,9 +54,11 @@ COLUMNS = ("period", "unit", "height_m", "instrument", "quantity", "statistic", 
 
 
 def _time_dim(var, ds):
-    """The variable's time dimension (besides ``period``: a dimension coordinate in s), or None."""
+    """The variable's time dimension, or None: a dimension coordinate in s named ``time...`` or with ``axis = "T"``."""
     for d in var.dims:
-        if d != "period" and d in ds.coords and ds[d].attrs.get("units") == "s" and ds[d].ndim == 1:
+        c = ds.coords.get(d)
+        if d != "period" and c is not None and c.ndim == 1 and c.attrs.get("units") == "s" and (
+                str(d).startswith("time") or c.attrs.get("axis") == "T"):
             return d
     return None
 

@@ -1,9 +1,9 @@
 """CF attributes of a scene's results, and their absolute time axis when the scene names its start.
 
 Every results file says ``Conventions = "CF-1.10"``
-(:data:`cwlidar_sim.campaign._labels.CF_CONVENTIONS`) and carries CF
+(``_labels.CF_CONVENTIONS``) and carries CF
 ``standard_name`` (and ``cell_methods``) attributes on the variables CF has a
-name for (:data:`cwlidar_sim.campaign._labels.CF_STANDARD_NAMES`); nothing
+name for (``_labels.CF_STANDARD_NAMES``); nothing
 else changes: no value, no name, no unit.
 
 Time.  The results' own times are relative: seconds from each period's start

@@ -148,7 +148,8 @@ def _blocks(series, t, base, start, end, t0) -> list:
                  "min": x.min() if x.size else np.nan, "max": x.max() if x.size else np.nan, "count": float(x.size)}
         for stat, v in stats.items():
             units = {"units": "1"} if stat == "count" else {}
-            out.append({**base, **units, "statistic": stat, "value": float(v), "start_s": start + lo, "end_s": start + hi,
+            out.append({**base, **units, "statistic": stat, "value": float(v), "start_s": start + lo,
+                        "end_s": start + hi,
                         "start_time": _iso(t0, start + lo), "end_time": _iso(t0, start + hi)})
     return out
 

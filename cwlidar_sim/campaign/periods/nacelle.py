@@ -320,8 +320,9 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
                      {"units": "s", "long_name": "eddy-lifetime scale (NaN: frozen turbulence)"}),
         "rews_std": (P, np.array([float(np.std(rews))]), {"units": "m s-1", "long_name": "std of the REWS"}),
         "preview_estimate": (P + ("focus", "time_preview"), series_ft[None],
-                             {"units": "m s-1", "long_name": "the lidar's REWS estimate (main estimate, u over the "
-                                                             "last revolution; NaN before a full one) at its own time"}),
+                             {"units": "m s-1",
+                              "long_name": "the lidar's REWS estimate (main estimate, u over the last revolution; "
+                                           "NaN before a full one) at its own time"}),
         "preview_rews": (P + ("time_preview",), (U + rews)[None],
                          {"units": "m s-1", "long_name": "the simulated REWS, U + u_R (the rotor disc's u)"}),
         "preview_delay": (P + ("focus",), delay[None],
@@ -381,7 +382,7 @@ def statistics(ds) -> dict:
 
 
 def preview_table(ds):
-    """The preview signal as a pandas DataFrame, one row per period, focus distance and estimate (:func:`write_preview`)."""
+    """The preview signal as a pandas DataFrame: a row per period, focus distance and sample (:func:`write_preview`)."""
     import pandas as pd
 
     t = np.asarray(ds["time_preview"].values, dtype=float)

@@ -260,7 +260,7 @@ def _run_scene(scene, out_dir, client, progress, say, on_period, manifest, worke
         folder.finish(out_dir, manifest, os.path.basename(path), log=say)
         say(f"results written to {path}")
         side = write_side_files(ds, scene, path[:-3])
-        folder.record_figures(out_dir, side)  # the manifest's files of this run: an overwrite removes them
+        folder.record_files(out_dir, side)  # the manifest's files of this run: an overwrite removes them
         for p in side:
             say(f"written {p}")
     return ds

@@ -39,8 +39,9 @@ __all__ = ["RESULTS_VERSION", "Spec", "SceneSpec", "set_path", "select_periods",
 #: tones from per-estimate tables summed in float32, other bits of the same law; 6: the
 #: misaligned-beam theory on the one-point quadrature's k3 nodes, its spectra moved by <= 3e-5; 7: one
 #: availability, the usable fraction, NEAR_ZERO / NEAR_NYQUIST estimates left out of it and of the averaged
-#: series: a conical period's ``availability`` drops by its zero-crossing loss).
-RESULTS_VERSION = 7
+#: series: a conical period's ``availability`` drops by its zero-crossing loss; 8: a nacelle period keeps its
+#: preview series, ``preview_estimate``, ``preview_rews`` and ``preview_delay``, for the preview file).
+RESULTS_VERSION = 8
 
 
 def set_field(obj, name: str, value) -> None:

@@ -14,6 +14,7 @@ Usage (from the repository root)::
 
     python tools/compare_kinds.py --base main          # base revision against the working tree
     python tools/compare_kinds.py --base main --only staring-los
+    python tools/compare_kinds.py --base main --allow-added   # new variables / attributes listed, not failing
 
 Exit status 0 when every case is identical, 1 otherwise (the differing
 variables are listed).  About 1-3 minutes per tree on 2 cores.
@@ -149,25 +150,34 @@ def _same(a, b) -> bool:
     return bool(np.array_equal(a, b))
 
 
-def compare(base_file, new_file) -> list:
-    """Names of the variables, coordinates and attributes that differ (empty: identical)."""
+def compare(base_file, new_file, added=None) -> list:
+    """Names of the variables, coordinates and attributes that differ (empty: identical).
+
+    ``added``: a list that receives what only the new file has (variables, attributes) instead of the
+    differences (``--allow-added``); None: those differ too.
+    """
     import xarray as xr
+
+    def only_new(label):
+        (diff if added is None else added).append(label)
 
     with xr.open_dataset(base_file, engine="h5netcdf") as a, xr.open_dataset(new_file, engine="h5netcdf") as b:
         diff = []
         names = set(a.variables) | set(b.variables)
         for n in sorted(names):
-            if n not in a.variables or n not in b.variables:
-                diff.append(f"{n} (only in {'new' if n in b.variables else 'base'})")
+            if n not in a.variables:
+                only_new(f"{n} (only in new)")
+            elif n not in b.variables:
+                diff.append(f"{n} (only in base)")
             elif not _same(a[n].values, b[n].values):
                 diff.append(n)
             else:
-                for key in set(a[n].attrs) | set(b[n].attrs):
+                for key in sorted(set(a[n].attrs) | set(b[n].attrs)):
                     if key not in VOLATILE_ATTRS and str(a[n].attrs.get(key)) != str(b[n].attrs.get(key)):
-                        diff.append(f"{n}.attrs[{key}]")
+                        (only_new if key not in a[n].attrs else diff.append)(f"{n}.attrs[{key}]")
         for key in sorted(set(a.attrs) | set(b.attrs)):
             if key not in VOLATILE_ATTRS and str(a.attrs.get(key)) != str(b.attrs.get(key)):
-                diff.append(f"attrs[{key}]")
+                (only_new if key not in a.attrs else diff.append)(f"attrs[{key}]")
     return diff
 
 
@@ -176,6 +186,9 @@ def main(argv=None) -> int:
     ap.add_argument("--base", required=True, help="git revision to compare against (e.g. main)")
     ap.add_argument("--only", nargs="*", help="cases to run, e.g. staring-los nacelle-spectral")
     ap.add_argument("--json", help="write the comparison to this JSON file")
+    ap.add_argument("--allow-added", action="store_true",
+                    help="variables and attributes only the new file has are listed as added, not as differences "
+                         "(a change that adds results and leaves every old value and attribute as it was)")
     args = ap.parse_args(argv)
     root = pathlib.Path(__file__).resolve().parents[1]
     selected = cases(args.only)
@@ -189,11 +202,13 @@ def main(argv=None) -> int:
             (tmp / "b").mkdir()
             base = run_tree(base_tree, tmp / "a", selected)
             new = run_tree(root, tmp / "b", selected)
-            report = {case: compare(base[case], new[case]) for case in selected}
+            added = {case: ([] if args.allow_added else None) for case in selected}
+            report = {case: compare(base[case], new[case], added[case]) for case in selected}
         finally:
             subprocess.run(["git", "-C", str(root), "worktree", "remove", "--force", str(base_tree)], check=False)
     for case, diff in report.items():
-        print(f"{case:18s} {'identical' if not diff else 'DIFFERS: ' + ', '.join(diff)}")
+        more = f" (added: {', '.join(added[case])})" if added[case] else ""
+        print(f"{case:18s} {'identical' if not diff else 'DIFFERS: ' + ', '.join(diff)}{more}")
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps({"base": args.base, "cases": report}, indent=1) + "\n")
     return 0 if not any(report.values()) else 1

@@ -85,3 +85,33 @@ def segment_phrase(ds) -> str:
     """'10-min segments', '300-s segments': a staring scene's ``analysis.segment_duration``."""
     seg = _scene(ds).get("analysis", {}).get("segment_duration")
     return "segments" if seg is None else f"{duration_phrase(seg)} segments"
+
+
+#: The CF conventions the results files follow (global ``Conventions``): CF-1.10 (2022) is the newest version whose
+#: standard-name table (v79+) holds every name used here and that xarray's time encoding writes without caveat.
+CF_CONVENTIONS = "CF-1.10"
+#: CF ``standard_name`` (and ``cell_methods`` where the value is a period's statistic) of results variables, by
+#: name; added where a variable lacks one, never changing its values, units or other attributes.  Only quantities
+#: that are what the CF name says: the conical scene's directions *toward* (counter-clockwise from east) have no
+#: CF name, their meteorological copies ``*_wind_from_unit`` are ``wind_from_direction``; a staring scene's
+#: speeds along the beam (toward the lidar, or the homodyne magnitude) are not CF's
+#: ``radial_velocity_of_scatterers_away_from_instrument``; the sonic's (u, v, w) are in the mean wind's frame,
+#: not east-north-up, so they are not ``eastward_wind`` / ``northward_wind``.
+CF_STANDARD_NAMES = {
+    "height": ("height", None),
+    "unit_height": ("height", None),
+    "in_situ_height_unit": ("height", None),
+    "mean_speed": ("wind_speed", "time: mean"),
+    "mean_speed_unit": ("wind_speed", "time: mean"),
+    "cup_mean_unit": ("wind_speed", "time: mean"),
+    "cup_std_unit": ("wind_speed", "time: standard_deviation"),
+    "sonic_std_unit": ("wind_speed", "time: standard_deviation"),
+    "lidar_mean_unit": ("wind_speed", "time: mean"),
+    "lidar_std_unit": ("wind_speed", "time: standard_deviation"),
+    "lidar_wind_from_unit": ("wind_from_direction", "time: mean"),
+    "sonic_wind_from_unit": ("wind_from_direction", "time: mean"),
+    "preview_rews": ("wind_speed", None),
+    "preview_estimate": ("wind_speed", None),
+}
+#: The instant a results file's ``time`` coordinate counts from, when its scene names ``start_time``.
+CF_TIME_UNITS = "seconds since 1970-01-01 00:00:00"

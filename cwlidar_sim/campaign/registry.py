@@ -38,8 +38,8 @@ from typing import Protocol, runtime_checkable
 
 from .._validation import did_you_mean
 
-__all__ = ["ENTRY_POINT_GROUP", "BUILTIN_KINDS", "KIND_MEMBERS", "SCENE_MEMBERS", "SceneKind", "KindBase",
-           "check_kind", "register", "unregister", "get_kind", "kind_of", "kind_names", "refresh"]
+__all__ = ["ENTRY_POINT_GROUP", "BUILTIN_KINDS", "KIND_MEMBERS", "OPTIONAL_MEMBERS", "SCENE_MEMBERS", "SceneKind",
+           "KindBase", "default_statistics", "statistics_of", "side_files_of", "check_kind", "register", "unregister", "get_kind", "kind_of", "kind_names", "refresh"]
 
 #: The entry-point group through which installed distributions add scene kinds.
 ENTRY_POINT_GROUP = "cwlidar_sim.scene_kinds"
@@ -54,6 +54,8 @@ BUILTIN_KINDS = {
 KIND_MEMBERS = ("name", "scene_class", "resolve", "scene_params", "run_unit", "estimate_bytes", "estimate_unit",
                 "summarise", "summary", "figures", "quick", "twin")
 _ATTRIBUTES = ("name", "scene_class", "twin")
+#: Members a kind may provide; the runner uses a generic default where it does not (:class:`SceneKind`).
+OPTIONAL_MEMBERS = ("statistics", "side_files")
 #: Members every kind's scene class provides (the runner, the store, the sweeps and the folder call them).
 SCENE_MEMBERS = ("kind", "from_dict", "schema", "as_dict", "replace", "with_values", "unit_names", "unit_seed",
                  "simulated_hours")
@@ -124,6 +126,47 @@ class SceneKind(Protocol):
     def quick(self, scene):
         """The scene made quick for ``reproduce --quick``: less data, the same physics and seeds."""
 
+    # optional members (OPTIONAL_MEMBERS): a kind without them gets the defaults named
+
+    def statistics(self, ds) -> dict:
+        """Optional: which results variables are per-period statistics, and of which instrument.
+
+        ``{variable: instrument}`` for the variables of the tidy statistics
+        table (:mod:`cwlidar_sim.campaign.execution.tidy`): each on ``period``,
+        either a statistic per period (further dimensions such as ``scan_s``
+        or ``focus`` become columns) or a series on a time dimension (its
+        coordinate in ``s``), which the table turns into 10-minute statistics.
+        Default (:func:`default_statistics`): every numeric variable on
+        ``period`` alone, its instrument from its ``instrument`` attribute.
+        """
+
+    def side_files(self, ds, stem) -> list:
+        """Optional: write the kind's own files beside the results file ``<stem>.nc``, atomically; their paths.
+
+        Default: none.  The nacelle kind writes its preview signal (``<stem>.preview.csv``).
+        """
+
+
+def default_statistics(ds) -> dict:
+    """The tidy table's variables of a kind that does not say: every numeric variable on ``period`` alone.
+
+    Each one's instrument is its ``instrument`` attribute, else ``""``.
+    """
+    return {str(n): str(v.attrs.get("instrument", "")) for n, v in ds.data_vars.items()
+            if v.dims == ("period",) and v.dtype.kind in "fiub"}
+
+
+def statistics_of(kind, ds) -> dict:
+    """``kind.statistics(ds)`` where the kind provides it, else :func:`default_statistics`."""
+    member = getattr(kind, "statistics", None)
+    return dict(member(ds)) if callable(member) else default_statistics(ds)
+
+
+def side_files_of(kind, ds, stem) -> list:
+    """``kind.side_files(ds, stem)`` where the kind provides it, else no file."""
+    member = getattr(kind, "side_files", None)
+    return list(member(ds, stem)) if callable(member) else []
+
 
 class KindBase:
     """A convenient base of a kind: the members most kinds share, for a subclass to override.
@@ -131,7 +174,8 @@ class KindBase:
     Nothing automatic (``resolve`` returns the scene as it is), no shared
     tensor (``scene_params``: None, each unit takes its own), the units
     joined as they are (``summarise``), no figures, no quick rule (a
-    ValueError naming the kind) and no twin.  A subclass sets ``name`` and
+    ValueError naming the kind), no twin, the default tidy statistics
+    (:func:`default_statistics`) and no side files.  A subclass sets ``name`` and
     ``scene_class`` and defines ``run_unit``, ``estimate_bytes``,
     ``estimate_unit`` and ``summary`` (:class:`SceneKind`).
     """
@@ -152,6 +196,12 @@ class KindBase:
 
     def quick(self, scene):
         raise ValueError(f"a {self.name} scene has no quick rule (reproduce --quick)")
+
+    def statistics(self, ds) -> dict:
+        return default_statistics(ds)
+
+    def side_files(self, ds, stem) -> list:
+        return []
 
     def __repr__(self):
         return f"<scene kind {getattr(self, 'name', '?')!r} ({type(self).__module__}.{type(self).__qualname__})>"

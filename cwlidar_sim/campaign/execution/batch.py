@@ -344,7 +344,9 @@ def _run_campaign(spec, out_dir, tasks, t0, say, *, workers, scheduler, client, 
         nonlocal sim_hours
         gone.add(task.task_id)
         run = runs[task.task_id]
-        write_results(run.assemble(started), path[task.task_id])
+        ds = run.assemble(started)
+        write_results(ds, path[task.task_id])
+        runner.write_side_files(ds, run.scene, path[task.task_id][:-3])  # tasks/<id>.stats.csv beside it
         hours = task.scene.simulated_hours()
         sim_hours += hours
         finished.append(task)

@@ -41,7 +41,7 @@ from ..._preflight import PreflightError, check_writable
 
 __all__ = ["CAMPAIGN", "NAME_MAX", "LOCK_NAME", "MANIFEST_NAME", "check_file_names", "locked", "clean_temporaries",
            "read_manifest", "write_manifest", "claim", "settle", "finish", "record_figures",
-           "CAMPAIGN_FILES"]
+           "record_files", "CAMPAIGN_FILES", "SIDE_SUFFIX_MAX"]
 
 #: Longest file name (bytes) of common file systems (ext4, xfs, btrfs, APFS).
 NAME_MAX = 255
@@ -72,15 +72,21 @@ def _check_length(field: str, name: str, file_name: str) -> None:
                          f"over the file system's limit of {NAME_MAX}; fix: shorten it")
 
 
+#: The longest suffix of a file a run writes beside ``<name>.nc`` (the tidy table's ``.stats.parquet``; a kind's
+#: side files, such as the nacelle's ``.preview.csv``, are no longer).
+SIDE_SUFFIX_MAX = ".stats.parquet"
+
+
 def check_file_names(scene) -> None:
     """Raise ValueError unless every file name the scene's run derives from its names is safe.
 
-    Checked: the scene's name (``<name>.nc``, ``<name>.periods``), each
+    Checked: the scene's name (``<name>.nc``, ``<name>.periods``, the files beside the
+    results, up to ``<name>`` + :data:`SIDE_SUFFIX_MAX`), each
     period's name and each unit's file ``<index>_<unit>.nc``.  Called before
     anything is computed or written.
     """
     _check_name("scene name", scene.name)
-    _check_length("scene name", scene.name, f"{scene.name}.periods")
+    _check_length("scene name", scene.name, f"{scene.name}{SIDE_SUFFIX_MAX}")
     for i, unit in enumerate(scene.unit_names()):  # each holds its period's name
         _check_name("period name", unit)
         _check_length("period name", unit, f"{i:03d}_{unit}.nc")
@@ -246,34 +252,37 @@ def claim(folder, name: str, kind: str, *, overwrite: bool = False, log=None) ->
         theirs = _owner(old.get("name"), old.get("kind"))
         files = (list(CAMPAIGN_FILES) if old.get("kind") == CAMPAIGN
                  else [f"{old.get('name')}.periods", *old.get("figures", [])])
+        side = [f for f in old.get("files", []) if _plain(f)]  # beside its results: removed with them
         remove_after = [f for f in old.get("remove_after", []) if f != f"{name}.nc"]
         results = old.get("results")
     else:
         files = _legacy_owner(folder, name, kind)
         same = not files
         theirs = f"another run ({', '.join(files[:3])}{', ...' if len(files) > 3 else ''})"
-        results = None
+        results, side = None, []
     if old is not None and not same and not any(
             os.path.exists(os.path.join(folder, f)) for f in [*files, *([results] if results else [])]):
         # the old owner left nothing on disk (its run failed before its first unit): nothing to protect
-        old, same, files, remove_after, results = None, True, [], [], None
+        old, same, files, remove_after, results, side = None, True, [], [], None, []
     if not same and not overwrite:
         raise PreflightError(f"results folder {folder!r} holds the results of {theirs}, not of the {me}; "
                              f"fix: choose another --out (e.g. {os.path.join(folder, name)}), or pass --overwrite "
                              f"to remove the old results")
     new = {"name": name, "kind": kind, "digest": old.get("digest") if old and same else None,
-           "figures": list(old.get("figures", [])) if old and same else [], "results": results if same else None}
+           "figures": list(old.get("figures", [])) if old and same else [], "results": results if same else None,
+           "files": side if same else []}
     if overwrite:
         if old is not None and old.get("results") and old.get("kind") != CAMPAIGN:
             files.append(old["results"])
         if not campaign:  # the same scene's periods too: overwrite computes afresh
             files.append(f"{name}.periods")
+        remove_after += side
         for rel in dict.fromkeys(files):
             if rel.endswith(".nc") and rel != "campaign.nc":
                 remove_after.append(rel)  # the old results survive until the new ones are written
             else:
                 _remove(folder, rel, log)
-        new.update(digest=None, figures=[], results=None)
+        new.update(digest=None, figures=[], results=None, files=[])
     new["remove_after"] = sorted({f for f in remove_after if f != (None if campaign else f"{name}.nc")})
     write_manifest(folder, new)
     return new
@@ -327,4 +336,18 @@ def record_figures(folder, paths) -> None:
         return
     rel = [os.path.relpath(os.path.abspath(p), os.path.abspath(folder)) for p in paths]
     m["figures"] = sorted(set(m.get("figures", [])) | {r for r in rel if not r.startswith("..")})
+    write_manifest(folder, m)
+
+
+def record_files(folder, paths) -> None:
+    """Record the files a run wrote beside its results (the tidy table, a kind's side files) in the manifest.
+
+    An overwrite by another owner removes them once its own results are written, as it does the old results.
+    """
+    folder = os.fspath(folder)
+    m = read_manifest(folder)
+    if m is None:
+        return
+    rel = [os.path.relpath(os.path.abspath(p), os.path.abspath(folder)) for p in paths]
+    m["files"] = sorted(set(m.get("files", [])) | {r for r in rel if not r.startswith("..")})
     write_manifest(folder, m)

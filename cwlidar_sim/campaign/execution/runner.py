@@ -30,11 +30,13 @@ import time
 
 from ..._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed
 from . import folder
-from ..registry import kind_of
-from ..scenes.spec import SceneSpec
+from ..registry import kind_of, side_files_of
+from ..scenes.spec import SceneSpec, start_datetime
+from .cf import annotate
 from .store import PeriodStore, combine_periods, preflight, scene_digest, write_results
+from .tidy import write_statistics
 
-__all__ = ["run_scene", "SceneRun", "prepare_scene"]
+__all__ = ["run_scene", "SceneRun", "prepare_scene", "write_side_files"]
 
 
 @dataclasses.dataclass
@@ -93,8 +95,13 @@ class SceneRun:
         return ds
 
     def assemble(self, t0: float):
-        """The scene's results from every unit (all must be done), with the run's attributes."""
-        ds = self.finalise(combine_periods([self.done[i] for i in range(len(self.names))]))
+        """The scene's results from every unit (all must be done), with the run's and CF's attributes.
+
+        CF attributes and, when the scene names ``start_time``, the absolute ``time`` axis:
+        :func:`cwlidar_sim.campaign.execution.cf.annotate`.
+        """
+        ds = annotate(self.finalise(combine_periods([self.done[i] for i in range(len(self.names))])),
+                      start_datetime(self.scene))
         ds.attrs["wall_time"] = float(time.perf_counter() - t0)
         ds.attrs["periods_reused"] = json.dumps(self.reused)
         ds.attrs["auto_choice"] = json.dumps(self.auto_why)
@@ -119,6 +126,7 @@ def prepare_scene(scene, out_dir=None, *, log=None, check: bool = True) -> Scene
     """
     say = log or (lambda s: None)
     kind = kind_of(scene)
+    start_datetime(scene)  # a scene built in code: its start_time checked before anything is computed
     scene, auto_why = kind.resolve(scene)  # e.g. a staring "auto" tier: the cheapest sufficient setting
     for key, why in auto_why.items():
         say(f"{key} = {why}")
@@ -251,4 +259,19 @@ def _run_scene(scene, out_dir, client, progress, say, on_period, manifest, worke
         write_results(ds, path)
         folder.finish(out_dir, manifest, os.path.basename(path), log=say)
         say(f"results written to {path}")
+        side = write_side_files(ds, scene, path[:-3])
+        folder.record_files(out_dir, side)  # the manifest's files of this run: an overwrite removes them
+        for p in side:
+            say(f"written {p}")
     return ds
+
+
+def write_side_files(ds, scene, stem) -> list:
+    """Beside the results file ``<stem>.nc``: the tidy statistics table and the scene kind's own files; their paths.
+
+    :func:`cwlidar_sim.campaign.execution.tidy.write_statistics` (``<stem>.stats.csv``, ``.parquet``)
+    and :meth:`~cwlidar_sim.campaign.registry.SceneKind.side_files` (a nacelle scene's preview signal),
+    each written atomically.
+    """
+    kind = kind_of(scene)
+    return write_statistics(ds, kind, stem) + side_files_of(kind, ds, stem)

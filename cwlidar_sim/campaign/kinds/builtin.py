@@ -78,6 +78,15 @@ class StaringKind(UnitModuleKind):
     def figures(self, ds, out_dir) -> list:
         return staring_figures.make_staring_figures(ds, out_dir)
 
+    #: The tidy table's variables and their instruments: the 10 Hz series (10-minute statistics), the 50 Hz
+    #: ideal, the per-period quality numbers and the scene's wind.
+    statistics_vars = {"lidar_10hz": "lidar", "sonic_10hz": "sonic", "lidar_ideal": "lidar_tier1",
+                       "availability": "lidar", "availability_10hz": "lidar", "flag_count": "lidar",
+                       "correlation_time": "lidar", "mean_speed": "scene", "misalignment": "scene"}
+
+    def statistics(self, ds) -> dict:
+        return {k: v for k, v in self.statistics_vars.items() if k in ds.data_vars}
+
     def quick(self, scene):
         return scene.replace(duration=self.quick_duration,
                              periods=tuple(dataclasses.replace(p, duration=None) for p in scene.periods))
@@ -96,6 +105,19 @@ class ConicalKind(UnitModuleKind):
     def figures(self, ds, out_dir) -> list:
         return conical_figures.make_cs_figures(ds, out_dir)
 
+    #: The tidy table's instruments by the units' variable names' prefixes (the rest: the lidar's).
+    statistics_prefixes = (("cup_", "cup"), ("sonic_", "sonic"), ("in_situ_", "mast"), ("mann_", "scene"),
+                           ("mean_speed_unit", "scene"), ("u_star_", "scene"))
+
+    def statistics(self, ds) -> dict:
+        """Every unit's numbers (``*_unit``, ``*_variant_unit``: one row per period x height), by instrument."""
+        out = {}
+        for name, var in ds.data_vars.items():
+            if var.dims[:1] == ("period",) and str(name).endswith("_unit") and var.dtype.kind in "fiub":
+                out[str(name)] = next((who for pre, who in self.statistics_prefixes if str(name).startswith(pre)),
+                                      "lidar")
+        return out
+
     def quick(self, scene):
         """The first templates at every height: the full run's first units, seeds and bits alike."""
         return scene.replace(periods=scene.periods[:self.quick_periods],
@@ -113,6 +135,13 @@ class NacelleKind(UnitModuleKind):
 
     def figures(self, ds, out_dir) -> list:
         return nacelle_figures.make_nacelle_figures(ds, out_dir)
+
+    def statistics(self, ds) -> dict:
+        return self.module.statistics(ds)
+
+    def side_files(self, ds, stem) -> list:
+        """The preview signal, ``<stem>.preview.csv`` (:func:`cwlidar_sim.campaign.periods.nacelle.write_preview`)."""
+        return [self.module.write_preview(ds, f"{stem}.preview.csv")] if "preview_estimate" in ds else []
 
     def quick(self, scene):
         return scene.replace(duration=self.quick_duration,

@@ -46,7 +46,12 @@ Per period (:mod:`cwlidar_sim.campaign.scenes.nacelle`):
    0.5 by less than the sampling error (the same benchmark).
 
 Results: dims ``period``, ``focus`` [m], ``estimate`` (tier1, main,
-variants), ``k`` [rad/m]; units on every variable.
+variants), ``k`` [rad/m], ``time_preview`` [s]; units on every variable.
+
+Preview signal: the main estimate's series (``preview_estimate``), the REWS
+(``preview_rews``) and the delay that pairs them (``preview_delay``) are kept,
+and ``run`` writes them as ``DIR/<scene>.preview.csv``
+(:func:`write_preview`) for lidar-assisted control studies.
 """
 
 from __future__ import annotations
@@ -57,14 +62,15 @@ import time
 
 import numpy as np
 
+from ..._atomic import atomic_open
 from ..._seeding import seed_int
 from ..._version import __version__
 from ...signal.processing import usable_mask
 from ..scenes.nacelle import NacelleScene
 from ..scenes.spec import RESULTS_VERSION
 
-__all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "period_records", "summary",
-           "COST_S_PER_SIM_HOUR"]
+__all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "period_records", "summary", "statistics",
+           "write_preview", "preview_table", "COST_S_PER_SIM_HOUR"]
 
 #: Wall time [s] on one core per simulated hour of one focus distance's record (50 estimates per second,
 #: 2 looks each; measured on the bundled scene: tier 1 about 0.03 ms, tier 2 about 0.3 ms per estimate).
@@ -96,7 +102,9 @@ def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
 def estimate_bytes(scene: NacelleScene) -> float:
     """Size of a nacelle scene's results [bytes]: spectra per period, focus, estimate and wavenumber."""
     ne = 2 + len(scene.lidar.variants)
-    return 8.0 * 8 * len(scene.periods) * len(scene.scan.focus_distances) * ne * scene.scan.n_k + 1e6
+    nf = len(scene.scan.focus_distances)
+    series = sum(scene.period_duration(p) for p in scene.periods) / scene.sensor(scene.periods[0]).dwell_time
+    return 8.0 * 8 * len(scene.periods) * nf * ne * scene.scan.n_k + 8.0 * (nf + 2) * series + 1e6
 
 
 def _trailing_nanmean(x, n):
@@ -252,6 +260,7 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
     k50 = np.full((nf, ne), np.nan)
     theory, k50_th = np.full((nf, nk), np.nan), np.full(nf, np.nan)
     preview, avail = np.empty(nf), np.empty((nf, ne))
+    series_ft, delay = np.full((nf, time_t.size), np.nan), np.empty(nf)  # the preview signal: the main estimate
     n_blocked = np.zeros(nf, dtype=np.int64)
     t0 = time.perf_counter()
     for i, r in enumerate(s.focus_distances):
@@ -267,6 +276,8 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
             lid_t = _trailing_nanmean(u, lid.estimates_per_rev)
             ok = slice(lid.estimates_per_rev - 1, None)
             rot_seg, lid_seg, _ = align_preview(rews[ok], lid_t[ok], dt, shift)
+            if kind == "main":
+                series_ft[i], delay[i] = lid_t, dt * round(shift / dt)  # align_preview's whole samples
             est = coherence_estimate(rot_seg, lid_seg, fs=1.0 / dt, U=U, segment_duration=s.segment_duration,
                                      f_edges=U * edges / (2 * math.pi), window="hann")
             at = np.searchsorted(edges, est.k_f) - 1  # the bins that held frequencies
@@ -316,12 +327,24 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
         "lifetime": (P, np.array([np.nan if p.lifetime is None else p.lifetime]),
                      {"units": "s", "long_name": "eddy-lifetime scale (NaN: frozen turbulence)"}),
         "rews_std": (P, np.array([float(np.std(rews))]), {"units": "m s-1", "long_name": "std of the REWS"}),
+        "preview_estimate": (P + ("focus", "time_preview"), series_ft[None],
+                             {"units": "m s-1",
+                              "long_name": "the lidar's REWS estimate (main estimate, u over the last revolution; "
+                                           "NaN before a full one) at its own time"}),
+        "preview_rews": (P + ("time_preview",), (U + rews)[None],
+                         {"units": "m s-1", "long_name": "the simulated REWS, U + u_R (the rotor disc's u)"}),
+        "preview_delay": (P + ("focus",), delay[None],
+                          {"units": "s", "long_name": "delay applied to preview_estimate to pair it with the REWS: "
+                                                      "preview_time less half the revolution average's span, in whole "
+                                                      "samples"}),
     }
     coords = {
         "period": ("period", np.array([p.name], dtype=object)),
         "focus": ("focus", np.array(s.focus_distances), {"units": "m", "long_name": "focus distance along the beam"}),
         "estimate": ("estimate", np.array(kinds, dtype=object)),
         "k": ("k", kc, {"units": "rad m-1", "long_name": "wavenumber (bin centre, geometric)"}),
+        "time_preview": ("time_preview", np.asarray(time_t, dtype=float),
+                         {"units": "s", "long_name": "time of the lidar's estimates from the period's start"}),
     }
     attrs = {
         "title": f"cwlidar_sim nacelle campaign {scene.name}",
@@ -356,3 +379,65 @@ def summary(scene: NacelleScene, ds) -> dict:
             row[f"{float(r):g} m"]["theory"] = round(float(ds.k_half_theory.values[ip, jf]), 4)
         out[str(p)] = row
     return {"k_half_rad_per_m": out}
+
+
+def statistics(ds) -> dict:
+    """The tidy table's variables (:meth:`cwlidar_sim.campaign.registry.SceneKind.statistics`) and their instrument."""
+    names = {"mean_speed": "scene", "yaw_misalignment": "scene", "lifetime": "scene", "rews_std": "rotor",
+             "preview_rews": "rotor", "k_half_theory": "theory", "k_half": "lidar", "availability": "lidar",
+             "preview_time": "lidar", "preview_delay": "lidar", "n_blocked": "lidar", "preview_estimate": "lidar"}
+    return {k: v for k, v in names.items() if k in ds.data_vars}
+
+
+def preview_table(ds):
+    """The preview signal as a pandas DataFrame: a row per period, focus distance and sample (:func:`write_preview`)."""
+    import pandas as pd
+
+    t = np.asarray(ds["time_preview"].values, dtype=float)
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    parts = []
+    for ip, p in enumerate(ds["period"].values):
+        rews = np.asarray(ds["preview_rews"].values[ip], dtype=float)
+        for jf, r in enumerate(ds["focus"].values):
+            d = float(ds["preview_delay"].values[ip, jf])
+            m = int(round(d / dt)) if dt > 0 else 0
+            est = np.asarray(ds["preview_estimate"].values[ip, jf], dtype=float)
+            keep = np.isfinite(t) & (np.arange(t.size) + m < t.size)  # the estimate's rotor time within the period
+            j = np.flatnonzero(keep)
+            parts.append(pd.DataFrame({"period": str(p), "focus_m": float(r), "time_s": t[j + m],
+                                       "rews_estimate_m_s": est[j], "delay_s": d, "estimate_time_s": t[j],
+                                       "rews_m_s": rews[j + m]}))
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+
+
+#: Header of the preview file (:func:`write_preview`): the convention, in ``#`` lines.
+PREVIEW_HEADER = """\
+# cwlidar_sim nacelle preview signal: scene {scene}
+# Convention (feed-forward of lidar-assisted control, e.g. OpenFAST with ROSCO or a Simulink controller): each row is
+# the lidar's rotor-effective wind speed (REWS) estimate placed at the time the wind it saw reaches the rotor plane,
+# time_s = estimate_time_s + delay_s, seconds from the period's start. The estimate is u = los / n_x averaged over
+# the last revolution (NaN rows: no usable estimate); delay_s = r cos(a) / U less half the revolution's span,
+# rounded to whole samples (the pairing of the results' coherence). A controller's own lead (pitch actuator,
+# filter) is for the user to take off. rews_m_s: the simulated REWS at time_s, for checking.
+# Delays [s] per period and focus distance: {delays}
+# Read with pandas.read_csv(path, comment="#").
+"""
+
+
+def write_preview(ds, path) -> str:
+    """Write the nacelle preview signal (:func:`preview_table`, header :data:`PREVIEW_HEADER`) as CSV, atomically.
+
+    Columns ``period, focus_m, time_s, rews_estimate_m_s, delay_s,
+    estimate_time_s, rews_m_s``; the delays also in the header.  Returns ``path``.
+    """
+    df = preview_table(ds)
+    try:
+        scene = json.loads(ds.attrs.get("scene", "{}")).get("name", "")
+    except (TypeError, ValueError):
+        scene = ""
+    delays = "; ".join(f"{p} at {float(r):g} m: {float(ds['preview_delay'].values[ip, jf]):.6g}"
+                       for ip, p in enumerate(ds["period"].values) for jf, r in enumerate(ds["focus"].values))
+    with atomic_open(path, "w") as fh:
+        fh.write(PREVIEW_HEADER.format(scene=scene, delays=delays))
+        df.to_csv(fh, index=False, na_rep="NaN")
+    return path

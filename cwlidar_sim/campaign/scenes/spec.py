@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import datetime
 import os
 import re
 
@@ -27,7 +28,8 @@ __all__ = ["RESULTS_VERSION", "Spec", "SceneSpec", "set_path", "select_periods",
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
            "parse_toml", "open_regular_file", "toml_depth", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "check_distinct_reals",
            "resolve_path", "Table", "spec_table", "table_fields", "turbulence_schema", "entry_label", "prefix_path",
-           "at_path", "table_from_dict", "unknown_keys_message", "check_dotted_key"]
+           "at_path", "table_from_dict", "unknown_keys_message", "check_dotted_key", "check_start_time",
+           "start_datetime"]
 
 #: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.execution.store.scene_key`);
 #: raised whenever stored periods would differ from what the code now computes (3: the gridded
@@ -37,8 +39,9 @@ __all__ = ["RESULTS_VERSION", "Spec", "SceneSpec", "set_path", "select_periods",
 #: tones from per-estimate tables summed in float32, other bits of the same law; 6: the
 #: misaligned-beam theory on the one-point quadrature's k3 nodes, its spectra moved by <= 3e-5; 7: one
 #: availability, the usable fraction, NEAR_ZERO / NEAR_NYQUIST estimates left out of it and of the averaged
-#: series: a conical period's ``availability`` drops by its zero-crossing loss).
-RESULTS_VERSION = 7
+#: series: a conical period's ``availability`` drops by its zero-crossing loss; 8: a nacelle period keeps its
+#: preview series, ``preview_estimate``, ``preview_rews`` and ``preview_delay``, for the preview file).
+RESULTS_VERSION = 8
 
 
 def set_field(obj, name: str, value) -> None:
@@ -143,13 +146,68 @@ def select_periods(scene, names, what: str = "periods"):
     return scene.replace(periods=tuple(p for p in scene.periods if p.name in names))
 
 
+def check_start_time(value, name: str = "start_time"):
+    """An absolute start time: ISO 8601 with a time zone, returned as UTC text ``YYYY-MM-DDTHH:MM:SSZ``.
+
+    Parameters
+    ----------
+    value : str, datetime.datetime or None
+        ``"2024-05-01T12:00:00+02:00"``, ``"2024-05-01T10:00:00Z"``, or a TOML
+        offset date-time (``start_time = 2024-05-01T10:00:00Z``, unquoted);
+        None: no absolute time.
+    name : str
+        The key as the user wrote it, for the message.
+
+    Returns
+    -------
+    str or None
+        The instant in UTC (microseconds kept when given), e.g. ``"2024-05-01T10:00:00Z"``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        Not a date-time, or one without a time zone (a local time names no instant).
+    """
+    if value is None:
+        return None
+    if isinstance(value, str):
+        try:
+            value = datetime.datetime.fromisoformat(value.strip())
+        except ValueError:
+            raise ValueError(f"{name} = {value!r} is not an ISO 8601 date-time; allowed: e.g. "
+                             f"'2024-05-01T10:00:00Z' or '2024-05-01T12:00:00+02:00' (with a time zone)") from None
+    if not isinstance(value, datetime.datetime):
+        raise TypeError(f"{name} must be an ISO 8601 date-time with a time zone such as '2024-05-01T10:00:00Z', "
+                        f"got {type(value).__name__} {value!r}")
+    if value.tzinfo is None or value.utcoffset() is None:
+        raise ValueError(f"{name} = {value.isoformat()!r} has no time zone; allowed: an instant such as "
+                         f"'{value.isoformat()}Z' (UTC) or with its offset, '+02:00'")
+    utc = value.astimezone(datetime.timezone.utc).replace(tzinfo=None)
+    return utc.isoformat(timespec="microseconds" if utc.microsecond else "seconds") + "Z"
+
+
+def start_datetime(scene):
+    """A scene's ``start_time`` as a naive UTC :class:`datetime.datetime`, or None (validated, naming the key)."""
+    text = check_start_time(getattr(scene, "start_time", None))
+    return None if text is None else datetime.datetime.fromisoformat(text[:-1])
+
+
+@dataclasses.dataclass(frozen=True)
 class SceneSpec(Spec):
     """Base of the scene kinds (staring, conical, nacelle): parsing from TOML, a copy with dotted keys changed.
 
     A kind declares ``_tables`` (TOML table -> its spec class), ``_period_spec``
     (the ``[[period]]`` class), ``_required`` (keys a file must have) and
     ``_what`` (the noun in messages), and its ``schema()``.
+
+    Every kind's scene file may name ``start_time``, the instant its first
+    period starts (ISO 8601 with a time zone, kept as UTC text,
+    :func:`check_start_time`); the periods follow one another from there
+    (:mod:`cwlidar_sim.campaign.execution.cf`).  It gives the results an
+    absolute time axis and changes no number; None (default): none.
     """
+
+    start_time: str | None = dataclasses.field(default=None, kw_only=True)
 
     _required = ("name", "period")
     _what = "scene"
@@ -161,9 +219,14 @@ class SceneSpec(Spec):
     @classmethod
     def from_dict(cls, d: dict, *, base_dir: str = "."):
         """Build from a TOML-shaped mapping; unknown keys are rejected by name, every error names its TOML path."""
+        start = check_start_time(d.get("start_time")) if isinstance(d, dict) else None  # every kind's key
+        if isinstance(d, dict) and "start_time" in d:
+            d = {k: v for k, v in d.items() if k != "start_time"}
         check_scene_keys(d, cls.schema(), cls._required, cls._what)
         cls._check_kind(d)
         kw = {k: d[k] for k in ("name", "description", "seed", "duration") if k in d}
+        if start is not None:
+            kw["start_time"] = start
         for key, spec in cls._tables.items():
             if key in d:
                 kw[key] = table_from_dict(spec, d[key], key)

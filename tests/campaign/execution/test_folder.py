@@ -91,7 +91,7 @@ def test_another_scene_is_refused_and_overwrite_removes_the_old_run(tmp_path, mo
     run_scene(scene("two"), out, progress=False)
     assert calls == [1]
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
-        "cwlidar-run.json", "two.nc", "two.periods"]
+        "cwlidar-run.json", "two.nc", "two.periods", "two.stats.csv"]  # the old run's one.stats.csv removed
     m = folder.read_manifest(out)
     assert m["results"] == "two.nc" and m["remove_after"] == []
 
@@ -224,10 +224,11 @@ def test_unsafe_period_names_are_refused_before_compute(tmp_path, monkeypatch, b
 def test_a_long_scene_name_is_refused_before_compute(tmp_path, monkeypatch):
     calls = counting(monkeypatch)
     with pytest.raises(ValueError, match="scene name .* 256 bytes, over the file system's limit of 255"):
-        run_scene(scene(name="s" * 248), tmp_path / "o", progress=False)
+        run_scene(scene(name="s" * 242), tmp_path / "o", progress=False)
     assert calls == [] and not (tmp_path / "o").exists()
-    run_scene(scene(name="s" * 247), tmp_path / "o", progress=False)  # 247 + '.periods' = 255 bytes fits
-    assert (tmp_path / "o" / ("s" * 247 + ".nc")).exists()
+    run_scene(scene(name="s" * 241), tmp_path / "o", progress=False)  # 241 + '.stats.parquet' = 255 bytes fits
+    assert (tmp_path / "o" / ("s" * 241 + ".nc")).exists()
+    assert (tmp_path / "o" / ("s" * 241 + ".stats.csv")).exists()
 
 
 def test_combine_refuses_periods_of_two_runs(tmp_path):

@@ -211,3 +211,18 @@ def test_record_steps_refuses_other_records():
                                                             "availability", "info")}, "extras": {}})
     with pytest.raises(ValueError, match="WindScanner"):
         record_steps(bad)
+
+
+def test_lissajous_focus_follows_the_closed_form_and_repeats():
+    ws = WindScanner(pattern="lissajous", points_per_pattern=32, amplitude=7.0, lissajous_ratio=(3, 2))
+    dur = 70 / ws.instrument.estimate_rate
+    rec = measure_windscanner(box_for(ws, dur), ws, dur, U)
+    st = record_steps(rec)
+    k = np.arange(st["point_k"].size)
+    ph = 2.0 * np.pi * k / 32
+    want = np.stack([np.zeros_like(ph), 7.0 * np.cos(3 * ph), 7.0 * np.sin(2 * ph)], axis=1) + np.asarray(ws.target)
+    np.testing.assert_allclose(st["focus_kc"], want, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(st["point_k"], k % 32)
+    # every unit is focused at its own distance to the moving focus
+    np.testing.assert_allclose(rec.range_e.reshape(-1, 3),
+                               np.linalg.norm(want[:, None, :] - np.asarray(ws.positions)[None], axis=2), atol=1e-12)

@@ -84,7 +84,7 @@ WINDOWS = ("rect", "hann")
 THRESHOLD_KINDS = ("sigma", "snr", "peak_fraction")
 RAISE_READINGS = ("level", "excess")
 
-__all__ = ["FOCUS_MIN", "Instrument", "PROTOTYPE_2003", "CS_SERIES", "PRESETS", "preset", "WINDOWS", "THRESHOLD_KINDS"]
+__all__ = ["FOCUS_MIN", "Instrument", "PROTOTYPE_2003", "CS_SERIES", "WINDSCANNER", "PRESETS", "preset", "WINDOWS", "THRESHOLD_KINDS"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -447,7 +447,21 @@ CS_SERIES = Instrument(
     **_LOW_F_NOISE,
 )
 
-PRESETS = {"prototype": PROTOTYPE_2003, "cs": CS_SERIES}
+#: A unit of DTU's short-range WindScanner (Mikkelsen et al. 2012): 512-point spectra, an estimate every
+#: 3.1 ms (~323 Hz); 100 MHz sampling, the prototype's optics and median estimator assumed
+#: (cwlidar_sim.sensors.windscanner, docs/windscanner.md).
+WINDSCANNER = Instrument(
+    name="dtu-short-range-windscanner",
+    focus=125.0,
+    sample_rate=100e6,
+    n_fft=512,
+    blocks_per_estimate=605,
+    estimate_rate=1.0 / 3.1e-3,
+    background_blocks=117_187_500,
+    **_LOW_F_NOISE,
+)
+
+PRESETS = {"prototype": PROTOTYPE_2003, "cs": CS_SERIES, "windscanner": WINDSCANNER}
 
 
 def preset(name: str) -> Instrument:

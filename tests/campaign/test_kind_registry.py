@@ -107,7 +107,7 @@ def test_unknown_kind_names_the_closest_and_every_registered_one():
     from cwlidar_sim.campaign.scenes.load import scene_from_dict
 
     with pytest.raises(ValueError, match=r"^kind = 'nacell' is not a scene kind \(did you mean 'nacelle' for "
-                                         r"'nacell'\?\); allowed: \['staring', 'conical', 'nacelle'\]"):
+                                         r"'nacell'\?\); allowed: \['staring', 'conical', 'nacelle'[,\]]"):
         scene_from_dict(text)
 
 

@@ -30,14 +30,19 @@ Products of one fit (:class:`DiscFit`):
   [deg/m] (the wind turning from +x toward +y with height: the field's
   direction atan2(v, u)); shear and veer do not depend on the yaw.
 
-Conditioning: at one focus distance ``w0`` against ``du/dz`` and ``v0``
-against ``du/dy`` are told apart only through the spread of ``cos theta``
-over the disc (the columns ``n_x z`` and ``n_z`` differ by the factor
-``-r cos theta``): the SpinnerLidar's rosette (0-30.4 deg) gives a
-condition number of the scaled columns of 52 at any focus distance, with
-or without ``w0`` (:attr:`DiscFit.condition_g`), which amplifies noise in
-``w0``, ``v0`` and the lateral and vertical gradients of u.  ``w_zero =
-True`` drops ``w0`` (w = 0 assumed).
+Conditioning: at one focus distance ``v0`` against ``du/dy`` (and ``w0``
+against ``du/dz``) are told apart only through the spread of ``cos theta``
+over the disc (the columns ``n_x y`` and ``n_y`` differ by the factor
+``r cos theta``): the SpinnerLidar's rosette (0-30.4 deg) gives a condition
+number of the scaled columns of 52-54 at any focus distance, with or
+without ``w0`` (:attr:`DiscFit.condition_g`); without ``du/dy``
+(``horizontal_shear = False``) and ``w0`` it is 1.4.  In turbulence the
+lateral gradients of u then leak into ``v0``: in the bundled spinner scene
+(tier 1, frozen, aligned) the yaw estimates of ten rosettes scattered over
+-52..+21 deg with ``du/dy`` fitted and -3..+7 deg without.  So the yaw
+misalignment is best taken from the fit without ``du/dy``
+(:mod:`cwlidar_sim.campaign.periods.spinner` does).  ``w_zero = True`` drops
+``w0`` (w = 0 assumed).
 """
 
 from __future__ import annotations
@@ -152,7 +157,7 @@ class DiscFit:
 
 
 def fit_disc(los_e, direction_elc, focus: float, group_e=None, *, valid_e=None, w_zero: bool = False,
-             min_estimates: int = 12, max_condition: float = 1e6) -> DiscFit:
+             horizontal_shear: bool = True, min_estimates: int = 12, max_condition: float = 1e6) -> DiscFit:
     """Least-squares linear inflow over the disc per group of estimates (e.g. rosettes) (module notes).
 
     Parameters
@@ -169,6 +174,10 @@ def fit_disc(los_e, direction_elc, focus: float, group_e=None, *, valid_e=None, 
         Estimates to use; default the finite ones.
     w_zero : bool
         Assume w = 0 (``w0`` is then 0, not fitted).
+    horizontal_shear : bool
+        Fit ``du/dy``; False: leave it out of the model (``dudy`` NaN), which
+        frees ``v0`` (and the yaw misalignment) from its near-degeneracy with
+        it (module notes).
     min_estimates : int
         Fewest valid estimates for a fit; in [6, 10**7].
     max_condition : float
@@ -186,12 +195,13 @@ def fit_disc(los_e, direction_elc, focus: float, group_e=None, *, valid_e=None, 
     if g.shape != los.shape:
         raise ValueError(f"group_e must have the shape of los_e, got {g.shape}")
     w_zero = check_bool("w_zero", w_zero)
+    horizontal_shear = check_bool("horizontal_shear", horizontal_shear)
     min_estimates = check_int("min_estimates", min_estimates, lo=6, hi=10**7)
     max_condition = check_real("max_condition", max_condition, lo=1.0, hi=1e12)
     ok = np.isfinite(los) & np.all(np.isfinite(A), axis=1)
     if valid_e is not None:
         ok &= np.asarray(valid_e, dtype=bool)
-    cols = np.arange(5 if w_zero else 6)
+    cols = np.array([c for c in range(6) if not (c == 5 and w_zero) and not (c == 1 and not horizontal_shear)])
     groups = np.unique(g)
     ng = groups.size
     params = np.full((ng, 6), np.nan)

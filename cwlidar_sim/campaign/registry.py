@@ -48,6 +48,7 @@ BUILTIN_KINDS = {
     "staring": "cwlidar_sim.campaign.kinds.builtin:STARING",
     "conical": "cwlidar_sim.campaign.kinds.builtin:CONICAL",
     "nacelle": "cwlidar_sim.campaign.kinds.builtin:NACELLE",
+    "spinner": "cwlidar_sim.campaign.kinds.spinner:SPINNER",
 }
 #: Members every kind provides (:class:`SceneKind`); ``name`` and ``scene_class`` are attributes, ``twin`` an
 #: attribute that may be None, the rest callables.

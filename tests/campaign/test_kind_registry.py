@@ -65,7 +65,7 @@ def test_every_builtin_kind_is_found_and_checked_through_the_registry():
         assert registry.check_kind(kind, name) is kind and isinstance(kind, registry.SceneKind)
         assert kind.scene_class.kind == name
     kinds = {bundled: registry.kind_of(bundled_scene(bundled)).name for bundled in BUNDLED}
-    assert kinds == {"a2012": "staring", "cs": "conical", "nacelle": "nacelle"}
+    assert kinds == {"a2012": "staring", "cs": "conical", "nacelle": "nacelle", "spinner": "spinner"}
     # the twin: staring and conical take one, the nacelle refuses
     assert [registry.get_kind(n).twin is not None for n in ("staring", "conical", "nacelle")] == [True, True, False]
 
@@ -107,7 +107,7 @@ def test_unknown_kind_names_the_closest_and_every_registered_one():
     from cwlidar_sim.campaign.scenes.load import scene_from_dict
 
     with pytest.raises(ValueError, match=r"^kind = 'nacell' is not a scene kind \(did you mean 'nacelle' for "
-                                         r"'nacell'\?\); allowed: \['staring', 'conical', 'nacelle'\]"):
+                                         r"'nacell'\?\); allowed: \['staring', 'conical', 'nacelle', 'spinner'\]"):
         scene_from_dict(text)
 
 

@@ -117,3 +117,19 @@ def test_run_finds_the_bundled_scene_by_name(tmp_path, capsys, monkeypatch):
     assert main(["run", "spinner", "--out", str(tmp_path / "b"), "--no-progress"]) == 0
     assert [s[1] for s in seen] == ["aligned", "yawed", "evolving"] and seen[0][2] == 600.0
     capsys.readouterr()
+
+
+def test_calm_air_the_rosettes_return_the_rotors_rews_and_the_yaw(tmp_path):
+    """Turbulence all but off: every period's tier-1 REWS is the rotor's ``U cos gamma`` and the yaw its own."""
+    from cwlidar_sim.campaign.periods.spinner import run_unit
+
+    scene = loads_scene(small_text(**{"alpha_eps = 0.1": "alpha_eps = 1e-12"}))
+    for i, p in enumerate(scene.periods):
+        ds = run_unit(scene, i)
+        j = list(ds.estimate.values).index("tier1")
+        g = math.radians(p.yaw_misalignment_deg)
+        np.testing.assert_allclose(ds.rews_rotor.values[0], p.mean_speed * math.cos(g), atol=1e-4)
+        np.testing.assert_allclose(ds.rews.values[0, j], p.mean_speed * math.cos(g), atol=1e-4)
+        np.testing.assert_allclose(ds.yaw_estimate.values[0, j], p.yaw_misalignment_deg, atol=1e-3)
+        np.testing.assert_allclose(ds.vertical_shear.values[0, j], 0.0, atol=1e-5)
+        assert abs(float(ds.rews_bias.values[0, j])) < 1e-4

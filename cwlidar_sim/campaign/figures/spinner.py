@@ -48,7 +48,9 @@ def plot_inflow(ds, period: int = 0):
         for j, e in enumerate(ds.estimate.values):
             ax.plot(t, ds[name].values[period, j], ".-", ms=3, lw=0.6, label=str(e))
         ax.set_ylabel(label)
+    axes[2].plot(t, ds.yaw_rotor.values[period], "k-", lw=1.2, label="rotor (disc-averaged wind)")
     axes[2].axhline(float(ds.yaw_misalignment.values[period]), color="k", lw=0.8, ls=":", label="set")
+    axes[2].legend(fontsize=7)
     axes[0].legend(fontsize=7)
     axes[-1].set_xlabel("rosette mid-time [s]")
     fig.tight_layout()

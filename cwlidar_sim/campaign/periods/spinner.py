@@ -18,7 +18,9 @@ Per period (:mod:`cwlidar_sim.campaign.scenes.spinner`):
 4. Truth: the REWS the rotor feels, along its axis (``u cos gamma + v sin
    gamma`` of the box, disc-averaged, :func:`cwlidar_sim.analysis.rews.rews_from_box`),
    at the rosette's mid-time plus the preview ``d / U`` (d the probe's mean
-   upwind distance over the rosette), and its error statistics.
+   upwind distance over the rosette), and its error statistics; the yaw
+   from the disc-averaged wind (the set yaw less the turbulent wind's
+   direction), which is what a yaw estimate estimates.
 
 Results: dims ``period``, ``estimate``, ``rosette``; units on every variable.
 """
@@ -85,7 +87,9 @@ def estimate_bytes(scene: SpinnerScene) -> float:
 def period_record(scene: SpinnerScene, index: int, *, status=None):
     """The period's record and truth: ``(LidarRecord, rews_t at the rotor along its axis (total) [m/s], preview [s], info)``.
 
-    ``rews_t`` is at each rosette's mid-time plus the preview.
+    ``rews_t`` is at each rosette's mid-time plus the preview; ``info['yaw_rotor']``
+    the rotor's yaw from the disc-averaged wind then [deg] (the set yaw less
+    the direction ``atan2(v, U + u)`` of the turbulent wind).
     """
     from ...analysis.rews import RotorDisc, rews_from_box
     from ...sensors.spinner import measure_spinner
@@ -124,7 +128,9 @@ def period_record(scene: SpinnerScene, index: int, *, status=None):
     v_r = rews_from_box(rotor_box[["v"]].rename(v="u"), disc, pos[1], pos[2], x=pos[0], times=t_r, U=U)
     g = math.radians(p.yaw_misalignment_deg)
     rews = (U + u_r) * math.cos(g) + v_r * math.sin(g)
-    info = {"box_shape": tuple(int(n) for n in rotor_box.u.shape), "cost_s": cost,
+    # the yaw from the disc-averaged wind the rotor sees: its direction atan2(v, U + u), less the rotor's
+    yaw = p.yaw_misalignment_deg - np.degrees(np.arctan2(v_r, U + u_r))
+    info = {"yaw_rotor": yaw,"box_shape": tuple(int(n) for n in rotor_box.u.shape), "cost_s": cost,
             "evolution": None if evolution is None else evolution.as_dict()}
     return rec, rews, preview, info
 
@@ -192,6 +198,8 @@ def run_unit(scene: SpinnerScene, index: int, params=None, *, status=None):
                                                                               "scaled columns (tier 1)"}),
         "rosette_time": (P + R, ((np.arange(n_ros) + 0.5) * rec.info["rosette_time"])[None],
                          {"units": "s", "long_name": "rosette mid-time"}),
+        "yaw_rotor": (P + R, info["yaw_rotor"][None], {"units": "degree", "long_name": "yaw of the rotor from the "
+                                                       "disc-averaged wind, preview-shifted to the rosette"}),
         "rews_rotor": (P + R, rews[None], {"units": "m s-1", "long_name": "REWS the rotor feels along its axis, "
                                                                           "preview-shifted to the rosette"}),
         "rews_bias": (P + E, bias[None], {"units": "m s-1", "long_name": "mean of lidar REWS minus the rotor's"}),

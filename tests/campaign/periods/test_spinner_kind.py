@@ -81,9 +81,11 @@ def test_run_end_to_end_with_figures_and_resume(tmp_path, capsys):
     # tier 1 in Mann turbulence: the REWS estimate follows the rotor's within a fraction of a m/s (frozen periods)
     j = list(ds.estimate.values).index("tier1")
     assert np.all(ds.rews_rmse.values[:2, j] < 0.3) and np.all(np.isfinite(ds.horizontal_shear.values[:, j]))
-    # the yawed period's yaw estimate is near its 10 deg, the aligned one's near 0 (turbulent scatter)
-    yaw = ds.yaw_estimate.values[:, j].mean(axis=1)
-    assert abs(yaw[0]) < 6.0 and abs(yaw[1] - 10.0) < 6.0
+    # the yaw estimate follows the rotor's yaw from the disc-averaged wind (the set yaw less the turbulent
+    # wind's direction), within several degrees per rosette (the wind is not linear over the disc, and a yawed
+    # rosette's air passes ~14 m beside the hub)
+    err = ds.yaw_estimate.values[:2, j] - ds.yaw_rotor.values[:2]
+    assert np.abs(err).mean() < 5.0 and np.abs(err).max() < 12.0
     assert np.all(ds.condition.values[:, 0] < 3.0) and np.all(ds.condition.values[:, 1] > 20.0)
     assert all((out / f"spinner_{n}_period{i}.png").is_file() for n in ("rews", "inflow") for i in range(3))
     # resume: every period reused, the same bits
@@ -131,5 +133,8 @@ def test_calm_air_the_rosettes_return_the_rotors_rews_and_the_yaw(tmp_path):
         np.testing.assert_allclose(ds.rews_rotor.values[0], p.mean_speed * math.cos(g), atol=1e-4)
         np.testing.assert_allclose(ds.rews.values[0, j], p.mean_speed * math.cos(g), atol=1e-4)
         np.testing.assert_allclose(ds.yaw_estimate.values[0, j], p.yaw_misalignment_deg, atol=1e-3)
+        np.testing.assert_allclose(ds.yaw_rotor.values[0], p.yaw_misalignment_deg, atol=1e-3)
         np.testing.assert_allclose(ds.vertical_shear.values[0, j], 0.0, atol=1e-5)
         assert abs(float(ds.rews_bias.values[0, j])) < 1e-4
+        # the preview: the probe's mean upwind distance (80 m at 0-30.4 deg off the axis) over U
+        assert 80.0 * math.cos(math.radians(30.4)) / p.mean_speed < float(ds.preview_time.values[0]) < 8.0

@@ -35,7 +35,7 @@ against ``du/dz``) are told apart only through the spread of ``cos theta``
 over the disc (the columns ``n_x y`` and ``n_y`` differ by the factor
 ``r cos theta``): the SpinnerLidar's rosette (0-30.4 deg) gives a condition
 number of the scaled columns of 52-54 at any focus distance, with or
-without ``w0`` (:attr:`DiscFit.condition_g`); without ``du/dy``
+without ``w0`` (``DiscFit.condition_g``); without ``du/dy``
 (``horizontal_shear = False``) and ``w0`` it is 1.4.  In turbulence the
 lateral gradients of u then leak into ``v0``: in the bundled spinner scene
 (tier 1, frozen, aligned) the yaw estimates of ten rosettes scattered over

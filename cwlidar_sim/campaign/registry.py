@@ -49,6 +49,7 @@ BUILTIN_KINDS = {
     "conical": "cwlidar_sim.campaign.kinds.builtin:CONICAL",
     "nacelle": "cwlidar_sim.campaign.kinds.builtin:NACELLE",
     "windscanner": "cwlidar_sim.campaign.kinds.windscanner:WINDSCANNER",
+    "spinner": "cwlidar_sim.campaign.kinds.spinner:SPINNER",
 }
 #: Members every kind provides (:class:`SceneKind`); ``name`` and ``scene_class`` are attributes, ``twin`` an
 #: attribute that may be None, the rest callables.

@@ -1,6 +1,6 @@
 """Instrument presets: sampling, block FFT, averaging and processing choices of a cw lidar.
 
-Two presets are provided, both overridable field by field with
+Three presets are provided, each overridable field by field with
 :meth:`Instrument.replace` or :meth:`Instrument.from_dict`:
 
 :data:`PROTOTYPE_2003`
@@ -17,6 +17,10 @@ Two presets are provided, both overridable field by field with
     exactly 200 000 spectra per second.  The telescope radius
     ``a0 = sqrt(lambda / (0.0013 pi)) = 19.47 mm`` reproduces z_R = 0.0013 r^2
     through A2012 Eq. 1.  Focus 100 m (CS's example).
+
+:data:`SPINNER_LIDAR`
+    DTU's SpinnerLidar (:mod:`cwlidar_sim.sensors.spinner`): 1.56 um, 256
+    bins over 50 MHz (0.152 m/s), 492 estimates per second.
 
 Choices the papers do not state, and which are therefore fields with
 documented defaults rather than facts: the window of the 512-point block
@@ -84,7 +88,8 @@ WINDOWS = ("rect", "hann")
 THRESHOLD_KINDS = ("sigma", "snr", "peak_fraction")
 RAISE_READINGS = ("level", "excess")
 
-__all__ = ["FOCUS_MIN", "Instrument", "PROTOTYPE_2003", "CS_SERIES", "WINDSCANNER", "PRESETS", "preset", "WINDOWS", "THRESHOLD_KINDS"]
+__all__ = ["FOCUS_MIN", "Instrument", "PROTOTYPE_2003", "CS_SERIES", "WINDSCANNER", "SPINNER_LIDAR", "PRESETS", "preset",
+           "WINDOWS", "THRESHOLD_KINDS"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -461,10 +466,28 @@ WINDSCANNER = Instrument(
     **_LOW_F_NOISE,
 )
 
-PRESETS = {"prototype": PROTOTYPE_2003, "cs": CS_SERIES, "windscanner": WINDSCANNER}
+#: DTU's SpinnerLidar (Mikkelsen et al. 2013; Peña et al. 2019): lambda = 1.56 um, 512-point blocks at 100 MHz
+#: (256 bins over 0-50 MHz, 0.152 m/s each), 492 estimates per second (984 per 2-s rosette), as many blocks as
+#: fit in one (396).  Assumed, not from those papers: the ZephIR optics of the CS series (a0 = 19.5 mm), the
+#: centroid estimator, 10 min of background blocks (:mod:`cwlidar_sim.sensors.spinner`).
+SPINNER_LIDAR = Instrument(
+    name="dtu-spinnerlidar",
+    wavelength=1.56e-6,
+    telescope_radius=math.sqrt(WAVELENGTH / (0.0013 * math.pi)),
+    focus=80.0,
+    sample_rate=100e6,
+    n_fft=512,
+    blocks_per_estimate=396,
+    estimate_rate=492.0,
+    estimator="centroid",
+    background_blocks=117_187_500,
+    **_LOW_F_NOISE,
+)
+
+PRESETS = {"prototype": PROTOTYPE_2003, "cs": CS_SERIES, "windscanner": WINDSCANNER, "spinner": SPINNER_LIDAR}
 
 
 def preset(name: str) -> Instrument:
-    """Instrument preset by name: 'prototype' (A2012) or 'cs' (CS series)."""
+    """Instrument preset by name: 'prototype' (A2012), 'cs' (CS series), 'windscanner' or 'spinner' (DTU's)."""
     check_choice("preset", name, tuple(PRESETS))
     return PRESETS[name]

@@ -20,7 +20,7 @@ from ..scenes.load import loads_scene
 __all__ = ["BUNDLED", "bundled_scene", "bundled_text"]
 
 #: Bundled scenes: name -> file.
-BUNDLED = {"a2012": "a2012.toml", "cs": "cs.toml", "nacelle": "nacelle.toml"}
+BUNDLED = {"a2012": "a2012.toml", "cs": "cs.toml", "nacelle": "nacelle.toml", "spinner": "spinner.toml"}
 
 
 def bundled_text(name: str) -> str:

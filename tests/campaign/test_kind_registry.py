@@ -65,7 +65,8 @@ def test_every_builtin_kind_is_found_and_checked_through_the_registry():
         assert registry.check_kind(kind, name) is kind and isinstance(kind, registry.SceneKind)
         assert kind.scene_class.kind == name
     kinds = {bundled: registry.kind_of(bundled_scene(bundled)).name for bundled in BUNDLED}
-    assert kinds == {"a2012": "staring", "cs": "conical", "nacelle": "nacelle", "spinner": "spinner"}
+    assert kinds == {"a2012": "staring", "cs": "conical", "nacelle": "nacelle", "spinner": "spinner",
+                     "windscanner": "windscanner"}
     # the twin: staring and conical take one, the nacelle refuses
     assert [registry.get_kind(n).twin is not None for n in ("staring", "conical", "nacelle")] == [True, True, False]
 

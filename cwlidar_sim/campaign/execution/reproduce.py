@@ -20,7 +20,8 @@ from ..scenes.load import loads_scene
 __all__ = ["BUNDLED", "bundled_scene", "bundled_text"]
 
 #: Bundled scenes: name -> file.
-BUNDLED = {"a2012": "a2012.toml", "cs": "cs.toml", "nacelle": "nacelle.toml", "spinner": "spinner.toml"}
+BUNDLED = {"a2012": "a2012.toml", "cs": "cs.toml", "nacelle": "nacelle.toml", "spinner": "spinner.toml",
+           "windscanner": "windscanner.toml"}
 
 
 def bundled_text(name: str) -> str:

@@ -421,8 +421,17 @@ class SpinnerLidar(LidarBase):
                       z_mid=self.position[2], half_height=radius)
 
     def box_planes(self) -> list:
-        """x [m] of the planes of evolving turbulence: the rotor's (the lidar's) and the focus's on the axis."""
-        return [self.position[0], self.position[0] - self.focus_distance]
+        """x [m] of the planes of evolving turbulence: the rotor's (the lidar's) and the probe's.
+
+        The probe's plane is its mean upwind position over a rosette, the
+        probe volume's first moment (:attr:`probe_centre`) along the looks'
+        mean field-frame x (tilt and yaw included): the distance the preview
+        ``d / U`` carries to the rotor, as a nacelle lidar's plane is its
+        preview distance ``r cos a``, so that the planes' age is the preview.
+        """
+        t_e, _ = self.schedule(self.rosette_time)
+        n_x = float((self.nacelle_direction(t_e) @ self.yaw_matrix().T)[:, 0].mean())
+        return [self.position[0], self.position[0] + self.probe_centre * n_x]
 
     def schedule(self, duration: float, start: float = 0.0):
         """``(time_e, rosette_e)``: the dwells' mid-times [s] of the whole rosettes in ``duration``, and their rosette."""

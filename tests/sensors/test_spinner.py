@@ -248,3 +248,17 @@ def test_a_probe_volume_sees_a_linear_field_at_its_first_moment():
     assert fit.yaw_misalignment_g[0] == pytest.approx(8.0, abs=1e-7)
     off = fit_disc(rec.los_e, rec.direction_elc, lid.focus_distance)  # the nominal focus is not where it looks
     assert abs(off.vertical_shear_g[0] - alpha) > 1e-5
+
+
+@pytest.mark.parametrize("kw", [{}, {"tilt_deg": 5.0, "yaw_misalignment_deg": 10.0, "rotor_rpm": 16.0}])
+def test_evolving_planes_age_by_the_preview(kw):
+    """The probe's plane of evolving turbulence lies at its mean upwind distance over a rosette (the preview's),
+    not at the focus distance on the axis: off the axis (up to 30.4 deg) the rosette looks 69-80 m upwind."""
+    lid = SpinnerLidar(**kw)
+    rec = measure_spinner(linear_box(lid, 2.0), lid, 2.0, U)
+    # the field-frame upwind distance of the probe's first moment (the period's preview without yaw)
+    upwind = -float(rec.field_direction_ec[:, 0].mean()) * rec.info["probe_centre"]
+    assert 80.0 * math.cos(math.radians(40.4)) < upwind < 79.0
+    x_rotor, x_probe = lid.box_planes()
+    assert x_rotor == lid.position[0]
+    assert lid.position[0] - x_probe == pytest.approx(upwind, rel=2e-3)

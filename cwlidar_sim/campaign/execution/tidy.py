@@ -165,7 +165,7 @@ def parquet_engine():
 def write_statistics(ds, kind, stem) -> list:
     """Write the tidy table beside the results: ``<stem>.stats.csv`` (and ``.parquet`` when an engine imports).
 
-    Each file atomically (:mod:`cwlidar_sim._atomic`).  Returns the paths written.
+    Each file atomically (``cwlidar_sim._atomic``).  Returns the paths written.
     """
     df = statistics_table(ds, kind)
     paths = [f"{stem}.stats.csv"]

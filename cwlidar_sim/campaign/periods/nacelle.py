@@ -425,7 +425,7 @@ PREVIEW_HEADER = """\
 
 
 def write_preview(ds, path) -> str:
-    """Write the nacelle preview signal (:func:`preview_table`, header :data:`PREVIEW_HEADER`) as CSV, atomically.
+    """Write the nacelle preview signal (:func:`preview_table`, header ``PREVIEW_HEADER``) as CSV, atomically.
 
     Columns ``period, focus_m, time_s, rews_estimate_m_s, delay_s,
     estimate_time_s, rews_m_s``; the delays also in the header.  Returns ``path``.

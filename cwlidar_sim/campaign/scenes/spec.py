@@ -187,7 +187,7 @@ def check_start_time(value, name: str = "start_time"):
 
 
 def start_datetime(scene):
-    """A scene's ``start_time`` as a naive UTC :class:`datetime.datetime`, or None (validated, naming the key)."""
+    """A scene's ``start_time`` as a naive UTC ``datetime.datetime``, or None (validated, naming the key)."""
     text = check_start_time(getattr(scene, "start_time", None))
     return None if text is None else datetime.datetime.fromisoformat(text[:-1])
 

@@ -99,7 +99,7 @@ def _directions(direction_kic):
 
 
 def homodyne_signs(direction_kic, wind_c) -> np.ndarray:
-    """The sign each unit's speed is given: ``sign(n_i . W)``, shape (n_k, 3), +1 where the projection is 0 (module notes).
+    """The sign each unit's speed is given: ``sign(n_i @ W)``, shape (n_k, 3), +1 where the projection is 0 (module notes).
 
     Parameters
     ----------

@@ -8,7 +8,7 @@ else changes: no value, no name, no unit.
 
 Time.  The results' own times are relative: seconds from each period's start
 (``time_50hz``, ...).  A scene that names ``start_time`` (any kind's scene
-file, :func:`cwlidar_sim.campaign.scenes.spec.check_start_time`) also gets an
+file, :func:`cwlidar_sim.campaign.scenes.start_time.check_start_time`) also gets an
 absolute axis: the periods follow one another from ``start_time`` in the
 order the results hold them, each lasting its own ``duration`` (the
 ``[[period]]`` table's, else the scene's), and the rows of one period (a
@@ -87,7 +87,7 @@ def annotate(ds, start=None):
     ds : xarray.Dataset
         A scene's assembled results (on ``period``).
     start : datetime.datetime, optional
-        The first period's start, UTC (:func:`cwlidar_sim.campaign.scenes.spec.start_datetime`).
+        The first period's start, UTC (:func:`cwlidar_sim.campaign.scenes.start_time.start_datetime`).
 
     Returns
     -------

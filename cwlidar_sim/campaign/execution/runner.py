@@ -31,7 +31,8 @@ import time
 from ..._dask import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, completed
 from . import folder
 from ..registry import kind_of, side_files_of
-from ..scenes.spec import SceneSpec, start_datetime
+from ..scenes.spec import SceneSpec
+from ..scenes.start_time import start_datetime
 from .cf import annotate
 from .store import PeriodStore, combine_periods, preflight, scene_digest, write_results
 from .tidy import write_statistics

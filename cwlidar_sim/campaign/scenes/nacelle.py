@@ -53,7 +53,6 @@ import os
 
 import numpy as np
 
-from ..._seeding import seed_int
 from ..._validation import check_bool, check_int, check_real, check_seed, check_str
 from .lidar_spec import LidarSpecBase, lidar_schema
 from .turbulence_spec import TurbulenceSpec
@@ -420,33 +419,9 @@ class NacelleScene(SceneSpec):
         return NacelleLidar(**kw)
 
     # -- units of work ----------------------------------------------------
-    def period_duration(self, period) -> float:
-        """Length of a period [s]."""
-        return self.duration if period.duration is None else period.duration
-
-    def units(self):
-        """The units in run order: the periods."""
-        return list(self.periods)
-
-    def unit_names(self):
-        """Names of the units: the periods'."""
-        return [p.name for p in self.periods]
-
-    def row_names(self, index: int) -> list:
-        """Names of the result rows of unit ``index``: its period's."""
-        return [self.periods[index].name]
-
     def simulated_hours(self) -> float:
         """Simulated time of all units [h] (each focus distance its own record)."""
         return sum(self.period_duration(p) for p in self.periods) * len(self.scan.focus_distances) / 3600.0
-
-    def unit_seed(self, index: int) -> int:
-        """Seed of unit ``index``: the period's own, or derived from the scene's (distinct across units)."""
-        p = self.periods[index]
-        if p.seed is not None:
-            return p.seed
-        child = np.random.SeedSequence(self.seed, spawn_key=(index,))
-        return seed_int(child)
 
     # -- interchange ------------------------------------------------------
     def as_dict(self) -> dict:

@@ -18,18 +18,20 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import datetime
 import os
 import re
 
+import numpy as np
+
+from ..._seeding import seed_int
 from ..._validation import check_keys, check_real, check_str, closest_key
+from .start_time import check_start_time
 
 __all__ = ["RESULTS_VERSION", "Spec", "SceneSpec", "set_path", "select_periods", "spec_as_dict", "set_field", "check_scene_name",
            "check_scene_keys", "periods_from_dict", "check_periods", "check_condition_on", "read_text_file",
            "parse_toml", "open_regular_file", "toml_depth", "MAX_TOML_BYTES", "MAX_TOML_DEPTH", "check_distinct_reals",
            "resolve_path", "Table", "spec_table", "table_fields", "turbulence_schema", "entry_label", "prefix_path",
-           "at_path", "table_from_dict", "unknown_keys_message", "check_dotted_key", "check_start_time",
-           "start_datetime"]
+           "at_path", "table_from_dict", "unknown_keys_message", "check_dotted_key"]
 
 #: Version of the results layout (part of a stored period's identity, :func:`cwlidar_sim.campaign.execution.store.scene_key`);
 #: raised whenever stored periods would differ from what the code now computes (3: the gridded
@@ -146,52 +148,6 @@ def select_periods(scene, names, what: str = "periods"):
     return scene.replace(periods=tuple(p for p in scene.periods if p.name in names))
 
 
-def check_start_time(value, name: str = "start_time"):
-    """An absolute start time: ISO 8601 with a time zone, returned as UTC text ``YYYY-MM-DDTHH:MM:SSZ``.
-
-    Parameters
-    ----------
-    value : str, datetime.datetime or None
-        ``"2024-05-01T12:00:00+02:00"``, ``"2024-05-01T10:00:00Z"``, or a TOML
-        offset date-time (``start_time = 2024-05-01T10:00:00Z``, unquoted);
-        None: no absolute time.
-    name : str
-        The key as the user wrote it, for the message.
-
-    Returns
-    -------
-    str or None
-        The instant in UTC (microseconds kept when given), e.g. ``"2024-05-01T10:00:00Z"``.
-
-    Raises
-    ------
-    ValueError, TypeError
-        Not a date-time, or one without a time zone (a local time names no instant).
-    """
-    if value is None:
-        return None
-    if isinstance(value, str):
-        try:
-            value = datetime.datetime.fromisoformat(value.strip())
-        except ValueError:
-            raise ValueError(f"{name} = {value!r} is not an ISO 8601 date-time; allowed: e.g. "
-                             f"'2024-05-01T10:00:00Z' or '2024-05-01T12:00:00+02:00' (with a time zone)") from None
-    if not isinstance(value, datetime.datetime):
-        raise TypeError(f"{name} must be an ISO 8601 date-time with a time zone such as '2024-05-01T10:00:00Z', "
-                        f"got {type(value).__name__} {value!r}")
-    if value.tzinfo is None or value.utcoffset() is None:
-        raise ValueError(f"{name} = {value.isoformat()!r} has no time zone; allowed: an instant such as "
-                         f"'{value.isoformat()}Z' (UTC) or with its offset, '+02:00'")
-    utc = value.astimezone(datetime.timezone.utc).replace(tzinfo=None)
-    return utc.isoformat(timespec="microseconds" if utc.microsecond else "seconds") + "Z"
-
-
-def start_datetime(scene):
-    """A scene's ``start_time`` as a naive UTC ``datetime.datetime``, or None (validated, naming the key)."""
-    text = check_start_time(getattr(scene, "start_time", None))
-    return None if text is None else datetime.datetime.fromisoformat(text[:-1])
-
-
 @dataclasses.dataclass(frozen=True)
 class SceneSpec(Spec):
     """Base of the scene kinds (staring, conical, nacelle): parsing from TOML, a copy with dotted keys changed.
@@ -202,7 +158,7 @@ class SceneSpec(Spec):
 
     Every kind's scene file may name ``start_time``, the instant its first
     period starts (ISO 8601 with a time zone, kept as UTC text,
-    :func:`check_start_time`); the periods follow one another from there
+    :func:`~cwlidar_sim.campaign.scenes.start_time.check_start_time`); the periods follow one another from there
     (:mod:`cwlidar_sim.campaign.execution.cf`).  It gives the results an
     absolute time axis and changes no number; None (default): none.
     """
@@ -236,6 +192,34 @@ class SceneSpec(Spec):
     def replace(self, **changes):
         """Copy with fields changed (validated)."""
         return dataclasses.replace(self, **changes)
+
+    # -- units of work: one per period (a kind whose units differ overrides these) --
+    def period_duration(self, period) -> float:
+        """Length of a period [s]: its own, or the scene's ``duration``."""
+        return self.duration if period.duration is None else period.duration
+
+    def units(self) -> list:
+        """The units in run order: the periods."""
+        return list(self.periods)
+
+    def unit_names(self) -> list:
+        """Names of the units of work, in run order: the periods'."""
+        return [p.name for p in self.periods]
+
+    def row_names(self, index: int) -> list:
+        """Names of the result rows of unit ``index``: its period's."""
+        return [self.periods[index].name]
+
+    def simulated_hours(self) -> float:
+        """Simulated time of all units [h]."""
+        return sum(self.period_duration(p) for p in self.periods) / 3600.0
+
+    def unit_seed(self, index: int) -> int:
+        """Seed of unit (period) ``index``: the period's own, or a child of the scene's (distinct across units)."""
+        p = self.periods[index]
+        if p.seed is not None:
+            return p.seed
+        return seed_int(np.random.SeedSequence(self.seed, spawn_key=(index,)))
 
     def with_values(self, values: dict):
         """A copy of the scene with the dotted keys of ``values`` set, validated like a scene file.

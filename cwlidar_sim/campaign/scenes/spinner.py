@@ -56,9 +56,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
-
-from ..._seeding import seed_int
 from ..._validation import check_bool, check_int, check_real, check_seed, check_str
 from .lidar_spec import LidarSpecBase, lidar_schema
 from .nacelle import NacellePeriodSpec, NacellePlatformSpec, NacelleTurbulenceSpec, PLATFORM_DOFS
@@ -268,34 +265,6 @@ class SpinnerScene(SceneSpec):
             kw.update(motion=self.platform.motion(self.period_duration(period), self.base_dir),
                       motion_correction=self.platform.correction)
         return SpinnerLidar(**kw)
-
-    # -- units of work ----------------------------------------------------
-    def period_duration(self, period) -> float:
-        """Length of a period [s]."""
-        return self.duration if period.duration is None else period.duration
-
-    def units(self):
-        """The units in run order: the periods."""
-        return list(self.periods)
-
-    def unit_names(self):
-        """Names of the units: the periods'."""
-        return [p.name for p in self.periods]
-
-    def row_names(self, index: int) -> list:
-        """Names of the result rows of unit ``index``: its period's."""
-        return [self.periods[index].name]
-
-    def simulated_hours(self) -> float:
-        """Simulated time of all units [h]."""
-        return sum(self.period_duration(p) for p in self.periods) / 3600.0
-
-    def unit_seed(self, index: int) -> int:
-        """Seed of unit ``index``: the period's own, or derived from the scene's (distinct across units)."""
-        p = self.periods[index]
-        if p.seed is not None:
-            return p.seed
-        return seed_int(np.random.SeedSequence(self.seed, spawn_key=(index,)))
 
     # -- interchange ------------------------------------------------------
     def as_dict(self) -> dict:

@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import dataclasses
 
-from ..._seeding import seed_int
 from ..._validation import check_bool, check_choice, check_int, check_real, check_seed, check_str, check_vec3
 from ...signal.chain import TIERS
 from .lidar_spec import LidarSpecBase, lidar_schema
@@ -341,28 +340,6 @@ class Scene(SceneSpec):
 
     #: The sensor layout (the runner's dispatch key; a conical scene's is 'conical').
     kind = "staring"
-
-    def period_duration(self, period: PeriodSpec) -> float:
-        """Length of a period [s]."""
-        return self.duration if period.duration is None else period.duration
-
-    def unit_names(self) -> list:
-        """Names of the units of work, in run order: the periods."""
-        return [p.name for p in self.periods]
-
-    def simulated_hours(self) -> float:
-        """Simulated time of all units [h]."""
-        return sum(self.period_duration(p) for p in self.periods) / 3600.0
-
-    def unit_seed(self, index: int) -> int:
-        """Seed of unit (period) ``index``: its own, or a child of the scene seed."""
-        import numpy as np
-
-        p = self.periods[index]
-        if p.seed is not None:
-            return p.seed
-        child = np.random.SeedSequence(self.seed, spawn_key=(index,))
-        return seed_int(child)
 
     def as_dict(self) -> dict:
         """Plain dict (TOML-shaped; round-trips through ``from_dict``)."""

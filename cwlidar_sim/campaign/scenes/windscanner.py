@@ -43,7 +43,6 @@ import dataclasses
 
 import numpy as np
 
-from ..._seeding import seed_int
 from ..._validation import check_int, check_real, check_seed, check_str, check_tuple
 from .lidar_spec import LidarSpecBase, lidar_schema
 from .spec import SceneSpec, Spec, Table, check_periods, check_scene_name, entry_label, set_field, spec_table, \
@@ -274,26 +273,6 @@ class WindScannerScene(SceneSpec):
     def period_params(self, period):
         """The :class:`cwlidar_sim.turbulence.MannParameters` of a period."""
         return self.turbulence.params(None, period.mean_speed)
-
-    # -- units of work ----------------------------------------------------
-    def period_duration(self, period) -> float:
-        """Length of a period [s]."""
-        return self.duration if period.duration is None else period.duration
-
-    def unit_names(self):
-        """Names of the units: the periods'."""
-        return [p.name for p in self.periods]
-
-    def simulated_hours(self) -> float:
-        """Simulated time of all units [h]."""
-        return sum(self.period_duration(p) for p in self.periods) / 3600.0
-
-    def unit_seed(self, index: int) -> int:
-        """Seed of unit ``index``: the period's own, or derived from the scene's (distinct across units)."""
-        p = self.periods[index]
-        if p.seed is not None:
-            return p.seed
-        return seed_int(np.random.SeedSequence(self.seed, spawn_key=(index,)))
 
     # -- interchange ------------------------------------------------------
     def as_dict(self) -> dict:

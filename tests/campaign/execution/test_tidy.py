@@ -12,7 +12,7 @@ import xarray as xr
 from cwlidar_sim.campaign import loads_scene, registry, run_scene
 from cwlidar_sim.campaign.execution import cf, tidy
 from cwlidar_sim.campaign.execution.store import read_results, write_results
-from cwlidar_sim.campaign.scenes.spec import check_start_time, start_datetime
+from cwlidar_sim.campaign.scenes.start_time import check_start_time, start_datetime
 
 NACELLE = """
 name = "nt"

@@ -23,7 +23,7 @@ CLEANED = sorted((ROOT / "sensors").glob("*.py")) + [ROOT / "signal" / "chain.py
                                                    ROOT / "beam" / "_kernels.py"]
 #: Words and units that end names without being dimension suffixes.
 WORDS = {"at", "in", "to", "or", "lo", "hi", "deg", "db", "rpm", "std", "rng", "key", "gap", "out", "bg", "sim",
-         "cnr", "eff", "rev", "str", "int", "fft", "rho", "cl"}
+         "cnr", "eff", "rev", "str", "int", "fft", "rho", "cl", "hz", "mid"}
 #: Stems of scalar quantities: no component axis.
 SCALARS = ("vlos", "weight", "w", "speed", "time", "t", "flags", "az", "azimuth", "spread")
 

@@ -148,11 +148,11 @@ def rosette_period(rates_hz, *, name: str = "prism_rate_hz") -> float:
     return period
 
 
-def _rotate(v_lc, w_lc, angle: float):
-    """Rodrigues: ``v`` turned by ``angle`` [rad] about the unit axes ``w`` (rows)."""
+def _rotate(v_lc, axis_lc, angle: float):
+    """Rodrigues: ``v`` turned by ``angle`` [rad] about the unit axes ``axis_lc`` (rows)."""
     c, s = math.cos(angle), math.sin(angle)
-    return (v_lc * c + np.cross(w_lc, v_lc) * s
-            + w_lc * (np.einsum("lc,lc->l", w_lc, v_lc) * (1.0 - c))[:, None])
+    return (v_lc * c + np.cross(axis_lc, v_lc) * s
+            + axis_lc * (np.einsum("lc,lc->l", axis_lc, v_lc) * (1.0 - c))[:, None])
 
 
 def prism_directions(phi1_deg, phi2_deg, deflection_deg=(15.2, 15.2)) -> np.ndarray:

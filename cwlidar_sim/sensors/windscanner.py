@@ -318,13 +318,13 @@ class WindScanner(LidarBase):
         """The region a box must hold for every beam's cells [m], grown by two grid steps ``spacing`` (in (0, 100])."""
         d = check_real("spacing", spacing, lo=0.0, hi=100.0, lo_open=True)
         pts = []
-        n_pic = self.directions()
-        r_pi = self.ranges()
+        directions = self.directions()
+        ranges = self.ranges()
         for i, p in enumerate(self.positions):
             for k in range(self.n_points):
-                c = self.cells(r_pi[k, i])
-                for s in (max(r_pi[k, i] + c.edges[0], 0.0), r_pi[k, i] + c.edges[-1]):
-                    pts.append(np.asarray(p) + s * n_pic[k, i])
+                c = self.cells(ranges[k, i])
+                for s in (max(ranges[k, i] + c.edges[0], 0.0), ranges[k, i] + c.edges[-1]):
+                    pts.append(np.asarray(p) + s * directions[k, i])
             pts.append(np.asarray(p))
         pts = np.asarray(pts)
         lo, hi = pts.min(axis=0) - 2.0 * d, pts.max(axis=0) + 2.0 * d
@@ -359,7 +359,7 @@ class WindScanner(LidarBase):
         """The estimates over ``[start, start + duration)``, one focus per unit and pattern point (module notes)."""
         time_k, point_k = self.schedule(duration, start)
         nk, P = time_k.size, self.n_points
-        n_pic, r_pi = self.directions(), self.ranges()
+        directions, ranges = self.directions(), self.ranges()
         unit_e = np.tile(np.arange(3), nk)
         point_e = np.repeat(point_k, 3)
         time_e = np.repeat(time_k, 3) + np.asarray(self.time_offsets)[unit_e]
@@ -370,7 +370,7 @@ class WindScanner(LidarBase):
             origin = np.asarray(self.positions[i], dtype=np.float64)
             for k in range(P):
                 idx = np.flatnonzero(focus_index_e == i * P + k)
-                r, n3 = float(r_pi[k, i]), np.ascontiguousarray(n_pic[k, i])
+                r, n3 = float(ranges[k, i]), np.ascontiguousarray(directions[k, i])
                 inst, cells = self.instrument_at(r), self.cells(r)
                 sampler = BeamSampler(field, origin, r, cells, U, wrap)
                 sampler.check_extent(n3)
@@ -385,8 +385,8 @@ class WindScanner(LidarBase):
                 groups.append(Focus(instrument=inst, index_e=idx, time_e=time_e[idx], cells=cells, n_looks=1,
                                     sample=sample, transverse_speed=self.transverse_speed_at(k, i, U), field=field,
                                     cloud_weight=wc))
-        extras = {"unit_e": unit_e, "point_e": point_e, "range_e": r_pi[point_e, unit_e],
-                  "direction_ec": n_pic[point_e, unit_e], "focus_ec": self.focus_points()[point_e]}
+        extras = {"unit_e": unit_e, "point_e": point_e, "range_e": ranges[point_e, unit_e],
+                  "direction_ec": directions[point_e, unit_e], "focus_ec": self.focus_points()[point_e]}
         return RecordPlan(time_e=time_e, focus_index_e=focus_index_e, foci=tuple(float(g) for g in range(3 * P)),
                           groups=groups, extras=extras, context={"time_k": time_k})
 

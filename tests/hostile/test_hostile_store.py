@@ -88,7 +88,7 @@ def test_a_period_name_that_would_escape_or_overflow_is_refused(tmp_path, corpus
 
 
 def test_a_scene_name_over_the_file_name_limit_is_refused(tmp_path, corpus):
-    scene = write_scene(tmp_path / "s.toml", name="n" * 248)
+    scene = write_scene(tmp_path / "s.toml", name="n" * 242)  # its longest file, <name>.stats.parquet, 256 bytes
     child = run_cli(["run", str(scene), "--out", str(tmp_path / "out"), "--no-progress"], cwd=tmp_path)
     assert_one_line_error(child, "scene name", "256 bytes", "255")
     assert not (tmp_path / "out").exists()
@@ -107,7 +107,8 @@ def test_another_scene_into_a_results_folder_is_refused_then_overwritten(tmp_pat
     corpus.record("error", child)
     again = run_cli(["run", str(other), "--out", str(out), "--no-progress", "--overwrite"])
     assert again.rc == 0, again.stderr[-2000:]
-    assert sorted(os.listdir(out)) == [".cwlidar-sim.lock", "cwlidar-run.json", "mine.nc", "mine.periods"]
+    assert sorted(os.listdir(out)) == [".cwlidar-sim.lock", "cwlidar-run.json", "mine.nc", "mine.periods",
+                                    "mine.stats.csv"]
     assert json.loads((out / "cwlidar-run.json").read_text())["name"] == "mine"
     corpus.record("right", again)
 

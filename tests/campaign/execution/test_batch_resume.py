@@ -109,7 +109,8 @@ def test_an_interrupted_task_keeps_its_finished_periods(tmp_path, count, whole):
     got = task_results(out)
     for span in (10.0, 20.0):
         same(got[span], whole[span])  # the bits of an uninterrupted run
-    assert sorted(os.listdir(out / "tasks")) == sorted(f"{t.task_id}.nc" for t in expand(spec))  # units cleared
+    assert sorted(os.listdir(out / "tasks")) == sorted(f"{t.task_id}{ext}" for t in expand(spec)  # units cleared
+                                                       for ext in (".nc", ".stats.csv"))
     count.clear()
     assert run(spec, out)["reused"] == 2 and count == []
 

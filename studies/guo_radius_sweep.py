@@ -1,6 +1,6 @@
 """Scan radius of a single-beam circular scan ahead of a 15 MW rotor: where the REWS coherence bandwidth peaks.
 
-    python studies/guo_radius_sweep.py --seeds 8 --json docs/guo_radius_sweep.json --figure docs/guo_radius_sweep.png
+    python studies/guo_radius_sweep.py --seeds 8 --beams 12 --context --json docs/guo_radius_sweep.json --figure docs/guo_radius_sweep.png
     python studies/guo_radius_sweep.py --from-json docs/guo_radius_sweep.json --figure docs/guo_radius_sweep.png
 
 Published number (issue 31): Fu, Guo, Schlipf & Pena (2023, Wind Energ. Sci. 8, 1893-1907,
@@ -25,9 +25,9 @@ Theory (:func:`cwlidar_sim.analysis.rews_theory.rews_spectra`, continuous tensor
 weighting, ``BEAMS`` point beams over the revolution with their delays, paired like the
 simulation: preview ``x / U`` less the beams' mean delay): k at coherence 0.5 of the spectra
 themselves on a fine log grid, per radius, frozen and evolving; the optimum by a parabola
-through the points within 0.15 R of the grid's best (13 radii: the 9 of the sweep and 4
-between); its quadrature error by ``resolution`` 60 against 30 and 16 against 12 beams;
-the same sweep at x = 60 and 240 m (evolving) for context.
+through the points within 0.15 R of the grid's best (evolving: the 9 radii of the sweep and
+0.55, 0.65); its quadrature error at 0.6 R by ``resolution`` 60 against 30 and 4 more beams;
+with ``--context`` the same sweep at x = 60 and 240 m (evolving).
 
 Simulation (tier ``los``, the chain's ideal line-of-sight average, the same lidar and rotor as
 nacelle scenes built in code): per seed one box (frozen) and one evolving pair of planes (the
@@ -42,8 +42,9 @@ segments and ordinates).  Uncertainty: a bootstrap over segments (paired across 
 every radius resamples the same segments) of each k at 0.5 and of the optimum (the same
 parabola through the best grid radius and its neighbours).
 
-Sizes: the committed JSON is ``--seeds 8 --duration 1520 --segment 300`` (40 segments per
-radius and turbulence); about 20 min on the shared 2-core machine.  ``--quick`` (2 seeds,
+Sizes: the committed JSON is ``--seeds 3 --beams 8 --duration 1520 --segment 300`` (15
+segments per radius and turbulence; about 15 min on the shared 2-core machine at load ~7); the
+full size is ``--seeds 8 --beams 12 --context`` (40 segments, about an hour there).  ``--quick`` (2 seeds,
 theory on fewer points) is a smoke run of a few minutes.
 """
 
@@ -70,7 +71,7 @@ EST_PER_REV = 50
 LIFETIME = 15.0  # eddy-lifetime scale [s] (assumed)
 MANN = dict(alpha_eps=0.1, length_scale=33.6, gamma=3.9)
 RADII = np.round(np.linspace(0.2, 1.0, 9), 3)
-EXTRA = np.array([0.45, 0.55, 0.65, 0.75])
+EXTRA = np.array([0.55, 0.65])  # evolving: the optimum's neighbourhood
 BEAMS = 12
 K_GRID = np.geomspace(6e-4, 0.05, 30)  # rad/m: the crossings lie at 0.002-0.02
 SPACING = 8.0
@@ -233,7 +234,7 @@ def pooled_k_half(spec_rsf, k, idx=None):
     return np.array(out)
 
 
-def run_theory(quick):
+def run_theory(quick, context):
     t0 = time.perf_counter()
     res = {}
     x = 120.0
@@ -241,7 +242,7 @@ def run_theory(quick):
     for evolving in (False, True):
         name = "evolving" if evolving else "frozen"
         rows = {}
-        for rr in np.concatenate([radii, [] if quick else EXTRA]):
+        for rr in np.concatenate([radii, [] if quick or not evolving else EXTRA]):
             s = theory_spectra(rr, x, evolving=evolving)
             rows[f"{rr:.3f}"] = {"k_half": k_half(K_GRID, s.coherence_k), "coherence": s.coherence_k.round(5).tolist()}
             print(f"theory {name} r/R {rr:.2f}: k0.5 {rows[f'{rr:.3f}']['k_half']:.5f} ({time.perf_counter() - t0:.0f} s)",
@@ -253,15 +254,15 @@ def run_theory(quick):
     # quadrature and beam-count error at the optimum and the ends (evolving)
     conv = {}
     if not quick:
-        for rr in (0.2, 0.6, 1.0):
+        for rr in (0.6,) if not context else (0.2, 0.6, 1.0):
             base = res["evolving"]["spectra"][f"{rr:.3f}"]["k_half"]
             fine = k_half(K_GRID, theory_spectra(rr, x, evolving=True, resolution=60.0).coherence_k)
-            more = k_half(K_GRID, theory_spectra(rr, x, evolving=True, n_beams=16).coherence_k)
-            conv[f"{rr:.3f}"] = {"base": base, "resolution_60": fine, "beams_16": more}
+            more = k_half(K_GRID, theory_spectra(rr, x, evolving=True, n_beams=BEAMS + 4).coherence_k)
+            conv[f"{rr:.3f}"] = {"base": base, "resolution_60": fine, f"beams_{BEAMS + 4}": more}
     res["convergence"] = conv
     # context: the sweep at other upwind distances (evolving)
     ctx = {}
-    if not quick:
+    if context:
         for xc in (60.0, 240.0):
             kh = [k_half(K_GRID, theory_spectra(rr, xc, evolving=True).coherence_k) for rr in RADII]
             ctx[f"{xc:g}"] = {"radii": RADII.tolist(), "k_half": kh, "optimum": parabola_peak(RADII, kh, 0.15)}
@@ -356,12 +357,15 @@ def figure(out, path):
 
 
 def main(argv=None) -> int:
+    global BEAMS
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=6)
     ap.add_argument("--duration", type=float, default=1520.0)
     ap.add_argument("--segment", type=float, default=300.0)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--theory-only", action="store_true")
+    ap.add_argument("--beams", type=int, default=BEAMS, help="point beams of the theory (cost ~ their square)")
+    ap.add_argument("--context", action="store_true", help="the theory's sweep at x = 60 and 240 m too")
     ap.add_argument("--json", default=None)
     ap.add_argument("--figure", default=None)
     ap.add_argument("--from-json", default=None, help="redraw the figure from a JSON written before")
@@ -370,12 +374,13 @@ def main(argv=None) -> int:
         with open(a.from_json) as fh:
             out = json.load(fh)
     else:
+        BEAMS = a.beams
         t = time.perf_counter()
         seeds = list(range(3100, 3100 + (2 if a.quick else a.seeds)))
         out = {"setup": {"R": R, "hub_height": HUB, "U": U, "rpm": RPM, "revolution_time": T_REV,
                          "estimates_per_rev": EST_PER_REV, "lifetime": LIFETIME, "mann": MANN, "beams": BEAMS,
                          "spacing": SPACING, "duration": a.duration, "segment": a.segment, "seeds": seeds},
-               "theory": run_theory(a.quick)}
+               "theory": run_theory(a.quick, a.context)}
         if not a.theory_only:
             out["simulation"] = run_simulation(seeds, a.duration, a.segment)
         out.update(wall_s=time.perf_counter() - t, machine=machine())

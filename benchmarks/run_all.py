@@ -98,6 +98,7 @@ def ratios_instrument(rep):
     """An instrument's scene in tier spectral against its tier-1 floor, and its real-time factors (issue 31)."""
     return {**ratios_cs(rep), "cpu_over_tier1_floor": rep.get("cpu_ratio_to_floor"),
             "compute_over_tier1_floor": rep.get("compute_ratio_to_floor"),
+            "lidar_cpu_over_tier1_floor": rep.get("lidar_cpu_ratio_to_floor"),
             "spectral_realtime_factor": rep.get("realtime_factor"),
             "spectral_realtime_factor_cpu": rep.get("realtime_factor_cpu"),
             "spectral_lidar_realtime_factor_cpu": rep.get("realtime_factor_lidar_cpu")}

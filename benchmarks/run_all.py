@@ -14,6 +14,8 @@ of ``benchmarks/_protocol.py``), and keeps its full report under
   tier-1 floor;
 * ``cs``: ``bench_cs.py`` -- the CS conical reproduction against its tier-1 floor;
 * ``nacelle``: ``bench_nacelle.py`` -- the nacelle reproduction against its tier-1 floor;
+* ``spinner``, ``windscanner``: ``bench_spinner.py``, ``bench_windscanner.py`` -- each instrument's
+  scene in tier ``spectral`` against its tier-1 floor, and its real-time factor;
 * ``estimator_theory``: ``bench_estimator_theory.py`` -- the estimator-aware
   theory against one campaign period;
 * ``linear_theory``: ``bench_linear_theory.py`` -- the general linear theory at one
@@ -90,6 +92,16 @@ def ratios_cs(rep):
     """A bundled scene against its tier-1 floor (``bench_cs.py``, ``bench_nacelle.py``)."""
     return {"wall_s": rep.get("wall_s"), "over_tier1_floor": rep.get("ratio_to_floor"),
             "peak_gib": (rep.get("peak_bytes") or 0) / 2**30}
+
+
+def ratios_instrument(rep):
+    """An instrument's scene in tier spectral against its tier-1 floor, and its real-time factors (issue 31)."""
+    return {**ratios_cs(rep), "cpu_over_tier1_floor": rep.get("cpu_ratio_to_floor"),
+            "compute_over_tier1_floor": rep.get("compute_ratio_to_floor"),
+            "lidar_cpu_over_tier1_floor": rep.get("lidar_cpu_ratio_to_floor"),
+            "spectral_realtime_factor": rep.get("realtime_factor"),
+            "spectral_realtime_factor_cpu": rep.get("realtime_factor_cpu"),
+            "spectral_lidar_realtime_factor_cpu": rep.get("realtime_factor_lidar_cpu")}
 
 
 def ratios_estimator_theory(rep):
@@ -180,6 +192,8 @@ BENCHMARKS = {
     "scaling": ("bench_scaling.py", [], ["--quick"], ratios_scaling, "--json"),
     "speed_vs_accuracy": ("speed_vs_accuracy.py", [], ["--quick"], ratios_speed, "--out"),
     "nacelle": ("bench_nacelle.py", [], ["--quick"], ratios_cs, "--json"),
+    "spinner": ("bench_spinner.py", [], ["--quick"], ratios_instrument, "--json"),
+    "windscanner": ("bench_windscanner.py", [], ["--quick"], ratios_instrument, "--json"),
     "speed_vs_accuracy_conical": ("speed_vs_accuracy_conical.py", ["--measure"], ["--measure", "--quick"],
                                   ratios_speed_conical, "--json"),
     "subbin": ("bench_subbin.py", [], ["--quick"], ratios_subbin, "--json"),

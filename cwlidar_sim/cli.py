@@ -148,20 +148,23 @@ def _add_campaign(sub):
     p.add_argument("--out", default=None, metavar="FIGDIR", help="figure folder (default DIR)")
     p.set_defaults(func=_cmd_report)
 
-    p = _command(sub, "reproduce", "reproduce a published result: a2012, cs, nacelle",
+    p = _command(sub, "reproduce", "reproduce a bundled study and draw its figures",
                  "Run a bundled scene and write its results and figures. a2012: Angelou et al. "
                  "(2012), the spectral transfer function of a staring cw lidar, four 1-h periods. "
                  "cs: a conically scanning ZephIR against a cup, 40-100 m, 1 s and 3 s scans, "
                  "18-48 10-min periods per height (each std ratio to a standard error of 0.01). nacelle: a nacelle lidar's REWS preview coherence at "
-                 "three focus distances, frozen and evolving turbulence, against the analytic coherence."
+                 "three focus distances, frozen and evolving turbulence, against the analytic coherence. spinner: a SpinnerLidar's "
+                 "REWS, shear, veer and yaw per rosette (Mikkelsen et al. 2013). windscanner: three beams meeting at 125 m "
+                 "against a sonic (Mikkelsen et al. 2012's layout)."
                  "\n\n" + _DASK_TRUST,
                  ["cwlidar-sim reproduce a2012 --out results            # under a minute on 2 cores",
                   "cwlidar-sim reproduce cs --quick --out results       # two periods per height",
-                  "cwlidar-sim reproduce nacelle --quick --out results  # 5-min periods, under a minute"])
-    p.add_argument("paper", choices=("a2012", "cs", "nacelle"))
+                  "cwlidar-sim reproduce nacelle --quick --out results  # 5-min periods, under a minute",
+                  "cwlidar-sim reproduce spinner --quick --out results  # 20-s periods"])
+    p.add_argument("paper", choices=("a2012", "cs", "nacelle", "spinner", "windscanner"))
     p.add_argument("--quick", action="store_true",
                    help="each under a minute on 2 cores: a2012: 20-min periods; cs: two periods per height; "
-                        "nacelle: 5-min periods")
+                        "nacelle: 5-min periods; spinner: 20-s periods; windscanner: 30-s periods, 10-s segments")
     p.add_argument("--out", default="results", metavar="DIR", help="output folder (default: results)")
     _add_dask_options(p, "dask", "the periods")
     p.add_argument("--threads", type=int, default=None)

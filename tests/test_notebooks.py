@@ -77,6 +77,62 @@ def test_notebook_runs_in_quick_mode(path, tmp_path, monkeypatch):
         _check_twin(nb)
     if "nacelle" in path.name:
         _check_nacelle(nb, tmp_path / "out" / "nacelle" / "nacelle.nc")
+    if path.name == "spinner.ipynb":
+        _check_spinner(nb, tmp_path / "out" / "spinner" / "spinner.nc")
+    if path.name == "windscanner.ipynb":
+        _check_windscanner(nb, tmp_path / "out" / "windscanner" / "windscanner.nc")
+
+
+def _check_spinner(nb, results):
+    """The SpinnerLidar notebook: the rosette as published, a uniform wind returned, frozen REWS that follow the rotor."""
+    import ast
+
+    from cwlidar_sim.campaign import read_results
+
+    text = _stdout(nb)
+    assert "rosette 2.000 s, 984 estimates (492 Hz), up to 30.4 deg off the axis" in text
+    line = next(t for t in text.splitlines() if t.startswith("per rosette: REWS"))
+    g, U = math.radians(10.0), 10.0
+    rews = ast.literal_eval(line.split("REWS ", 1)[1].split(", yaw")[0])
+    yaw = ast.literal_eval(line.split("yaw ", 1)[1].split(" deg")[0])
+    np.testing.assert_allclose(rews, U * math.cos(g), atol=1e-8)
+    np.testing.assert_allclose(yaw, 10.0, atol=1e-8)
+    lag = float(next(t for t in text.splitlines() if t.startswith("preview distance")).split("lags the rotor's REWS by ")[1]
+                .split(" s")[0])
+    assert 0.3 < lag < 0.7, lag  # the cone's half a second (tests/sensors/test_spinner_preview_timing.py)
+    ds = read_results(results)
+    j = list(ds.estimate.values).index("tier1")
+    frozen = np.isnan(ds.lifetime.values)
+    # tier 1, frozen turbulence: the rosette's REWS follows the rotor's within a few tenths of a m/s
+    assert frozen.sum() == 2 and np.all(ds.rews_rmse.values[frozen, j] < 0.3), ds.rews_rmse.values
+    assert np.all(ds.rews_correlation.values[frozen, j] > 0.9), ds.rews_correlation.values
+    # the blades block the same share every period (they turn with the prisms): about a fifth of the looks
+    share = ds.n_blocked.values / (ds.rosette.size * 984)
+    assert np.all(share == share[0]) and 0.1 < share[0] < 0.35, share
+    assert f"blocked {int(ds.n_blocked.values[0])} of {ds.rosette.size * 984} estimates" in text
+
+
+def _check_windscanner(nb, results):
+    """The WindScanner notebook: the published layout, the closed-form conditioning, exact reconstruction, physics."""
+    from cwlidar_sim.campaign import read_results
+
+    text = _stdout(nb)
+    for el in ("56.5", "51.7", "56.4"):
+        assert f"elevation {el} deg" in text
+    assert "mean range 125.0 m, cond(N) 2.654" in text
+    rel = float(next(t for t in text.splitlines() if t.startswith("largest difference from the closed form"))
+                .split(": ")[1].split(" ")[0])
+    assert rel < 1e-9, rel
+    err = float(next(t for t in text.splitlines() if "largest error of the reconstructed wind" in t)
+                .split("wind ")[1].split(" m/s")[0])
+    assert err < 1e-9, err
+    ds = read_results(results)
+    j = list(ds.estimate.values).index("tier1")
+    # the probe volumes (z_R ~ 19 m at 125 m) average the turbulence: every component's std below the sonic's
+    ratio = ds.wind_std.values[:, j] / ds.sonic_std.values
+    assert np.all((ratio > 0.2) & (ratio < 1.0)), ratio
+    assert np.all(ds.n_ill_conditioned.values[:, j] == 0)
+    np.testing.assert_allclose(ds.wind_mean.values[:, j, 1:], 0.0, atol=1.0)
 
 
 def _check_twin(nb):

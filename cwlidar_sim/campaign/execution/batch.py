@@ -515,7 +515,8 @@ def merge_campaign(out_dir, *, keep_series=False, band=(0.02, 0.6)):
     dims = _dim_names(sweep, {d for _, ds in done for d in ds.dims})
     parts = []
     for t, ds in done:
-        if "transfer_cross" in ds:
+        # transfer functions without a theory beside them (a WindScanner's): no log error
+        if all(v in ds for v in ("transfer_cross", "transfer_ratio", "transfer_theory_cross", "transfer_theory_ratio")):
             k = ds.k
             inband = (k >= band[0]) & (k <= band[1])
             for m, th in (("t2", "transfer_theory_cross"), ("t1", "transfer_theory_ratio")):

@@ -1,4 +1,4 @@
-"""Bundled reproductions: ``cwlidar-sim reproduce a2012`` and ``reproduce cs``.
+"""Bundled reproductions: ``cwlidar-sim reproduce NAME`` for a2012, cs, nacelle, spinner and windscanner.
 
 The scenes ship with the package (``cwlidar_sim/campaign/data/scenes/*.toml``).
 Quick mode keeps the physics and the geometry and does less, by the scene
@@ -7,7 +7,8 @@ a staring scene (a2012) shortens every period (the low-wavenumber end is
 noisier), a conical one (cs) keeps the first two periods at every height
 instead of its plan of periods per height (the full run's first eight units,
 seeds and bits alike; the ratios' standard errors are larger), a nacelle one
-shortens every period to 5 minutes; the full run is the reproduction.
+shortens every period to 5 minutes, a spinner one to 20 s (ten rosettes), a
+windscanner one to 30 s with 10-s segments; the full run is the reproduction.
 """
 
 from __future__ import annotations

@@ -51,7 +51,7 @@ def _profile(ax, x, z, *, ls, marker, xerr=None, **kw):
 
 
 def plot_std_ratio(ds, var="std_ratio", ylabel=None):
-    """Ratio against height (CS Figs. 8-9): simulation (mean over selected periods +- s.e.), CS's model (Kaimal) and Mann."""
+    """Ratio against height (CS Figs. 8-9): simulation (mean over selected periods +- s.e.), CS's model (Kaimal), Mann, the linear theory."""
     plt = _plt()
     ylabel = f"lidar / cup {periods_phrase(ds)} standard deviation" if ylabel is None else ylabel
     fig, ax = plt.subplots(figsize=(6, 4.5))
@@ -64,6 +64,10 @@ def plot_std_ratio(ds, var="std_ratio", ylabel=None):
                  label=f"CS model (Kaimal), {_scan_label(ds, j)}")
         _profile(ax, ds[f"{var}_model_mann"][:, j], z, ls=":", marker=None, color=c,
                  label=f"CS model (Mann spectra), {_scan_label(ds, j)}")
+        if f"{var}_theory" in ds:  # the 3-D linear theory (campaign.periods.conical_theory), when the scene asks
+            _profile(ax, ds[f"{var}_theory"][:, j], z, ls="-.", marker="^", color=c, mfc="none",
+                     label=f"linear theory ({ds[f'{var}_theory'].attrs.get('theory_box', 'continuum')[:9]}), "
+                           f"{_scan_label(ds, j)}")
     ax.set_xlabel(ylabel)
     ax.set_ylabel("height [m]")
     ax.grid(alpha=0.3)

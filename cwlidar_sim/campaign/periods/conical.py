@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from ..._version import __version__
-from . import conical_simulation
+from . import conical_simulation, conical_theory
 from .conical_simulation import cycle_reference_height
 from .._labels import WIND_DIRECTION_CONVENTION, duration_phrase, periods_phrase, wind_from_toward
 from ..scenes.conical import ConicalScene, default_spacing
@@ -160,6 +160,10 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
     t0 = time.perf_counter()
     tensor, su, ustar = scene.turbulence.resolve(_tensor_height(scene, index), p.mean_speed)
     s = scene.scan
+    if s.theory == "only":  # the linear theory alone (conical_theory): no box, no lidar, no cup
+        rows = conical_theory.theory_rows(scene, index, tensor, su, ustar)
+        rows[0]["wall_s"] = time.perf_counter() - t0
+        return unit_dataset(scene, index, rows)
     hs = tuple(z) if s.cycle else (z,)
     spacing = s.spacing or default_spacing(min(hs))
     lidar = scene.lidar_fields(spacing)
@@ -175,6 +179,8 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
                                                      refocus_time=refocus, lidar_overrides=lidar, **kw)
     else:
         rows = [conical_simulation.simulate_conical_period(z, scene.unit_seed(index), lidar_overrides=lidar, **kw)]
+    if s.theory == "continuum":
+        conical_theory.add_theory(rows, scene, index, tensor, spacing)
     wall = time.perf_counter() - t0
     for r in rows:
         r["sigma_u_target"], r["u_star"] = su, ustar
@@ -213,6 +219,13 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
         vals = [[[float(r["variants"][v][n].get(src, np.nan)) for n in revs] for v in names] for r in rows]
         dv[f"{key}_variant"] = (("period", "variant", "scan_s"), np.array(vals),
                                 {"units": units, "long_name": f"{long.format(span=span)}, processing variant"})
+    if "theory" in rows[0]:
+        t_attrs = rows[0]["theory_attrs"]
+        for key, (per_scan, units, long) in conical_theory.THEORY_VARS.items():
+            name = key[:-len("_theory")]
+            vals = [[r["theory"]["scans"][n][name] for n in revs] if per_scan else r["theory"][name] for r in rows]
+            dv[key] = ((("period", "scan_s") if per_scan else ("period",)), np.array(vals, dtype=float),
+                       {"units": units, "long_name": long.format(span=span), **t_attrs})
     dv["mean_speed"] = (("period",), np.array([float(p.mean_speed)] * len(rows)), {"units": "m s-1"})
     dv["u_star"] = (("period",), np.array([np.nan if r.get("u_star") is None else float(r["u_star"]) for r in rows]),
                     {"units": "m s-1", "long_name": "friction velocity of the surface layer"})
@@ -231,8 +244,11 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
     if names:
         coords["variant"] = ("variant", np.array(names, dtype=object))
     r = rows[0]
-    reason = (f"box {'x'.join(map(str, r['box_shape']))} at {r['spacing']:g} m"
-              f"{', laterally doubled' if r['lateral_doubling'] else ''}")
+    if r.get("answer") == "theory":
+        reason = "no field: the linear theory's continuum (scan.theory = 'only')"
+    else:
+        reason = (f"box {'x'.join(map(str, r['box_shape']))} at {r['spacing']:g} m"
+                  f"{', laterally doubled' if r['lateral_doubling'] else ''}")
     attrs = {
         "title": f"cwlidar_sim conical campaign {scene.name}",
         "results_version": RESULTS_VERSION,
@@ -244,6 +260,9 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
         "field_reason": reason,
         "timing": json.dumps({k: float(v) for k, v in r["cost_s"].items()} | {"total": r["wall_s"]}),
     }
+    if r.get("answer") == "theory":
+        attrs["answer"] = ("linear theory alone (scan.theory = 'only'), no simulation: std_ratio, lidar_std and "
+                           "cup_std are the *_theory values, cup_mean is U, the rest NaN")
     if scene.scan.cycle:
         heights = ", ".join(f"{float(x['height']):g}" for x in rows)
         attrs["field_reason"] = (f"{reason}: one box for the heights {heights} m, the lidar cycling "
@@ -314,6 +333,15 @@ def summarise(ds):
             out[f"{var}_sigma"] = (HS, err, {"units": attrs.get("units", "1"), "long_name": f"standard error of {var}"})
         if var == "std_ratio":
             out["n_selected"] = (HS, n.astype(np.int64), {"units": "1", "long_name": "periods passing CS's selection"})
+    for var, (per_scan, _, _) in conical_theory.THEORY_VARS.items():
+        if var in ds:  # the theory of the same periods the simulation's means take (selected, per scan)
+            mean, _, _ = by_height(var, per_scan)
+            how = "selected periods" if per_scan else "periods"
+            out[var] = (HS if per_scan else ("height",), mean,
+                        {**ds[var].attrs, "long_name": f"{ds[var].attrs['long_name']} (mean over the {how})"})
+    if "answer" in ds.attrs:  # the theory alone: no scatter over seeds to take a standard error of
+        for var in [v for v in out if v.endswith("_sigma")]:
+            out[var] = (out[var][0], np.full(np.shape(out[var][1]), np.nan), out[var][2])
     for var in ("std_ratio_variant", "mean_speed_bias_variant", "tp_variant", "scan_availability_variant"):
         if var not in ds:
             continue

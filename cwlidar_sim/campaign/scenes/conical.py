@@ -140,6 +140,12 @@ class ScanSpec(Spec):
         per height, each in [1, 10000]: height i runs that many periods,
         cycling through the ``[[period]]`` tables (module notes); dwell mode
         only.
+    theory : {None, 'continuum', 'only'}
+        The linear theory of the std ratios
+        (:mod:`cwlidar_sim.campaign.periods.conical_theory`): None (default)
+        none; ``"continuum"``: beside the simulation (``*_theory``
+        variables); ``"only"``: instead of it, for a tier ``los`` scene
+        without processing variants (dwell mode, a generated field).
     """
 
     heights: tuple = (40.0, 60.0, 80.0, 100.0)
@@ -156,6 +162,7 @@ class ScanSpec(Spec):
     revs_per_height: int = 1
     refocus_time: float = 0.0
     periods_per_height: tuple = ()
+    theory: str | None = None
 
     #: Keys :meth:`from_dict` refuses with its own message (they moved to ``[lidar]``).
     _explained_keys = ("lidar", "tier")
@@ -204,6 +211,11 @@ class ScanSpec(Spec):
             raise ValueError("scan.periods_per_height needs scan.cycle = false (a cycling lidar measures every "
                              "height in each period); allowed: cycle = false, or no periods_per_height")
         set_field(self, "periods_per_height", plan)
+        if self.theory is not None:
+            check_choice("scan.theory", self.theory, ("continuum", "only"))
+            if self.cycle:
+                raise ValueError(f"scan.theory = {self.theory!r} needs scan.cycle = false (the theory takes one "
+                                 f"height's scans evenly spaced over the period); allowed: cycle = false")
 
     def block_time(self) -> float:
         """Cycle mode: the time of one height's block, revolutions plus refocus [s]."""
@@ -397,6 +409,8 @@ class ConicalScene(SceneSpec):
                                      f"{nh} heights ({nh} x {block:g} s blocks); allowed: longer periods or fewer "
                                      f"revs_per_height")
 
+        if self.scan.theory == "only":
+            _check_theory_only(self)
         # the lidar's own checks (focus range, dwell, cells, clouds), named by field, at every height
         from ...sensors.conical import ConicalLidar
 
@@ -501,3 +515,21 @@ class ConicalScene(SceneSpec):
     def resolve(self, path: str) -> str:
         """A path of the scene file, relative to the scene's folder."""
         return resolve_path(self.base_dir, path)
+
+
+def _check_theory_only(scene) -> None:
+    """``scan.theory = "only"``: refused by name where the theory cannot answer what the scene asks."""
+    why = []
+    if scene.lidar.tier != "los":
+        why.append(f"lidar.tier = {scene.lidar.tier!r} (the theory is tier los's answer: no speckle, noise or "
+                   f"Doppler estimator)")
+    if scene.lidar.variants:
+        why.append("lidar.variants (processing variants need the spectra)")
+    if scene.turbulence.condition_on:
+        why.append("turbulence.condition_on (records to condition a box on)")
+    if scene.turbulence.file is not None:
+        why.append("turbulence.file (a field, not a tensor)")
+    if why:
+        raise ValueError("scan.theory = 'only' answers the linear statistics (the lidar/cup std ratios) of a tier "
+                         "los scene by the theory alone; this scene asks for " + "; ".join(why)
+                         + "; allowed: theory = 'continuum' (beside the simulation) or a scene without them")

@@ -1,0 +1,211 @@
+"""The linear theory of a conical scene's lidar/cup standard-deviation ratio, beside its simulation or instead of it.
+
+A conical scene (:mod:`cwlidar_sim.campaign.scenes.conical`) with ``[scan]
+theory = "continuum"`` carries, in every unit and in its summary,
+``std_ratio_theory``, ``lidar_std_theory`` and ``cup_std_theory``: the
+expected values of what the period measures, to first order in the
+turbulence intensity, from the Mann tensor of the unit
+(:mod:`cwlidar_sim.analysis.linear_theory`):
+
+* the lidar: the VAD fit's u output of one revolution
+  (:func:`cwlidar_sim.campaign.periods.theory.conical_functionals`: every
+  estimate at its own azimuth and time, the scene's probe ``weighting``
+  along each beam with the instrument's optics, the fit's weights), its
+  ``sub_dwells`` looks per estimate merged into one look at their mean
+  position and time with their summed weights (exact for a uniform wind; the looks lie
+  within 1 m of each other); a scan of n revolutions is the mean of n
+  successive one-revolution fits (checked against the n-revolution fit's own
+  weights), so its spectrum is the one-revolution spectrum (log-log
+  interpolated on a dense grid) times ``|sum_m exp(i m k1 U T_rev)|^2 / n^2``;
+* the cup: u at the cup's position with its first-order response (time
+  constant ``distance_constant / U``);
+* the period: the spectra's expected sample variance about the period's own
+  mean (:func:`cwlidar_sim.analysis.linear_theory.period_variance`: scans
+  every ``n T_rev``, the cup at its rate, aliasing included), times
+  ``N / (N - 1)`` (the simulation's ``ddof = 1``), over the period's duration.
+
+The ratio is ``sqrt(E[s_lidar^2] / E[s_cup^2])``; the simulation averages
+per-period ratios ``s_lidar / s_cup`` over periods (a second-order
+difference).  The theory is the continuum (no box: its grid, size and the
+sensors on nodes are the simulation's, not the theory's), frozen turbulence
+(Taylor), the horizontal speed taken as U + u, no speckle, noise or
+estimator (tier ``los``'s answer; the spectral and signal tiers differ from
+it by those).  It depends on the tensor, the height, U, the wind direction,
+the scan and the period's duration, not on the seed: it is computed once per
+distinct set of these (cached within a process), the periods of one
+template sharing it.
+
+``theory = "only"`` answers a tier-``los`` scene by the theory alone
+(:func:`theory_rows`): the units hold the theory in the simulated variables'
+places (``std_ratio``, ``lidar_std``, ``cup_std``; ``cup_mean`` = U), the
+statistics the theory cannot give (TP, availability, directions, the mean
+speed's bias: not linear, or not in the theory) are NaN, and
+``attrs["answer"]`` says so.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+
+from ...analysis import linear_theory as lt
+from . import theory as th
+from .conical_simulation import _conical_lidar
+
+__all__ = ["THEORY_VARS", "N_K1", "K1_RANGE", "RESOLUTION", "unit_theory", "theory_rows", "theory_attrs"]
+
+#: The theory's variables: per scan length (``scan=True``) or per unit.
+THEORY_VARS = {
+    "std_ratio_theory": (True, "1", "linear theory of the lidar / cup {span} standard deviation"),
+    "lidar_std_theory": (True, "m s-1", "linear theory of the lidar {span} standard deviation (VAD u)"),
+    "cup_std_theory": (False, "m s-1", "linear theory of the cup {span} standard deviation"),
+}
+#: Wavenumbers of the spectra, log-spaced [rad/m], and their number: against 24 (and 40) they move the ratios by
+#: at most 0.0008 (CS scene, 100 m, 8 m/s: 0.7654 / 0.7605 against 0.7647 / 0.7608 with 24).
+N_K1 = 12
+K1_RANGE = (1e-4, 1.0)
+#: The plane quadrature's ``resolution``: 10, 20 and 40 give the same ratios to 1e-4 there.
+RESOLUTION = 20.0
+
+_CACHE: dict = {}
+
+
+def _merge_sub_dwells(vad, nsub: int):
+    """The VAD's u output with each estimate's ``nsub`` looks merged into one (module notes)."""
+    looks = vad.looks
+    n_e = looks.n_looks // nsub
+    p = looks.point_lc.reshape(n_e, nsub, 3).mean(axis=1)
+    t = looks.time_l.reshape(n_e, nsub).mean(axis=1)
+    n = looks.direction_lc.reshape(n_e, nsub, 3).mean(axis=1)
+    n_unit = n / np.linalg.norm(n, axis=1, keepdims=True)
+    w = vad.weight_olc[:1].reshape(1, n_e, nsub, 3).sum(axis=2)
+    merged = lt.Looks(p, n_unit, t, looks.probe_l[0])
+    return lt.LinearFunctional(merged, w, ["u"])
+
+
+def _mean_of_n(x, n: int):
+    """``|sum_{m<n} exp(i m x)|^2 / n^2`` [-]: the mean of n samples x apart in phase."""
+    return np.abs(np.exp(1j * np.outer(x, np.arange(n))).sum(axis=1)) ** 2 / n**2
+
+
+def _comb_ok(lidar, z, U, n_rev, one) -> bool:
+    """Whether the ``n_rev`` fit is the mean of ``n_rev`` one-revolution fits (azimuths repeating each revolution)."""
+    if n_rev == 1:
+        return True
+    many = th.conical_functionals(lidar, z, U, revolutions=n_rev)
+    w = many.weight_olc[:1].reshape(1, n_rev, -1, 3)
+    return bool(np.allclose(w * n_rev, one.weight_olc[:1][:, None], atol=1e-9, rtol=0.0))
+
+
+def unit_theory(lidar, height: float, mean_speed: float, duration: float, params, scan_revs, cup) -> dict:
+    """The theory of one unit's height (module notes), cached on what it depends on.
+
+    Parameters
+    ----------
+    lidar : ConicalLidar
+        In the field's frame (the mean wind along +x).
+    height : float
+        [m], one of ``lidar.heights``.
+    mean_speed : float
+        U [m/s].
+    duration : float
+        The period [s].
+    params : MannParameters
+    scan_revs : tuple of int
+        Revolutions per VAD scan.
+    cup : Cup
+        The cup (its position, distance constant and rate).
+
+    Returns
+    -------
+    dict
+        ``cup_std`` [m/s] and ``scans``: per n, ``lidar_std`` [m/s] and ``std_ratio``; ``wall_s``.
+    """
+    key = (repr(lidar), float(height), float(mean_speed), float(duration), repr(params), tuple(scan_revs), repr(cup),
+           N_K1, K1_RANGE, RESOLUTION)
+    if key in _CACHE:
+        return _CACHE[key]
+    t0 = time.perf_counter()
+    z, U, T = float(height), float(mean_speed), float(duration)
+    vad, cupf = th.conical_functionals(lidar, z, U, revolutions=1, cup=cup)
+    one = _merge_sub_dwells(vad, lidar.sub_dwells)
+    k1 = np.geomspace(*K1_RANGE, N_K1)
+    s = lt.functional_spectra(k1, params, [one, cupf], U, resolution=RESOLUTION)
+    dt_c = 1.0 / cup.rate
+    n_c = int(round(T / dt_c))
+    var_c = lt.period_variance(k1, s.spectrum(1), U, T, sample_interval=dt_c)["within"] * n_c / (n_c - 1)
+    out = {"cup_std": math.sqrt(var_c), "scans": {}}
+    for n in scan_revs:
+        dt = n * lidar.revolution_time
+        if not _comb_ok(lidar, z, U, n, vad):
+            raise ValueError(f"scan_revs {n}: the lidar's azimuths do not repeat each revolution; the theory "
+                             f"takes an n-revolution fit as the mean of n one-revolution fits")
+        # the comb's nulls are not log-log smooth: the one-revolution spectrum interpolated on a dense grid first
+        kd = np.geomspace(K1_RANGE[0], 100.0, 16001)
+        comb = _mean_of_n(kd * U * lidar.revolution_time, n)
+        comb[-2:] = 1.0 / n  # its mean, where it oscillates faster than the grid: a smooth power-law tail
+        F = lt._loglog(k1, s.spectrum(0), kd) * comb
+        n_s = int(T // dt)
+        var = lt.period_variance(kd, F, U, n_s * dt, sample_interval=dt)["within"] * n_s / (n_s - 1)
+        out["scans"][n] = {"lidar_std": math.sqrt(var), "std_ratio": math.sqrt(var / var_c)}
+    out["wall_s"] = time.perf_counter() - t0
+    _CACHE[key] = out
+    return out
+
+
+def theory_attrs(lidar, params) -> dict:
+    """The theory variables' attributes: what the theory is, its weighting, tensor, box and numerics."""
+    return {"theory": "linear (first order in the turbulence intensity), frozen turbulence, tier los (no speckle, "
+                      "noise or estimator); campaign.periods.conical_theory",
+            "theory_box": "continuum (no box)",
+            "theory_weighting": str(lidar.weighting),
+            "theory_tensor": json.dumps(params.as_dict()),
+            "theory_numerics": json.dumps({"k1": [K1_RANGE[0], K1_RANGE[1], N_K1], "resolution": RESOLUTION,
+                                           "accuracy_ratio": 0.002})}
+
+
+def scene_lidar(scene, index: int, spacing: float):
+    """Unit ``index``'s lidar in the field's frame (as the simulation builds it) and its height."""
+    p, z = scene.units()[index]
+    kw = scene.lidar_fields(spacing)
+    tier, sub = kw.pop("tier"), kw.pop("sub_dwells")
+    cell = kw.pop("cell_length")
+    return _conical_lidar((z,), tier, cell, sub, kw, p.toward_deg), z
+
+
+def theory_rows(scene, index: int, tensor, su, ustar) -> list:
+    """Unit ``index`` answered by the theory alone (``theory = "only"``): one row as the simulation's dict holds it."""
+    from ...sensors import Cup
+
+    p, z = scene.units()[index]
+    lidar, z = scene_lidar(scene, index, 1.0)
+    U, T = float(p.mean_speed), scene.period_duration(p)
+    cup = Cup(position=(0.0, 0.0, z))
+    t = unit_theory(lidar, z, U, T, tensor, scene.scan.scan_revs, cup)
+    nan = math.nan
+    row = {"height": z, "params": tensor.as_dict(), "u_star": ustar, "sigma_u_target": su,
+           "in_situ_position": (0.0, 0.0, z), "cup_mean": U, "cup_std": t["cup_std"], "sonic_std": nan,
+           "sonic_radial_variance": nan, "availability": nan, "zero_crossing_loss": nan,
+           "second_peak_fraction": nan, "cloud_fraction": nan, "sonic_direction": nan,
+           "cost_s": {"theory": t["wall_s"]}, "theory": t, "theory_attrs": theory_attrs(lidar, tensor),
+           "answer": "theory", "scans": {}}
+    for n, sc in t["scans"].items():
+        row["scans"][n] = {"lidar_std": sc["lidar_std"], "std_ratio": sc["std_ratio"], "selected": 1.0,
+                           "l_az": nan}
+    return [row]
+
+
+def add_theory(rows, scene, index: int, tensor, lidar_fields_spacing: float) -> None:
+    """Put the theory of unit ``index`` (dwell mode) into its simulated ``rows`` (``theory = "continuum"``)."""
+    from ...sensors import Cup
+
+    p, _ = scene.units()[index]
+    lidar, z = scene_lidar(scene, index, lidar_fields_spacing)
+    for r in rows:
+        cup = Cup(position=(0.0, 0.0, z))
+        r["theory"] = unit_theory(lidar, z, float(p.mean_speed), scene.period_duration(p), tensor,
+                                  scene.scan.scan_revs, cup)
+        r["theory_attrs"] = theory_attrs(lidar, tensor)

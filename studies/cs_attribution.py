@@ -122,7 +122,7 @@ def fit_u(lidar, z, U, probe="lorentzian"):
 
 
 def only(functional, component):
-    """A ``fit_u`` functional's u response to ``component`` alone (``"u"``: the u component of ``uv``)."""
+    """A ``fit_u`` functional's ``uv`` output restricted to ``component`` (``"u"``: its response to u alone)."""
     w = functional.weight_olc[:1] * np.array(COMPONENTS[component])
     return lt.LinearFunctional(functional.looks, w, [component])
 
@@ -257,7 +257,7 @@ def plane_steps(scene, z, U=U_REF, *, per_decade=8, k_max_factor=1.0, resolution
         rows_all = np.arange(1, nx // 2 + 1)
         dk1 = 2.0 * math.pi / (nx * d3[0])
         rows = rows_all[rows_all * dk1 <= k1[-1] * (1 + 1e-9)]
-        fit = only(f_exact, "all")
+        fit = lt.LinearFunctional(f_exact.looks, f_exact.weight_olc.sum(axis=0, keepdims=True), ["all"])  # uv + w
         lf = lt.lattice_spectra(params, fit, U, shape, d3, rows=rows)
         lc = lt.lattice_spectra(params, cup_functional(z, U), U, shape, d3)
         cup_box = period_variance(lc.k1_k, lc.spectrum(0), U, scene.duration, sample_interval=1.0 / CUP_RATE,

@@ -2,6 +2,7 @@
 
     python studies/cs_weighting.py [--heights 40 100] [--periods 6] [--tier los] [--json PATH] [--markdown PATH]
     python studies/cs_weighting.py --summarise LOG [--markdown PATH]   # the table from a run's printed lines
+    python studies/cs_weighting.py --heights 100 --skip 3 --periods 6 >> LOG   # more units for LOG (resume)
 
 The bundled ``cs`` scene's units (its period templates, seeds, settings: tier ``spectral``, span
 30, the mean-wind tail) at each height, each run once per weighting with everything else the same:
@@ -82,7 +83,7 @@ def register():
             register_weighting(name, cls)
 
 
-def run(heights, n_periods, weights, tier=None):
+def run(heights, n_periods, weights, tier=None, skip=0):
     from cwlidar_sim.campaign import bundled_scene
     from cwlidar_sim.campaign.periods.conical import run_unit
 
@@ -93,7 +94,7 @@ def run(heights, n_periods, weights, tier=None):
     out = {"units": [], "weightings": list(weights), "heights": [float(z) for z in heights], "periods": n_periods,
            "tier": tier}
     for z in heights:
-        idx = [i for i, (_, zz) in enumerate(units) if zz == z][:n_periods]
+        idx = [i for i, (_, zz) in enumerate(units) if zz == z][skip:n_periods]
         for i in idx:
             p = units[i][0]
             row = {"height": float(z), "unit": scene.unit_names()[i], "seed": scene.unit_seed(i),
@@ -154,6 +155,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--heights", type=float, nargs="+", default=[40.0, 100.0])
     ap.add_argument("--periods", type=int, default=6, help="units per height (the scene's plan, in order)")
+    ap.add_argument("--skip", type=int, default=0, help="leave out each height's first units (those a log has)")
     ap.add_argument("--weightings", nargs="+", default=list(WEIGHTS))
     ap.add_argument("--tier", default=None, help="lidar tier (default: the scene's, spectral)")
     ap.add_argument("--json", default=None)
@@ -174,7 +176,7 @@ def main(argv=None) -> int:
         return 0
     t, c = time.perf_counter(), time.process_time()
     load0 = os.getloadavg()
-    out = run(a.heights, a.periods, a.weightings, a.tier)
+    out = run(a.heights, a.periods, a.weightings, a.tier, a.skip)
     out["run"] = {"wall_s": time.perf_counter() - t, "cpu_s": time.process_time() - c, "loadavg_start": list(load0),
                   "loadavg_end": list(os.getloadavg())}
     md = markdown(out)

@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from ..._version import __version__
-from . import conical_simulation, conical_theory
+from . import conical_simulation, conical_theory, in_situ
 from .conical_simulation import cycle_reference_height
 from .._labels import WIND_DIRECTION_CONVENTION, duration_phrase, periods_phrase, wind_from_toward
 from ..scenes.conical import ConicalScene, default_spacing
@@ -213,6 +213,14 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
         src = _FROM_SIM.get(key, key)
         vals = [[float(r["scans"][n].get(src, np.nan)) for n in revs] for r in rows]
         dv[key] = (("period", "scan_s"), np.array(vals), {"units": units, "long_name": long.format(span=span)})
+    # the cup's and the sonic's variance below the box's grid, and their sigma with it restored (periods.in_situ)
+    for key, (units, long) in in_situ.UNIT_VARS.items():
+        dv[key] = (("period",), np.array([float(r.get(key, np.nan)) for r in rows]),
+                   {"units": units, "long_name": long.format(span=span)})
+    for key, (units, long) in in_situ.SCAN_VARS.items():
+        vals = [[float(r["scans"][n].get(key, np.nan)) for n in revs] for r in rows]
+        dv[key] = (("period", "scan_s"), np.array(vals),
+                   {"units": units, "long_name": long.format(span=span)})
     names = [v["name"] for v in scene.lidar.variants]
     for key, (units, long) in (VARIANT_VARS.items() if names else ()):
         src = _FROM_SIM.get(key, key)

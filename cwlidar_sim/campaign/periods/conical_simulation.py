@@ -174,7 +174,10 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         ``in_situ_position`` (the cup's and the sonic's (x, y, z) [m], the grid
         node nearest ``(0, 0, height)`` across the wind), ``params`` (dict),
         ``u_star``, ``sigma_u_target``, ``cup_mean``,
-        ``cup_std``, ``sonic_std`` (horizontal speed), ``sonic_radial_variance``
+        ``cup_std``, ``sonic_std`` (horizontal speed), ``cup_subgrid_variance``,
+        ``sonic_subgrid_variance`` (their expected variance below the box's grid,
+        :mod:`cwlidar_sim.campaign.periods.in_situ`; NaN for a field from a file),
+        ``cup_std_continuum``, ``sonic_std_continuum`` (sigma with it restored), ``sonic_radial_variance``
         [m^2/s^2] (the projected point variance, :mod:`cwlidar_sim.analysis.vad`),
         ``sonic_direction`` (the sonic's mean direction in the lidar's frame
         [deg], in [-180, 180)), ``availability`` (finite estimates),
@@ -185,7 +188,7 @@ def simulate_conical_period(height: float, seed: int, *, speed: float = 10.0, du
         stages) and ``scans``: for each n in ``scan_revs`` a dict with
         ``lidar_mean``, ``lidar_std`` [m/s], ``lidar_direction`` (mean VAD
         direction in the lidar's frame [deg], in [-180, 180)), ``std_ratio``
-        (lidar/cup), ``mean_speed_bias`` (lidar mean / cup mean - 1), ``tp``
+        (lidar/cup), ``std_ratio_cup_continuum`` (over ``cup_std_continuum``), ``mean_speed_bias`` (lidar mean / cup mean - 1), ``tp``
         (mean TP), ``radial_variance`` (mean (TP U)^2),
         ``radial_variance_ratio`` (over ``sonic_radial_variance``),
         ``availability`` (fitted scans), ``points_used_fraction``,
@@ -276,6 +279,7 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
     from ...sensors import Cup, Sonic, nearest_node, sample_cup, sample_sonic
     from ...sensors.conical import measure_conical
     from ...turbulence.cover import cover_box
+    from .in_situ import continuum_std, field_subgrid_variance
     from ...turbulence.surface_layer import surface_layer_parameters
     from ...signal.processing import Flag
     from ...turbulence.parameters import MannParameters
@@ -333,13 +337,17 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
         # on the grid's nearest node across the wind: between nodes the cup would read their average
         pos = nearest_node(field, (0.0, 0.0, z))
         cup = Cup(position=pos)
+        # the variance below the grid each reads without (analysis.point_subgrid), reported beside the raw sigma
+        sub = (field_subgrid_variance(field, pos, params, U, duration, time_constant=cup.distance_constant / U,
+                                      sample_interval=1.0 / cup.rate),
+               field_subgrid_variance(field, pos, params, U, duration, sample_interval=duration / sel["time_e"].size))
         in_situ[z] = (sel, sample_sonic(field, Sonic(position=pos), sel["time_e"], U),
-                      sample_cup(field, cup, cup.times(duration), U), pos)
+                      sample_cup(field, cup, cup.times(duration), U), pos, sub)
     cost["in_situ"] = time.perf_counter() - t0
     del field
     out = []
     for z in heights:
-        sel, vel_ec, cup_t, pos = in_situ[z]
+        sel, vel_ec, cup_t, pos, (cup_sub, sonic_sub) = in_situ[z]
         sonic_h = np.hypot(vel_ec[:, 0], vel_ec[:, 1])
         flags_e = sel["flags_e"]
         r = {
@@ -348,6 +356,9 @@ def _simulate(heights, seed, *, speed, duration, scan_revs, tier, spacing, later
             "in_situ_position": pos, "params": params.as_dict(), "u_star": ustar, "sigma_u_target": su_target,
             "cup_mean": float(cup_t.mean()), "cup_std": float(cup_t.std(ddof=1)),
             "sonic_std": float(sonic_h.std(ddof=1)),
+            "cup_subgrid_variance": cup_sub, "sonic_subgrid_variance": sonic_sub,
+            "cup_std_continuum": continuum_std(cup_t.std(ddof=1), cup_sub),
+            "sonic_std_continuum": continuum_std(sonic_h.std(ddof=1), sonic_sub),
             "sonic_radial_variance": sonic_radial_variance(vel_ec, sel["azimuth_e"], lidar.half_angle_deg),
             "availability": usable_fraction(sel["speed_e"], flags_e),
             "zero_crossing_loss": float(np.mean((flags_e & (Flag.NO_SIGNAL | Flag.NEAR_ZERO)) != 0)),
@@ -403,6 +414,7 @@ def _scans(out, rec, lidar, z, U, vel_ec, rev_e, params, scan_revs, reference, m
             "lidar_mean": st["mean_speed"], "lidar_std": st["std_speed"],
             "lidar_direction": _wrap180(st["mean_direction"] + wind_direction_deg),
             "std_ratio": _ratio(st["std_speed"], out["cup_std"]),
+            "std_ratio_cup_continuum": _ratio(st["std_speed"], out.get("cup_std_continuum", math.nan)),
             "mean_speed_bias": _ratio(st["mean_speed"], out["cup_mean"]) - 1.0,
             "tp": st["mean_tp"], "radial_variance": st["radial_variance"],
             "radial_variance_ratio": _ratio(st["radial_variance"], out["sonic_radial_variance"]),

@@ -1,6 +1,6 @@
 """The WindScanner's and the SpinnerLidar's linear theory: their estimates as :mod:`~cwlidar_sim.analysis.linear_theory` functionals.
 
-Beside :mod:`.theory` (the staring, conical and nacelle lidars), above the
+Beside :mod:`cwlidar_sim.campaign.periods.theory` (the staring, conical and nacelle lidars), above the
 sensors and the analysis, this module reads a
 :class:`~cwlidar_sim.sensors.windscanner.WindScanner`'s or a
 :class:`~cwlidar_sim.sensors.spinner.SpinnerLidar`'s geometry and schedule and
@@ -30,7 +30,7 @@ what its period compares:
 The field's frame: the mean wind U along +x; frozen turbulence (Taylor).  A
 look's probe is its beam's continuous weighting
 (:func:`cwlidar_sim.analysis.rews_theory.beam_transfer` of the lidar's
-``weighting`` with the instrument's optics, as :mod:`.theory` takes it),
+``weighting`` with the instrument's optics, as :mod:`cwlidar_sim.campaign.periods.theory` takes it),
 not the simulation's discrete range cells; the field is the continuum's
 (:func:`~cwlidar_sim.analysis.linear_theory.functional_spectra`) unless a
 box's lattice is asked for (:func:`~cwlidar_sim.analysis.linear_theory.lattice_spectra`).
@@ -100,7 +100,7 @@ def _cached(key, compute):
 
 
 def _probe(lidar, instrument):
-    """``phi_hat`` of the lidar's weighting at the instrument's focus, with its optics (:mod:`.theory`'s rule)."""
+    """``phi_hat`` of the lidar's weighting at the instrument's focus, with its optics (:mod:`cwlidar_sim.campaign.periods.theory`'s rule)."""
     return beam_transfer(instrument.focus, lidar.weighting, wavelength=instrument.wavelength,
                          radius=instrument.telescope_radius)
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..._atomic import atomic_path
 
-__all__ = ["plot_rews", "plot_inflow", "make_spinner_figures"]
+__all__ = ["plot_rews", "plot_inflow", "plot_rews_coherence", "make_spinner_figures"]
 
 
 def _plt():
@@ -57,13 +57,36 @@ def plot_inflow(ds, period: int = 0):
     return fig
 
 
+def plot_rews_coherence(ds, period: int = 0):
+    """The coherence of each estimate kind's REWS with the rotor's over the rosettes, and the linear theory's."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.0, 4.0))
+    k = ds.k_coherence.values[period]
+    for j, e in enumerate(ds.estimate.values):
+        ax.plot(k, ds.rews_coherence.values[period, j], "o", ms=4, label=str(e))
+    th = ds.rews_coherence_theory.values[period]
+    if np.isfinite(th).any():
+        ax.plot(k, th, "k-", lw=1.2, label="linear theory (frozen)")
+    ax.set_xscale("log")
+    ax.set_ylim(0.0, 1.05)
+    ax.set_xlabel("wavenumber k [rad/m]")
+    ax.set_ylabel("coherence, lidar REWS vs rotor [-]")
+    ax.set_title(f"period {ds.period.values[period]}")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
 def make_spinner_figures(ds, out_dir) -> list:
     """Write the figures of every period as PNG into ``out_dir``; the paths."""
     plt = _plt()
     os.makedirs(out_dir, exist_ok=True)
     paths = []
     for ip in range(ds.period.size):
-        for name, fn in (("rews", plot_rews), ("inflow", plot_inflow)):
+        plots = [("rews", plot_rews), ("inflow", plot_inflow)]
+        if "rews_coherence" in ds:
+            plots.append(("coherence", plot_rews_coherence))
+        for name, fn in plots:
             fig = fn(ds, ip)
             path = os.path.join(os.fspath(out_dir), f"spinner_{name}_period{ip}.png")
             with atomic_path(path) as tmp:

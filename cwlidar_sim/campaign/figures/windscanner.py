@@ -16,7 +16,7 @@ __all__ = ["plot_transfer_components", "make_windscanner_figures"]
 
 
 def plot_transfer_components(ds, period: int = 0, estimate: str = "main"):
-    """A2012's methods 1 (ratio) and 2 (cross) against k for u, v and w of one period and estimate kind."""
+    """A2012's methods 1 (ratio) and 2 (cross) against k for u, v and w of one period and estimate kind, with the linear theory."""
     import matplotlib.pyplot as plt
 
     j = list(ds.estimate.values).index(estimate)
@@ -28,6 +28,11 @@ def plot_transfer_components(ds, period: int = 0, estimate: str = "main"):
             y = ds[var].values[period, j, c]
             fin = np.isfinite(y) & (y > 0)
             ax.plot(k[fin], y[fin], mark, ms=4, label=label)
+            if f"{var}_theory" in ds:  # the linear theory beside it (campaign.periods.scanner_theory)
+                th = ds[f"{var}_theory"].values[period, c]
+                fin = np.isfinite(th) & (th > 0)
+                ax.plot(k[fin], th[fin], "-" if var == "transfer_ratio" else "--", color="k", lw=1.0,
+                        label=f"theory, method {1 if var == 'transfer_ratio' else 2}")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("wavenumber k [rad/m]")

@@ -22,7 +22,13 @@ Per period (:mod:`cwlidar_sim.campaign.scenes.spinner`):
    from the disc-averaged wind (the set yaw less the turbulent wind's
    direction), which is what a yaw estimate estimates.
 
-Results: dims ``period``, ``estimate``, ``rosette``; units on every variable.
+5. Coherence of each estimate kind's REWS with the rotor's over the
+   rosettes, and beside it the linear theory's
+   (:func:`cwlidar_sim.campaign.periods.scanner_theory.spinner_variables`;
+   frozen periods only).
+
+Results: dims ``period``, ``estimate``, ``rosette``, ``k`` (the coherence's
+bins, per period ``k_coherence``); units on every variable.
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ from ..._version import __version__
 from ...signal.processing import usable_mask
 from ..scenes.spec import RESULTS_VERSION
 from ..scenes.spinner import SpinnerScene
+from .scanner_theory import spinner_variables
 
 __all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "period_record", "summary",
            "COST_S_PER_SIM_HOUR", "PRODUCTS"]
@@ -188,6 +195,9 @@ def run_unit(scene: SpinnerScene, index: int, params=None, *, status=None):
             bias[j], rmse[j] = float(err[j, ok].mean()), float(np.sqrt((err[j, ok] ** 2).mean()))
         if ok.sum() >= 3 and np.std(rews[ok]) > 0 and np.std(prod["rews"][j, ok]) > 0:
             corr[j] = float(np.corrcoef(prod["rews"][j, ok], rews[ok])[0, 1])
+    t0 = time.perf_counter()
+    coherence = spinner_variables(scene, index, prod["rews"], rews)
+    info["cost_s"]["coherence_and_theory"] = time.perf_counter() - t0
     P, E, R = ("period",), ("estimate",), ("rosette",)
     dv = {name: (P + E + R, prod[name][None], {"units": u, "long_name": ln})
           for name, (_, u, ln) in PRODUCTS.items()}
@@ -215,6 +225,7 @@ def run_unit(scene: SpinnerScene, index: int, params=None, *, status=None):
         "lifetime": (P, np.array([np.nan if p.lifetime is None else p.lifetime]),
                      {"units": "s", "long_name": "eddy-lifetime scale (NaN: frozen turbulence)"}),
     })
+    dv.update(coherence)
     coords = {"period": ("period", np.array([p.name], dtype=object)),
               "estimate": ("estimate", np.array(kinds, dtype=object)),
               "fit": ("fit", np.array(["without_dudy", "with_dudy"], dtype=object)),

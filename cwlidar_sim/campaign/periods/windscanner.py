@@ -25,9 +25,10 @@ Per period (:mod:`cwlidar_sim.campaign.scenes.windscanner`):
 
 Results: dims ``period``, ``estimate`` (tier1, main, variants),
 ``component`` (u, v, w), ``k`` [rad/m]; units on every variable.
-Not here yet: the components' linear-theory transfer functions (a general
-linear-theory module is being written, issue 33) and the published layout's
-w-variance ratio.
+Beside them, the linear theory (:func:`cwlidar_sim.campaign.periods.scanner_theory.windscanner_variables`):
+each component's transfer functions by both methods and the w-variance
+ratio, from the beams' weightings and the reconstruction matrix on the
+frozen continuum, once per period.
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ from ..._version import __version__
 from ...signal.processing import usable_mask
 from ..scenes.spec import RESULTS_VERSION
 from ..scenes.windscanner import WindScannerScene
+from .scanner_theory import windscanner_variables
 
 __all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "summary", "period_record",
            "COST_S_PER_SIM_HOUR", "COMPONENTS"]
@@ -169,6 +171,9 @@ def run_unit(scene: WindScannerScene, index: int, params=None, *, status=None):
                 continue  # too many gaps in every segment: NaN, the availability says why
             t1[j, c], t2[j, c] = est.transfer_ratio_k, est.transfer_cross_k
     cost["analysis"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    theory = windscanner_variables(scene, index, kc)
+    cost["theory"] = time.perf_counter() - t0
     cond = scene.sensor().condition_numbers()
     P = ("period",)
     E, C = ("estimate", "component"), ("estimate", "component", "k")
@@ -195,6 +200,7 @@ def run_unit(scene: WindScannerScene, index: int, params=None, *, status=None):
                                                                                  "beams over the pattern"}),
         "mean_speed": (P, np.array([U]), {"units": "m s-1", "long_name": "mean wind"}),
     }
+    dv.update(theory)
     coords = {
         "period": ("period", np.array([p.name], dtype=object)),
         "estimate": ("estimate", np.array(kinds, dtype=object)),

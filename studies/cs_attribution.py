@@ -335,27 +335,32 @@ def figure(out, sim, path):
     import matplotlib.pyplot as plt
 
     zs = sorted(out["heights"], key=float)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), sharey=True)
-    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.9, len(STEPS)))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5.0), sharey=True)
     x = np.arange(len(STEPS) + 1)
+    split = STEPS.index("uv_3d") - 0.5
     for ax, n in zip(axes, SCANS):
         for j, z in enumerate(zs):
             v = [out["heights"][z]["steps"][s][str(n)] for s in STEPS]
-            ax.plot(x[:-1], v, "-", color=f"C{j}", lw=1.2, alpha=0.8)
-            for i, c in enumerate(colours):
-                ax.plot(x[i], v[i], "o", color=c, ms=5, zorder=3)
+            ax.plot(x[:-1], v, "o-", color=f"C{j}", lw=1.3, ms=4.5, label=f"{z} m")
             if z in sim:
                 m, se = sim[z][n]
-                ax.errorbar(x[-1], m, yerr=se, fmt="s", color=f"C{j}", capsize=3)
+                ax.errorbar(x[-1], m, yerr=se, fmt="s", color=f"C{j}", ms=6, capsize=4, lw=1.5)
                 ax.plot([x[-2], x[-1]], [v[-1], m], ":", color=f"C{j}", lw=1.0)
-            ax.annotate(f"{z} m", (x[0], v[0]), textcoords="offset points", xytext=(-30, -3), fontsize=8,
-                        color=f"C{j}")
+        ax.axvline(split, color="0.5", ls="--", lw=0.8)
+        ax.text(split - 0.1, 1.0, "1-D field, per template ", transform=ax.get_xaxis_transform(), ha="right",
+                va="top", fontsize=7.5, color="0.35")
+        ax.text(split + 0.1, 1.0, " 3-D field, at 9 m/s", transform=ax.get_xaxis_transform(), ha="left",
+                va="top", fontsize=7.5, color="0.35")
         ax.set_xticks(x)
         ax.set_xticklabels([LABELS[s] for s in STEPS] + ["simulated ± s.e."], rotation=40, ha="right", fontsize=8)
         ax.set_title(f"{n} s scans")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("lidar / cup standard-deviation ratio")
-    fig.suptitle("From CS's filter model to the simulation, one step at a time (linear theory)", fontsize=10)
+    axes[0].tick_params(labelleft=True)
+    axes[1].tick_params(labelleft=True)
+    axes[0].legend(title="height", fontsize=8, title_fontsize=8, loc="lower left")
+    fig.suptitle("From CS's filter model to the simulation, one step at a time (linear theory; "
+                 "squares: the simulation ± standard error)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

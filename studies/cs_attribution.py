@@ -4,6 +4,7 @@
     python studies/cs_attribution.py --from-json docs/cs_attribution.json --figure docs/cs_attribution.png
     python studies/cs_attribution.py --merge A.json B.json --json docs/cs_attribution.json   # heights run apart
     python studies/cs_attribution.py --per-decade 16 --k-max-factor 2   # the grid check (about three times the cost)
+    python studies/cs_attribution.py --cut-check 40 100   # step 6 split: the Lorentzian cut at the telescope, then the shape
 
 The bundled ``cs`` scene's lidar (30 deg cone, 1 s revolutions, 50 estimates a revolution, CS's
 z_R = 0.0013 r^2 optics) at each height, its VAD fit's u (1 s and 3 s scans) against the cup, by
@@ -58,6 +59,7 @@ from _protocol import machine, write_json  # noqa: E402
 from cwlidar_sim.analysis import cs_model  # noqa: E402
 from cwlidar_sim.analysis import linear_theory as lt  # noqa: E402
 from cwlidar_sim.analysis.linear_theory import period_variance  # noqa: E402
+from cwlidar_sim.analysis.rews_theory import beam_transfer  # noqa: E402
 from cwlidar_sim.campaign.execution.reproduce import bundled_scene  # noqa: E402
 from cwlidar_sim.campaign.periods import theory as th  # noqa: E402
 from cwlidar_sim.campaign.scenes.conical import default_spacing  # noqa: E402
@@ -268,6 +270,29 @@ def plane_steps(scene, z, U=U_REF, *, per_decade=8, k_max_factor=1.0, resolution
     return out, cost
 
 
+def cut_check(scene, z, U=U_REF, *, per_decade=8, k_max_factor=1.0, resolution=30.0):
+    """Step 6 split in two at one speed: {probe: {n_rev: ratio}} for the whole-line Lorentzian, the Lorentzian
+    cut at the telescope (``weighting = "lorentzian"``) and the exact weighting (fit's u: uv + w)."""
+    params = height_params(scene, z, U)
+    lidar = scene_lidar(scene, z, 0.0, 1)
+    f_lor, f_exact = fit_u(lidar, z, U, "lorentzian"), fit_u(lidar, z, U, "exact")
+    inst = lidar.instrument_at(z)
+    cut = beam_transfer(inst.focus, "lorentzian", wavelength=inst.wavelength, radius=inst.telescope_radius)
+    looks = f_exact.looks
+    f_cut = lt.LinearFunctional(lt.Looks(looks.point_lc, looks.direction_lc, looks.time_l, cut), f_exact.weight_olc,
+                                ["uv", "w"])
+    k1 = k_grid(z, per_decade, k_max_factor)
+    s = lt.functional_spectra(k1, params, [f_lor, f_cut, f_exact], U, resolution=resolution)
+    point = lt.point_functional((0.0, 0.0, z), ("u",))
+    F11_k, F11_fine = (lt.functional_spectra(k, params, point, U, quadrature="x_only").spectrum(0) for k in (k1, K_FINE))
+    cup, m, out = cup_within(params, z, U), s.matrix_kab, {}
+    for i, name in enumerate(("whole_line_lorentzian", "lorentzian_cut", "exact")):
+        tot = (m[:, 2 * i, 2 * i] + m[:, 2 * i + 1, 2 * i + 1] + 2.0 * m[:, 2 * i, 2 * i + 1]).real
+        out[name] = period_ratios(K_FINE, on_fine(k1, tot, F11_k, F11_fine), U, cup)
+    out["behind_telescope_weight"] = inst.rayleigh_length / (math.pi * inst.focus)
+    return out
+
+
 def templates(scene):
     """The scene's period templates: (name, mean speed, toward [deg])."""
     return [(p.name, p.mean_speed, p.toward_deg) for p in scene.periods]
@@ -409,7 +434,15 @@ def main(argv=None) -> int:
     ap.add_argument("--from-json", default=None, help="redraw the figure and the table from a stored run")
     ap.add_argument("--merge", nargs="+", default=None, help="stored runs of other heights, joined (the first's "
                     "settings and checks; each run's own machine and wall time under 'runs')")
+    ap.add_argument("--cut-check", type=float, nargs="+", default=None, metavar="Z",
+                    help="only split step 6 (the cut at the telescope, then the shape) at these heights")
     a = ap.parse_args(argv)
+    if a.cut_check:
+        scene = bundled_scene("cs")
+        for z in a.cut_check:
+            print(f"z = {z:g} m:", json.dumps(cut_check(scene, z, per_decade=a.per_decade, k_max_factor=a.k_max_factor,
+                                                       resolution=a.resolution)), flush=True)
+        return 0
     sim = simulated(a.simulated)
     if a.from_json:
         with open(a.from_json, encoding="utf-8") as f:

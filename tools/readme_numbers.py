@@ -182,7 +182,7 @@ def _cs_residual(attribution, cs) -> str:
             f"scan's own looks, 10-minute periods and the cup, a field varying along the wind only gives "
             f"{_span(period)}. u and v decorrelating across the scan circle and along the slanted beams lower it by "
             f"{_span([-d for d in drop])}; w's contamination of the fit's horizontal speed raises it by {_span(w)}, "
-            f"the beam's exact weighting by {_span(exact)} and the box's discrete modes by {_span(box)}. The theory "
+            f"the beam's exact weighting (mostly its cut at the telescope) by {_span(exact)} and the box's discrete modes by {_span(box)}. The theory "
             f"then lies within {max(sigmas):.1f} standard errors of the simulation (simulated − theory "
             f"{_span(gap, signed=True)}; the 3-D steps at one speed, {attribution['settings']['u_ref']:g} m/s).\n")
 

@@ -4,6 +4,7 @@
     python studies/cs_attribution.py --from-json docs/cs_attribution.json --figure docs/cs_attribution.png
     python studies/cs_attribution.py --merge A.json B.json --json docs/cs_attribution.json   # heights run apart
     python studies/cs_attribution.py --per-decade 16 --k-max-factor 2   # the grid check (about three times the cost)
+    python studies/cs_attribution.py --cut-check 40 100   # step 6 split: the Lorentzian cut at the telescope, then the shape
 
 The bundled ``cs`` scene's lidar (30 deg cone, 1 s revolutions, 50 estimates a revolution, CS's
 z_R = 0.0013 r^2 optics) at each height, its VAD fit's u (1 s and 3 s scans) against the cup, by
@@ -58,6 +59,7 @@ from _protocol import machine, write_json  # noqa: E402
 from cwlidar_sim.analysis import cs_model  # noqa: E402
 from cwlidar_sim.analysis import linear_theory as lt  # noqa: E402
 from cwlidar_sim.analysis.linear_theory import period_variance  # noqa: E402
+from cwlidar_sim.analysis.rews_theory import beam_transfer  # noqa: E402
 from cwlidar_sim.campaign.execution.reproduce import bundled_scene  # noqa: E402
 from cwlidar_sim.campaign.periods import theory as th  # noqa: E402
 from cwlidar_sim.campaign.scenes.conical import default_spacing  # noqa: E402
@@ -268,6 +270,29 @@ def plane_steps(scene, z, U=U_REF, *, per_decade=8, k_max_factor=1.0, resolution
     return out, cost
 
 
+def cut_check(scene, z, U=U_REF, *, per_decade=8, k_max_factor=1.0, resolution=30.0):
+    """Step 6 split in two at one speed: {probe: {n_rev: ratio}} for the whole-line Lorentzian, the Lorentzian
+    cut at the telescope (``weighting = "lorentzian"``) and the exact weighting (fit's u: uv + w)."""
+    params = height_params(scene, z, U)
+    lidar = scene_lidar(scene, z, 0.0, 1)
+    f_lor, f_exact = fit_u(lidar, z, U, "lorentzian"), fit_u(lidar, z, U, "exact")
+    inst = lidar.instrument_at(z)
+    cut = beam_transfer(inst.focus, "lorentzian", wavelength=inst.wavelength, radius=inst.telescope_radius)
+    looks = f_exact.looks
+    f_cut = lt.LinearFunctional(lt.Looks(looks.point_lc, looks.direction_lc, looks.time_l, cut), f_exact.weight_olc,
+                                ["uv", "w"])
+    k1 = k_grid(z, per_decade, k_max_factor)
+    s = lt.functional_spectra(k1, params, [f_lor, f_cut, f_exact], U, resolution=resolution)
+    point = lt.point_functional((0.0, 0.0, z), ("u",))
+    F11_k, F11_fine = (lt.functional_spectra(k, params, point, U, quadrature="x_only").spectrum(0) for k in (k1, K_FINE))
+    cup, m, out = cup_within(params, z, U), s.matrix_kab, {}
+    for i, name in enumerate(("whole_line_lorentzian", "lorentzian_cut", "exact")):
+        tot = (m[:, 2 * i, 2 * i] + m[:, 2 * i + 1, 2 * i + 1] + 2.0 * m[:, 2 * i, 2 * i + 1]).real
+        out[name] = period_ratios(K_FINE, on_fine(k1, tot, F11_k, F11_fine), U, cup)
+    out["behind_telescope_weight"] = inst.rayleigh_length / (math.pi * inst.focus)
+    return out
+
+
 def templates(scene):
     """The scene's period templates: (name, mean speed, toward [deg])."""
     return [(p.name, p.mean_speed, p.toward_deg) for p in scene.periods]
@@ -335,27 +360,32 @@ def figure(out, sim, path):
     import matplotlib.pyplot as plt
 
     zs = sorted(out["heights"], key=float)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), sharey=True)
-    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.9, len(STEPS)))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5.0), sharey=True)
     x = np.arange(len(STEPS) + 1)
+    split = STEPS.index("uv_3d") - 0.5
     for ax, n in zip(axes, SCANS):
         for j, z in enumerate(zs):
             v = [out["heights"][z]["steps"][s][str(n)] for s in STEPS]
-            ax.plot(x[:-1], v, "-", color=f"C{j}", lw=1.2, alpha=0.8)
-            for i, c in enumerate(colours):
-                ax.plot(x[i], v[i], "o", color=c, ms=5, zorder=3)
+            ax.plot(x[:-1], v, "o-", color=f"C{j}", lw=1.3, ms=4.5, label=f"{z} m")
             if z in sim:
                 m, se = sim[z][n]
-                ax.errorbar(x[-1], m, yerr=se, fmt="s", color=f"C{j}", capsize=3)
+                ax.errorbar(x[-1], m, yerr=se, fmt="s", color=f"C{j}", ms=6, capsize=4, lw=1.5)
                 ax.plot([x[-2], x[-1]], [v[-1], m], ":", color=f"C{j}", lw=1.0)
-            ax.annotate(f"{z} m", (x[0], v[0]), textcoords="offset points", xytext=(-30, -3), fontsize=8,
-                        color=f"C{j}")
+        ax.axvline(split, color="0.5", ls="--", lw=0.8)
+        ax.text(split - 0.1, 1.0, "1-D field, per template ", transform=ax.get_xaxis_transform(), ha="right",
+                va="top", fontsize=7.5, color="0.35")
+        ax.text(split + 0.1, 1.0, " 3-D field, at 9 m/s", transform=ax.get_xaxis_transform(), ha="left",
+                va="top", fontsize=7.5, color="0.35")
         ax.set_xticks(x)
         ax.set_xticklabels([LABELS[s] for s in STEPS] + ["simulated ± s.e."], rotation=40, ha="right", fontsize=8)
         ax.set_title(f"{n} s scans")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("lidar / cup standard-deviation ratio")
-    fig.suptitle("From CS's filter model to the simulation, one step at a time (linear theory)", fontsize=10)
+    axes[0].tick_params(labelleft=True)
+    axes[1].tick_params(labelleft=True)
+    axes[0].legend(title="height", fontsize=8, title_fontsize=8, loc="lower left")
+    fig.suptitle("From CS's filter model to the simulation, one step at a time (linear theory; "
+                 "squares: the simulation ± standard error)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -404,7 +434,15 @@ def main(argv=None) -> int:
     ap.add_argument("--from-json", default=None, help="redraw the figure and the table from a stored run")
     ap.add_argument("--merge", nargs="+", default=None, help="stored runs of other heights, joined (the first's "
                     "settings and checks; each run's own machine and wall time under 'runs')")
+    ap.add_argument("--cut-check", type=float, nargs="+", default=None, metavar="Z",
+                    help="only split step 6 (the cut at the telescope, then the shape) at these heights")
     a = ap.parse_args(argv)
+    if a.cut_check:
+        scene = bundled_scene("cs")
+        for z in a.cut_check:
+            print(f"z = {z:g} m:", json.dumps(cut_check(scene, z, per_decade=a.per_decade, k_max_factor=a.k_max_factor,
+                                                       resolution=a.resolution)), flush=True)
+        return 0
     sim = simulated(a.simulated)
     if a.from_json:
         with open(a.from_json, encoding="utf-8") as f:

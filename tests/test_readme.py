@@ -39,7 +39,7 @@ def test_generated_blocks_are_the_results_files():
     """Every generated block is what the script makes from docs/*.json today."""
     tool, text = _tool(), _readme()
     made = tool.blocks()
-    assert set(made) == {"first-result", "own-scene", "reproductions"}
+    assert set(made) == {"first-result", "own-scene", "reproductions", "cs-residual"}
     assert tool.render(text, made) == text, "README.md is stale: run python tools/readme_numbers.py"
 
 
@@ -52,6 +52,23 @@ def test_a_changed_results_file_changes_the_readme(monkeypatch):
     monkeypatch.setattr(tool, "_load", lambda p: cs if p == tool.CS_JSON else real(p))
     table = tool.blocks()["reproductions"]
     assert "0.500 ± " in table and tool.render(_readme(), tool.blocks()) != _readme()
+
+
+def test_the_cs_residual_follows_the_attribution_run(monkeypatch):
+    """The CS residual's block states the attribution run's steps and how far the theory lies from the
+    simulation in standard errors: a larger 3-D drop and a theory moved 3 standard errors off show up."""
+    tool = _tool()
+    attribution = json.load(open(tool.CS_ATTRIBUTION_JSON, encoding="utf-8"))
+    cs = json.load(open(tool.CS_JSON, encoding="utf-8"))
+    steps = attribution["heights"]["40"]["steps"]
+    steps["uv_3d"]["1"] = steps["period"]["1"] - 0.5
+    sim, se = cs["heights"]["40"]["std_ratio_1s"], cs["heights"]["40"]["std_ratio_1s_se"]
+    steps["box"]["1"] = sim - 3.0 * se
+    real = tool._load
+    monkeypatch.setattr(tool, "_load", lambda p: attribution if p == tool.CS_ATTRIBUTION_JSON else real(p))
+    block = tool.blocks()["cs-residual"]
+    assert "–0.500;" in block and "within 3.0 standard errors" in block
+    assert tool.render(_readme(), tool.blocks()) != _readme()
 
 
 def _prose(text):

@@ -122,3 +122,42 @@ def test_a_field_not_generated_from_the_tensor_has_no_subgrid_variance_and_says_
     f.attrs.update(generator="cwlidar_sim.turbulence.generate_box", sigma_u_target=1.0)
     assert "rescaled" in subgrid_unavailable(f)
     assert math.isnan(field_subgrid_variance(f, (0.0, 0.0, 0.0), p, 8.0, 60.0))
+
+
+def test_conical_summary_gives_each_heights_mean_ratio_against_the_continuum_cup(tmp_path, monkeypatch):
+    import numpy as np
+
+    from cwlidar_sim.analysis import cs_model
+    from cwlidar_sim.campaign import loads_scene, run_scene
+
+    monkeypatch.setattr(cs_model, "model_ratios", lambda *a, **k: {"std_ratio": np.nan, "radial_variance_ratio": np.nan})
+    sc = loads_scene("""
+name = "c"
+kind = "conical"
+seed = 4
+duration = 30.0
+[scan]
+heights = [20.0]
+scan_revs = [1]
+[lidar]
+tier = "los"
+[turbulence]
+source = "fixed"
+alpha_eps = 0.05
+length_scale = 15.0
+gamma = 3.9
+[[period]]
+name = "a"
+mean_speed = 8.0
+[[period]]
+name = "b"
+mean_speed = 9.0
+""")
+    ds = run_scene(sc, tmp_path, progress=False)
+    unit = ds.std_ratio_cup_continuum_unit.values[:, 0]
+    keep = ds.selected_unit.values[:, 0] > 0.5  # (period, scan_s)
+    assert keep.any()
+    assert float(ds.std_ratio_cup_continuum.values[0, 0]) == pytest.approx(float(np.mean(unit[keep])))
+    # the continuum cup's sigma is the larger: the ratio against it is the lower
+    assert float(ds.std_ratio_cup_continuum.values[0, 0]) < float(ds.std_ratio.values[0, 0])
+    assert ds.std_ratio_cup_continuum_sigma.dims == ("height", "scan_s")

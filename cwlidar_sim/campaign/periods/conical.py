@@ -286,8 +286,8 @@ def summarise(ds):
     renamed ``<name>_unit``.  For each height and scan length the plain
     names hold the mean over the periods that pass CS's selection of
     ``std_ratio``, ``radial_variance_ratio``, ``mean_speed_bias``, ``tp`` and
-    ``ambiguity_rate`` (``<name>_sigma``: the standard error over those
-    periods), the mean over all periods of ``scan_availability`` and
+    ``ambiguity_rate`` and ``std_ratio_cup_continuum`` (``<name>_sigma``: the
+    standard error over those periods), the mean over all periods of ``scan_availability`` and
     ``points_used_fraction``, and the filter model (``std_ratio_model``,
     ``radial_variance_ratio_model``: CS's Kaimal spectrum; ``..._mann``: the
     simulation's Mann spectra); per height ``availability`` (line-of-sight
@@ -350,6 +350,13 @@ def summarise(ds):
     if "answer" in ds.attrs:  # the theory alone: no scatter over seeds to take a standard error of
         for var in [v for v in out if v.endswith("_sigma")]:
             out[var] = (out[var][0], np.full(np.shape(out[var][1]), np.nan), out[var][2])
+    if "std_ratio_cup_continuum" in ds:  # against the cup with its sub-grid variance restored (periods.in_situ)
+        mean, err, _ = by_height("std_ratio_cup_continuum", True)
+        attrs = dict(ds["std_ratio_cup_continuum"].attrs)
+        out["std_ratio_cup_continuum"] = (HS, mean, {**attrs, "long_name": f"{attrs.get('long_name', '')} (mean "
+                                                     "over the selected periods)"})
+        out["std_ratio_cup_continuum_sigma"] = (HS, err, {"units": "1", "long_name": "standard error of "
+                                                          "std_ratio_cup_continuum"})
     for var in ("std_ratio_variant", "mean_speed_bias_variant", "tp_variant", "scan_availability_variant"):
         if var not in ds:
             continue

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-__all__ = ["field_subgrid_variance", "continuum_std", "UNIT_VARS"]
+__all__ = ["field_subgrid_variance", "subgrid_unavailable", "continuum_std", "UNIT_VARS"]
 
 #: A conical unit's point-sensor variables added beside ``cup_std`` and ``sonic_std`` (units, long name).
 UNIT_VARS = {
@@ -37,13 +37,15 @@ SCAN_VARS = {
 }
 
 
+_GENERATORS = {"cwlidar_sim.turbulence.generate_box": "box", "cwlidar_sim.turbulence.generate_plane": "plane",
+               "cwlidar_sim.turbulence.generate_line": "line"}
+
+
 def _grid(field):
     """(kind, generated shape, spacing, node origins) of a generated field; None for one read from a file."""
-    gen = str(field.attrs.get("generator", ""))
-    kind = {"cwlidar_sim.turbulence.generate_box": "box", "cwlidar_sim.turbulence.generate_plane": "plane",
-            "cwlidar_sim.turbulence.generate_line": "line"}.get(gen)
-    if kind is None or int(field.attrs.get("keep_mean", 0)) or "sigma_u_target" in field.attrs:
+    if subgrid_unavailable(field):
         return None
+    kind = _GENERATORS[str(field.attrs["generator"])]
     axes = ("x", "y", "z")[: {"box": 3, "plane": 2, "line": 1}[kind]]
     coords = [np.asarray(field[a].values, dtype=np.float64) for a in axes]
     spacing = tuple(float(c[1] - c[0]) for c in coords)
@@ -51,10 +53,27 @@ def _grid(field):
     return kind, shape, spacing, tuple(float(c[0]) for c in coords)
 
 
+def subgrid_unavailable(field) -> str:
+    """Why :func:`field_subgrid_variance` of ``field`` is NaN, or '' when it is not.
+
+    Only a field generated from the tensor (a box, plane or line of
+    :mod:`cwlidar_sim.turbulence`) has a known sub-grid variance: one read
+    from a file, conditioned on records, or rescaled to a target sigma (or
+    its mean kept) has not.
+    """
+    gen = str(field.attrs.get("generator", ""))
+    if gen not in _GENERATORS:
+        return (f"NaN: the field ({gen or 'read from a file'}) is not a box, plane or line generated from the "
+                "tensor, whose sub-grid variance is known")
+    if int(field.attrs.get("keep_mean", 0)) or "sigma_u_target" in field.attrs:
+        return "NaN: the field is rescaled to a target sigma_u (or keeps its mean): its sub-grid variance is not known"
+    return ""
+
+
 def field_subgrid_variance(field, position, params, mean_speed: float, duration: float, *,
                            direction=(1.0, 0.0, 0.0), time_constant: float | None = None,
                            sample_interval: float | None = None) -> float:
-    """A point sensor's expected sub-grid variance in ``field`` [m^2 s^-2] (NaN for a field read from a file).
+    """A point sensor's expected sub-grid variance in ``field`` [m^2 s^-2] (NaN: :func:`subgrid_unavailable`).
 
     Parameters
     ----------

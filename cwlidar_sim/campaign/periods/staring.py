@@ -34,6 +34,7 @@ from ..._version import __version__
 from ...signal.processing import usable_fraction, usable_speeds
 from ...turbulence.limits import check_frozen_turbulence
 from .._labels import HOMODYNE, TOWARD_LIDAR, duration_phrase
+from . import in_situ
 from .staring_field import generate_field, period_params, plan_field, theory_params
 from ..scenes.staring import Scene
 from ..scenes.spec import RESULTS_VERSION, entry_label
@@ -186,6 +187,10 @@ def run_unit(scene: Scene, index: int, params=None, *, status=None, make_field=N
     say(f"{period.name}: sonic")
     vel_tc = sample_sonic(field, sonic, t32, U, seed=s_sonic, wrap=plan.wrap)
     vs32 = -(vel_tc @ plan.direction)
+    # the variance below the field's grid the sonic's beam-projected 32-Hz series misses (periods.in_situ)
+    sonic_sub = in_situ.field_subgrid_variance(field, sonic.position, params, U, n32 / 32.0,
+                                               direction=tuple(plan.direction), sample_interval=1.0 / 32.0)
+    sonic_note = in_situ.subgrid_unavailable(field)
     vs10 = resample_a2012(vs32)
     comp10_tc = resample_a2012(vel_tc)
 
@@ -254,6 +259,7 @@ def run_unit(scene: Scene, index: int, params=None, *, status=None, make_field=N
         "lidar_speed": speed50.astype(np.float32), "lidar_flags": flags50, "lidar_ideal": ideal50.astype(np.float32),
         "lidar_10hz": vr10, "lidar_10hz_valid": nvalid10, "lidar_10hz_flags": flags10, "ideal_10hz": ideal10,
         "tf": main, "tf_ideal": ideal, "variants": var_out, "fit": fit,
+        "sonic_std": float(vs32.std(ddof=1)), "sonic_subgrid_variance": sonic_sub, "sonic_subgrid_note": sonic_note,
         "flag_counts": _flag_counts(flags50), "availability": usable_fraction(speed50, flags50),
         "availability_10hz": float(np.mean(np.isfinite(vr10))),
         "lidar_info": dict(rec.info), "timing": {"field": t_field, "lidar": t_lidar,
@@ -417,6 +423,17 @@ def period_dataset(scene: Scene, params, r: dict):
         "lidar_10hz_valid": (("period", "time_10hz"), pk(r["lidar_10hz_valid"], np.int16),
                              {"units": "1", "long_name": "valid 50 Hz estimates in each 10 Hz block"}),
     }
+    if "sonic_std" in r:  # the sonic's sigma along the beam, raw and with its sub-grid variance (periods.in_situ)
+        sub = r["sonic_subgrid_variance"]
+        dv["sonic_std"] = (("period",), pk(r["sonic_std"]), {"units": "m s-1", "long_name": "standard deviation "
+                           "(ddof = 1) of the sonic's 32 Hz speed along the beam, its noise included"})
+        dv["sonic_subgrid_variance"] = (("period",), pk(sub), dict(
+            {"units": "m2 s-2", "long_name": "the sonic's expected variance along the beam below the field's grid "
+             "(continuum - field; analysis.point_subgrid)"},
+            **({"comment": r["sonic_subgrid_note"]} if r["sonic_subgrid_note"] else {})))
+        dv["sonic_std_continuum"] = (("period",), pk(in_situ.continuum_std(r["sonic_std"], sub)),
+                                     {"units": "m s-1", "long_name": "sonic_std with its sub-grid variance restored: "
+                                      "sqrt(sonic_std^2 + sonic_subgrid_variance)"})
     if params is None:  # a tensor per period (the scene's table depends on the mean speed)
         for name, units in (("alpha_eps", "m4/3 s-2"), ("length_scale", "m"), ("gamma", "1")):
             dv[f"mann_{name}"] = (("period",), pk(getattr(own, name)),

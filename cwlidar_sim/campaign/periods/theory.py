@@ -44,6 +44,8 @@ from ..._validation import check_choice, check_int, check_real
 
 #: The looks' probe weightings (module notes).
 PROBES = ("continuous", "cells")
+#: Most entries of a :func:`cells_probe` table (the sum itself beyond).
+_CELLS_TABLE = 200_000
 
 
 def _probe(lidar, instrument):
@@ -68,8 +70,8 @@ class _CellsProbe:
         length = max(float(np.ptp(cells.edges)), float(cells.cell_length))
         # linear interpolation on steps of 2 pi / (128 L): within 1e-4 of the sum (its phases turn by L q)
         self.dq = 2.0 * np.pi / (128.0 * length)
-        self.q_max = 4.0 * np.pi / float(np.min(np.diff(cells.edges)))
-        q = np.arange(int(np.ceil(self.q_max / self.dq)) + 2) * self.dq
+        n_q = min(int(np.ceil(4.0 * np.pi / float(np.min(np.diff(cells.edges))) / self.dq)), _CELLS_TABLE)
+        q = np.arange(n_q + 2) * self.dq
         self.q_max = float(q[-1])
         v = np.concatenate([self._exact(q[i:i + 4096]) for i in range(0, q.size, 4096)])
         self.re, self.im = v.real.copy(), v.imag.copy()
@@ -102,9 +104,9 @@ def cells_probe(cells):
     sub-point's share, :meth:`cwlidar_sim.beam.cells.ProbeCells.transfer`);
     the mean-wind tail cell is left out (it sees no fluctuation), so
     ``phi_hat(0)`` is the kept weight (1 for the 'renormalise' rule).
-    Tabulated up to ``4 pi / (shortest cell)`` on steps of ``2 pi / (128
-    L)`` (L the cells' extent: within about 1e-4 of the sum), the sum
-    itself beyond.
+    Tabulated on steps of ``2 pi / (128 L)`` (L the cells' extent: within
+    about 1e-4 of the sum) up to ``4 pi / (shortest cell)`` or 200000
+    steps, the sum itself beyond.
 
     Parameters
     ----------

@@ -1,0 +1,199 @@
+"""The linear theory against the simulation at tier ``los``, paired seeds: issue 33's acceptance.
+
+For each scene the simulation runs N seeded periods (the box, the lidar, the point sensor or the rotor from one
+seed: paired), and the pooled statistic is compared with the lattice theory of the box the simulation built (its
+generated shape and spacing: :func:`cwlidar_sim.analysis.linear_theory.lattice_spectra`) seen as the period sees it
+(:func:`~cwlidar_sim.analysis.linear_theory.period_variance`: the samples, the period, its mean removed), with the
+functionals of :mod:`cwlidar_sim.campaign.periods.theory` (``probe="cells"``: the simulation's range cells):
+
+* conical (the CS scene's lidar, one height a period, 1-s VAD scans): the lidar/cup std ratio,
+  ``sqrt(sum var_lidar / sum var_cup)`` over the periods (within-period variances, 1/N);
+* nacelle (the bundled scene's frozen period, one focus): the lidar's revolution mean against the rotor's REWS at
+  the preview delay, the std ratio and the correlation coefficient.
+
+The standard error of a pooled statistic is the jackknife's over the periods; ``z = (sim - theory) / SE``.  What
+the theory leaves out (and so the residual holds): the box's trilinear interpolation between its nodes, the
+nonlinearity of the horizontal speed and of the VAD's direction handling (second order in the turbulence
+intensity).
+
+Run (reduced size, the test's, a few minutes)::
+
+    PYTHONPATH=. python studies/theory_vs_simulation.py --periods 6 --duration 120
+
+Full size (SE <= 0.005 for the std ratios; see the printed estimate of the periods it needs)::
+
+    PYTHONPATH=. python studies/theory_vs_simulation.py --periods 40 --duration 600
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from cwlidar_sim.analysis import linear_theory as lt
+from cwlidar_sim.analysis.rews import RotorDisc, rews_from_box, rotor_node_weights
+from cwlidar_sim.campaign.execution.reproduce import bundled_scene
+from cwlidar_sim.campaign.periods import theory as th
+from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
+from cwlidar_sim.campaign.scenes.conical import default_spacing
+from cwlidar_sim.sensors import ConicalLidar, Cup
+from cwlidar_sim.sensors.nacelle import measure_nacelle
+from cwlidar_sim.turbulence.cover import cover_box
+
+
+def jackknife(num_i, den_i, cross_i=None):
+    """``(stat, se)`` of ``sqrt(sum num / sum den)`` (or ``sum cross / sqrt(sum num sum den)``) over periods i."""
+    num_i, den_i = np.asarray(num_i, float), np.asarray(den_i, float)
+
+    def stat(m):
+        if cross_i is None:
+            return math.sqrt(num_i[m].sum() / den_i[m].sum())
+        return np.asarray(cross_i, float)[m].sum() / math.sqrt(num_i[m].sum() * den_i[m].sum())
+
+    n = num_i.size
+    full = stat(np.ones(n, bool))
+    loo = np.array([stat(np.arange(n) != i) for i in range(n)])
+    return full, math.sqrt((n - 1) / n * np.sum((loo - loo.mean()) ** 2))
+
+
+def _within(spec, name, U, T, dt, other=None):
+    """The lattice lines' expected within-period (co)variance of a series sampled every ``dt`` over ``T``."""
+    F = spec.spectrum(name) if other is None else spec.cross(name, other).real
+    return lt.period_variance(spec.k1_k, F, U, T, sample_interval=dt, lines=True)["within"]
+
+
+# --------------------------------------------------------------------------
+# conical: the CS scene's lidar against its cup
+# --------------------------------------------------------------------------
+def conical_case(height, n_periods, duration, *, speed=8.0, seed0=1000, sub_dwells=2, span=None, break_=None):
+    """Simulated and theoretical lidar/cup std ratio at one height (module notes).
+
+    ``break_`` (for the acceptance tests' negative checks): ``"vad_w"`` drops the VAD's coefficient of w in the
+    theory, ``"no_cup_response"`` the cup's response, ``"probe_x2"`` doubles the theory's Rayleigh length.
+    """
+    cs = bundled_scene("cs")
+    d = default_spacing(height)
+    lf = cs.lidar_fields(d)
+    lf.pop("tier"), lf.pop("sub_dwells")
+    if span is not None:
+        lf["span"] = span
+    params, _, _ = cs.turbulence.resolve(height, speed)
+    t0 = time.perf_counter()
+    rows = [simulate_conical_period(height, seed0 + i, speed=speed, duration=duration, scan_revs=(1,), tier="los",
+                                    sub_dwells=sub_dwells, spacing=d, params=params, model=False,
+                                    lidar_overrides=lf) for i in range(n_periods)]
+    t_sim = time.perf_counter() - t0
+    n_scan = np.array([r["scans"][1]["n_scans"] for r in rows], float)
+    n_cup = duration * 10.0
+    var_l = np.array([r["scans"][1]["lidar_std"] ** 2 for r in rows]) * (n_scan - 1) / n_scan
+    var_c = np.array([r["cup_std"] ** 2 for r in rows]) * (n_cup - 1) / n_cup
+    sim, se = jackknife(var_l, var_c)
+    r0 = rows[0]
+    shape = (r0["box_shape"][0], 2 * r0["box_shape"][1], r0["box_shape"][2])
+    t0 = time.perf_counter()
+    lidar = ConicalLidar(heights=(height,), tier="los", cell_length=d, sub_dwells=sub_dwells, **lf)
+    if break_ == "probe_x2":
+        lidar = lidar.replace(instrument=lidar.instrument.replace(
+            telescope_radius=lidar.instrument.telescope_radius / math.sqrt(2.0)))
+    vad, cup = th.conical_functionals(lidar, height, speed, revolutions=1, cup=Cup(position=r0["in_situ_position"]),
+                                      probe="cells")
+    if break_ == "vad_w":
+        vad = lt.LinearFunctional(vad.looks, vad.weight_olc * np.array([1.0, 1.0, 0.0]), vad.names)
+    if break_ == "no_cup_response":
+        cup = lt.point_functional(r0["in_situ_position"], ("u",))
+    spec = lt.lattice_spectra(params, [vad, cup], speed, shape, r0["box_spacing"])
+    T = float(np.mean(n_scan)) * lidar.revolution_time
+    theory = math.sqrt(_within(spec, "0.u", speed, T, lidar.revolution_time)
+                       / _within(spec, "1.u", speed, duration, 0.1))
+    return {"scene": f"conical {height:g} m", "stat": "std ratio lidar/cup", "sim": sim, "se": se,
+            "theory": theory, "z": (sim - theory) / se, "n": n_periods, "duration": duration,
+            "sd_one": se * math.sqrt(n_periods), "box": shape, "t_sim": t_sim, "t_theory": time.perf_counter() - t0}
+
+
+# --------------------------------------------------------------------------
+# nacelle: the bundled scene's lidar against the rotor
+# --------------------------------------------------------------------------
+def nacelle_case(n_periods, duration, *, focus=100.0, seed0=2000, break_=None):
+    """Simulated and theoretical lidar/rotor std ratio and correlation at the preview delay (module notes).
+
+    ``break_``: ``"no_cells"`` the continuous probe over the whole beam (no span, no mean-wind tail),
+    ``"yaw"`` the theory's lidar yawed by 10 deg, ``"no_delay"`` the looks' times dropped.
+    """
+    scene = bundled_scene("nacelle")
+    p = scene.periods[0]
+    s = scene.scan
+    U, params = p.mean_speed, scene.period_params(p)
+    lid = scene.sensor(p, (focus,)).replace(tier="los")
+    rotor_disc = RotorDisc(s.rotor_radius, s.rotor_exponent)
+    dt, epr = lid.dwell_time, lid.estimates_per_rev
+    m = int(round((lid.preview_distance(focus) / U - 0.5 * (lid.revolution_time - dt)) / dt))
+    var_l, var_r, cov = [], [], []
+    t0 = time.perf_counter()
+    for i in range(n_periods):
+        box = cover_box(lid.box_region(s.spacing, s.rotor_radius), U, duration, params, seed0 + i,
+                        spacing=s.spacing, lateral_doubling=s.lateral_doubling)
+        rec = measure_nacelle(box, lid, duration, U)
+        u_e = rec.vlos_e / rec.direction_ec[:, 0]
+        c = np.concatenate([[0.0], np.cumsum(u_e)])
+        est = (c[epr:] - c[:-epr]) / epr  # estimate i + epr - 1: the revolution ending there
+        pos = lid.position
+        rews = rews_from_box(box, rotor_disc, pos[1], pos[2], x=pos[0], times=rec.time_e, U=U)
+        a = est[: est.size - m]
+        b = rews[epr - 1 + m:]
+        a, b = a - a.mean(), b - b.mean()
+        var_l.append(np.mean(a * a)), var_r.append(np.mean(b * b)), cov.append(np.mean(a * b))
+        n_s = a.size
+        if i == 0:
+            shape, spacing = box.attrs["generated_shape"], tuple(float(box[c][1] - box[c][0]) for c in "xyz")
+            w = rotor_node_weights(rotor_disc, box["y"].values, box["z"].values, pos[1], pos[2])
+            Y, Z = np.meshgrid(box["y"].values - pos[1], box["z"].values - pos[2], indexing="ij")
+            keep = w > 0
+            nodes = (Y[keep], Z[keep], w[keep] / w[keep].sum())
+        del box
+    t_sim = time.perf_counter() - t0
+    ratio, se_ratio = jackknife(var_l, var_r)
+    corr, se_corr = jackknife(var_l, var_r, cov)
+    t0 = time.perf_counter()
+    lid_th = lid.replace(position=(0.0, 0.0, 0.0))
+    if break_ == "yaw":
+        lid_th = lid_th.replace(yaw_misalignment_deg=10.0)
+    rotor, est_f = th.nacelle_functionals(lid_th, focus, U, nodes, n_beams=None, preview_shift=m * dt,
+                                          probe="continuous" if break_ == "no_cells" else "cells")
+    if break_ == "no_delay":
+        looks = est_f.looks
+        est_f = lt.LinearFunctional(lt.Looks(looks.point_lc, looks.direction_lc, None, looks.probe_l),
+                                    est_f.weight_olc, est_f.names)
+    spec = lt.lattice_spectra(params, [rotor, est_f], U, shape, spacing)
+    T = n_s * dt
+    vl, vr = _within(spec, "1.lidar", U, T, dt), _within(spec, "0.rotor", U, T, dt)
+    vc = _within(spec, "1.lidar", U, T, dt, other="0.rotor")
+    t_th = time.perf_counter() - t0
+    base = {"n": n_periods, "duration": duration, "box": tuple(shape), "t_sim": t_sim, "t_theory": t_th}
+    th_ratio, th_corr = math.sqrt(vl / vr), vc / math.sqrt(vl * vr)
+    return [dict(base, scene=f"nacelle {focus:g} m", stat="std ratio lidar/rotor", sim=ratio, se=se_ratio,
+                 theory=th_ratio, z=(ratio - th_ratio) / se_ratio, sd_one=se_ratio * math.sqrt(n_periods)),
+            dict(base, scene=f"nacelle {focus:g} m", stat="correlation lidar-rotor", sim=corr, se=se_corr,
+                 theory=th_corr, z=(corr - th_corr) / se_corr, sd_one=se_corr * math.sqrt(n_periods))]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--periods", type=int, default=6)
+    ap.add_argument("--duration", type=float, default=120.0)
+    ap.add_argument("--heights", type=float, nargs="*", default=[40.0, 100.0])
+    ap.add_argument("--sub-dwells", type=int, default=2)
+    args = ap.parse_args(argv)
+    out = [conical_case(z, args.periods, args.duration, sub_dwells=args.sub_dwells) for z in args.heights]
+    out += nacelle_case(args.periods, args.duration)
+    for r in out:
+        need = math.ceil((r["sd_one"] / 0.005) ** 2)
+        print(f"{r['scene']:16s} {r['stat']:26s} sim {r['sim']:.4f} +/- {r['se']:.4f}  theory {r['theory']:.4f}  "
+              f"z {r['z']:+.2f}  (N={r['n']}, T={r['duration']:g} s, box {r['box']}, sim {r['t_sim']:.0f} s, "
+              f"theory {r['t_theory']:.0f} s; SE 0.005 needs N ~ {need} of these)")
+
+
+if __name__ == "__main__":
+    main()

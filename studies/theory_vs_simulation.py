@@ -94,7 +94,7 @@ def conical_case(height, n_periods, duration, *, speed=8.0, seed0=1000, sub_dwel
     r0 = rows[0]
     shape = (r0["box_shape"][0], 2 * r0["box_shape"][1], r0["box_shape"][2])
     t0 = time.perf_counter()
-    lidar = ConicalLidar(heights=(height,), tier="los", cell_length=d, sub_dwells=sub_dwells, **lf)
+    lidar = ConicalLidar(**dict(lf, heights=(height,), tier="los", cell_length=d, sub_dwells=sub_dwells))
     if break_ == "probe_x2":
         lidar = lidar.replace(instrument=lidar.instrument.replace(
             telescope_radius=lidar.instrument.telescope_radius / math.sqrt(2.0)))

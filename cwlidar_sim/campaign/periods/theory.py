@@ -16,6 +16,10 @@ what a period compares:
   cup at that height (first-order response of its distance constant);
 * :func:`nacelle_functionals`: a nacelle lidar's REWS estimate over one
   revolution (delays and preview) and a rotor of weighted nodes.
+* :func:`node_interpolated_variance`: a point sensor's period variance
+  as the simulation reads it, between the box's nodes along x (its own
+  line lowered, aliases at the node frequency), through the cup's
+  response on its samples.
 
 The field's frame: the mean wind U along +x.  A look's probe is, with
 ``probe="continuous"`` (default), its beam's continuous weighting
@@ -40,6 +44,7 @@ import numpy as np
 from ...analysis import linear_theory as lt
 from ...analysis.rews_theory import beam_transfer, scan_beams
 from ...beam.cells import ProbeCells
+from ...sensors.cup import cup_response
 from ..._validation import check_choice, check_int, check_real
 
 #: The looks' probe weightings (module notes).
@@ -122,6 +127,72 @@ def cells_probe(cells):
     if not isinstance(cells, ProbeCells):
         raise TypeError(f"cells must be a ProbeCells, got {type(cells).__name__}")
     return _CellsProbe(cells)
+
+
+def node_interpolated_variance(k1_k, line_variance_k, mean_speed: float, times_t, dx: float, *, offset: float = 0.0,
+                               distance_constant: float | None = None) -> float:
+    """A point sensor's within-period variance as simulated: read between the box's nodes along x [m^2 s^-2].
+
+    The simulation reads a point sensor (a cup, a sonic: on a node across
+    the wind) by linear interpolation between the box's nodes along x as
+    the box is advected past it (position ``offset - U t`` on nodes ``n
+    dx``), samples it at ``times_t`` and, for a cup, runs
+    :func:`cwlidar_sim.sensors.cup_response` (its first-order step on the
+    samples, started at the first) over them.  A line ``exp(i k x)`` of the
+    box reaches it lowered (by up to ``1 - 8 / pi^2`` in variance at the
+    Nyquist) with aliases at the node frequency ``U / dx`` -- which the
+    samples fold back coherently -- so each line's sampled series is formed
+    as the simulation forms it, and its variance about its own mean (``1 /
+    N``) is summed with the line's weight.  The lines are those of a point
+    functional (:func:`~cwlidar_sim.analysis.linear_theory.lattice_spectra`
+    without a response: density times ``dk1``); the lidars' looks, averaged
+    over their probe and the scan, are left to the functionals.
+
+    Parameters
+    ----------
+    k1_k : array_like
+        The box's lines k1 [rad/m], >= 0.
+    line_variance_k : array_like
+        Each line's variance [m^2 s^-2] (one value per k1).
+    mean_speed : float
+        U [m/s], > 0.
+    times_t : array_like
+        The sensor's sample times over the period [s] (uniform, >= 2; a cup's every 0.1 s).
+    dx : float
+        The box's spacing along x [m], > 0.
+    offset : float
+        The sensor's x minus a node's at t = 0 [m].
+    distance_constant : float, optional
+        A cup's distance constant [m] (its response, linear: ``tau = l / U``); None: a sensor without response.
+
+    Returns
+    -------
+    float
+        The expected sample variance about the period's mean [m^2 s^-2].
+    """
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    d = check_real("dx", dx, lo=0.0, lo_open=True)
+    x0 = check_real("offset", offset)
+    k = np.asarray(k1_k, dtype=float).ravel()
+    var_k = np.asarray(line_variance_k, dtype=float).ravel()
+    if k.shape != var_k.shape or k.size < 1 or np.any(k < 0) or not np.all(np.isfinite(var_k)):
+        raise ValueError("k1_k must be wavenumbers >= 0 [rad/m] with one finite line_variance_k value each")
+    t = np.asarray(times_t, dtype=float).ravel()
+    if t.size < 2 or np.any(np.diff(t) <= 0):
+        raise ValueError("times_t must be >= 2 increasing sample times [s]")
+    if distance_constant is not None:
+        distance_constant = check_real("distance_constant", distance_constant, lo=0.0, lo_open=True)
+    s = (x0 - U * t) / d
+    n = np.floor(s)
+    f = s - n
+    total = 0.0
+    for k_i, v_i in zip(k, var_k):
+        g = np.exp(1j * k_i * d * n) * ((1.0 - f) + f * np.exp(1j * k_i * d))
+        if distance_constant is not None:
+            g = (cup_response(g.real, t[1] - t[0], distance_constant, mean_speed=U)
+                 + 1j * cup_response(g.imag, t[1] - t[0], distance_constant, mean_speed=U))
+        total += v_i * float(np.mean(np.abs(g - g.mean()) ** 2))
+    return total
 
 
 def staring_functionals(lidar, sonic_position, *, probe: str = "continuous"):

@@ -130,3 +130,42 @@ def test_nacelle_n_beams_and_simulation_looks_agree_on_a_uniform_wind():
         est = th.nacelle_functionals(lidar, 80.0, 10.0, ([0.0], [0.0], [1.0]), n_beams=nb)[1]
         w = est.weight_olc[0].sum(axis=0)
         np.testing.assert_allclose(w, [math.cos(math.radians(g)), math.sin(math.radians(g)), 0.0], atol=1e-3)
+
+
+@pytest.mark.parametrize("k_dx", [0.3, 2.5])
+def test_node_interpolated_variance_is_the_simulation_between_nodes(k_dx):
+    """A cup and a sonic in a field of one mode u = cos(k x) between the box's nodes along x: the simulation's
+    series (sample_cup at 10 Hz, sample_sonic at 50 Hz, their variances about the mean) against
+    node_interpolated_variance of the mode's one line; at k dx = 2.5 the plain line (the point functional through
+    the continuous response, no interpolation) misses by more than 5 x the tolerance.  Many nodes past a still
+    sensor give the interpolant's mean square, (2 + cos(k dx)) / 3 of the mode's variance."""
+    from cwlidar_sim.analysis import linear_theory as lt
+    from cwlidar_sim.sensors import Cup, Sonic, sample_cup, sample_sonic
+
+    U, dx, n1 = 8.0, 2.0, 64
+    n = round(k_dx * n1 / (2.0 * math.pi))
+    k = 2.0 * math.pi * n / (n1 * dx)
+    cos_box = _mode_box(np.array([k, 0.0, 0.0]), dx, (n1, 4, 4), (0.0, -3.0, 37.0))
+    sin_box = cos_box.copy(data={"u": np.sin(k * cos_box["x"].values)[:, None, None] + 0.0 * cos_box["u"].values,
+                                 "v": cos_box["v"].values, "w": cos_box["w"].values})
+    cup = Cup(position=(0.7, -1.0, 39.0))
+    t = np.arange(480) * 0.1  # three passes of the box: whole periods of the mode
+
+    def mean_var(f):  # the two phases' mean: the mean over the mode's random phase
+        return 0.5 * (f(cos_box) + f(sin_box))
+
+    sim_cup = mean_var(lambda b: float(np.var(sample_cup(b, cup, t, U, wrap=True))))
+    theory = th.node_interpolated_variance([k], [0.5], U, t, dx, offset=0.7, distance_constant=cup.distance_constant)
+    assert sim_cup == pytest.approx(theory, rel=1e-6)
+    t50 = np.arange(2400) * 0.02
+    sonic = Sonic(position=cup.position)
+    sim_sonic = mean_var(lambda b: float(np.var(sample_sonic(b, sonic, t50, U, wrap=True)[:, 0])))
+    assert sim_sonic == pytest.approx(th.node_interpolated_variance([k], [0.5], U, t50, dx, offset=0.7), rel=1e-6)
+    if k_dx > 2:
+        resp = lt.first_order_response(cup.distance_constant / U)
+        plain = 0.5 * float(np.abs(resp(U * k)) ** 2)
+        assert abs(plain / sim_cup - 1.0) > 5e-3 and abs(0.5 / sim_sonic - 1.0) > 5e-3
+    many = th.node_interpolated_variance([k], [0.5], 1.0, np.arange(20000) * 0.0137, dx)
+    assert many == pytest.approx(0.5 * (2.0 + math.cos(k * dx)) / 3.0, rel=5e-3)
+    with pytest.raises(ValueError, match="dx"):
+        th.node_interpolated_variance([k], [0.5], U, t, 0.0)

@@ -9,7 +9,9 @@ cup's response removed, the probe twice as long (Rayleigh length x2), the nacell
 and asserts that the simulation rejects it by more than the same 3 standard errors.
 
 Measured at full size (``studies/theory_vs_simulation.py``, 400 periods of 60 s, 40 m): lidar/cup 0.7833 +/- 0.0058
-against 0.7861 (z -0.5), cup/sonic 0.97907 +/- 0.00066 against 0.97915 (z -0.1).
+against 0.7861 (z -0.5), cup/sonic 0.97907 +/- 0.00066 against 0.97915 (z -0.1); nacelle (300 periods of 60 s)
+lidar-rotor correlation 0.9061 +/- 0.0056 against 0.9022 (z +0.7).  Not held here: the nacelle's lidar/rotor std
+ratio (1.121 +/- 0.013 against 1.162, z -3.2 on those 300 periods; see the study).
 """
 
 import math
@@ -116,3 +118,70 @@ def test_conical_cup_sonic_ratio_is_the_theory(conical_40m):
     sim, se = _jackknife(c["var_c"], c["var_s"])
     _check("conical 40 m cup/sonic", sim, se, math.sqrt(t["cup"] / t["sonic"]),
            {"no cup response": math.sqrt(t["cup no response"] / t["sonic"])})
+
+
+#: 60-s periods of the bundled nacelle scene's frozen period: one period's correlation scatters by ~0.10.
+N_NACELLE = 100
+
+
+@pytest.fixture(scope="module")
+def nacelle_100m():
+    """The bundled nacelle scene's lidar (focus 100 m, tier los) against its rotor's REWS at the preview delay."""
+    from cwlidar_sim.analysis.rews import RotorDisc, rews_from_box, rotor_node_weights
+    from cwlidar_sim.sensors.nacelle import measure_nacelle
+    from cwlidar_sim.turbulence.cover import cover_box
+
+    focus = 100.0
+    scene = bundled_scene("nacelle")
+    p, s = scene.periods[0], scene.scan
+    U, params = p.mean_speed, scene.period_params(p)
+    lid = scene.sensor(p, (focus,)).replace(tier="los")
+    disc = RotorDisc(s.rotor_radius, s.rotor_exponent)
+    dt, epr = lid.dwell_time, lid.estimates_per_rev
+    # the preview delay in estimates: the revolution mean's centre against the rotor's time
+    m = int(round((lid.preview_distance(focus) / U - 0.5 * (lid.revolution_time - dt)) / dt))
+    pos = lid.position
+    var_l, var_r, cov = [], [], []
+    for i in range(N_NACELLE):
+        box = cover_box(lid.box_region(s.spacing, s.rotor_radius), U, DURATION, params, 2000 + i, spacing=s.spacing,
+                        lateral_doubling=s.lateral_doubling)
+        rec = measure_nacelle(box, lid, DURATION, U)
+        c = np.concatenate([[0.0], np.cumsum(rec.vlos_e / rec.direction_ec[:, 0])])
+        est = (c[epr:] - c[:-epr]) / epr  # the revolution ending at estimate epr - 1, epr, ...
+        rews = rews_from_box(box, disc, pos[1], pos[2], x=pos[0], times=rec.time_e, U=U)
+        a, b = est[: est.size - m], rews[epr - 1 + m:]
+        a, b = a - a.mean(), b - b.mean()
+        var_l.append(np.mean(a * a)), var_r.append(np.mean(b * b)), cov.append(np.mean(a * b))
+        if i == 0:
+            n_s = a.size
+            shape, spacing = box.attrs["generated_shape"], tuple(float(box[c][1] - box[c][0]) for c in "xyz")
+            w = rotor_node_weights(disc, box["y"].values, box["z"].values, pos[1], pos[2])
+            Y, Z = np.meshgrid(box["y"].values - pos[1], box["z"].values - pos[2], indexing="ij")
+            nodes = (Y[w > 0], Z[w > 0], w[w > 0] / w[w > 0].sum())
+        del box
+    lid0 = lid.replace(position=(0.0, 0.0, 0.0))
+    rotor, est_f = th.nacelle_functionals(lid0, focus, U, nodes, n_beams=None, preview_shift=m * dt, probe="cells")
+    looks = est_f.looks
+    no_delay = lt.LinearFunctional(lt.Looks(looks.point_lc, looks.direction_lc, None, looks.probe_l),
+                                   est_f.weight_olc, ["no delay"])
+    yawed = th.nacelle_functionals(lid0.replace(yaw_misalignment_deg=20.0), focus, U, nodes, n_beams=None,
+                                   preview_shift=m * dt, probe="cells")[1]
+    spec = lt.lattice_spectra(params, [rotor, est_f, no_delay, yawed], U, shape, spacing)
+
+    def var(a, b=None):
+        F = spec.spectrum(a) if b is None else spec.cross(a, b).real
+        return lt.period_variance(spec.k1_k, F, U, n_s * dt, sample_interval=dt, lines=True)["within"]
+
+    v_r = var("0.rotor")
+    corr = {name: var(name, "0.rotor") / math.sqrt(var(name) * v_r) for name in ("1.lidar", "2.no delay", "3.lidar")}
+    return {"var_l": var_l, "var_r": var_r, "cov": cov, "corr": corr}
+
+
+def test_nacelle_lidar_rotor_correlation_is_the_theory(nacelle_100m):
+    """The correlation of the lidar's revolution mean with the rotor's REWS at the preview delay within 3 standard
+    errors of the theory (the simulation's looks, range cells, delays); the looks' delays dropped (no preview) and
+    a lidar yawed by 20 deg are each outside them."""
+    c = nacelle_100m
+    sim, se = _jackknife(c["var_l"], c["var_r"], c["cov"])
+    _check("nacelle 100 m lidar-rotor correlation", sim, se, c["corr"]["1.lidar"],
+           {"no delay": c["corr"]["2.no delay"], "yaw 20 deg": c["corr"]["3.lidar"]})

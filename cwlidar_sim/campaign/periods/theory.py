@@ -139,8 +139,9 @@ def node_interpolated_variance(k1_k, line_variance_k, mean_speed: float, times_t
     dx``), samples it at ``times_t`` and, for a cup, runs
     :func:`cwlidar_sim.sensors.cup_response` (its first-order step on the
     samples, started at the first) over them.  A line ``exp(i k x)`` of the
-    box reaches it lowered (by up to ``1 - 8 / pi^2`` in variance at the
-    Nyquist) with aliases at the node frequency ``U / dx`` -- which the
+    box reaches it lowered (to ``sinc^4(k dx / 2)`` of its variance,
+    ``16 / pi^4`` at the Nyquist) with aliases at the node frequency ``U / dx``
+    (in all, the mean square ``(2 + cos(k dx)) / 3``) -- which the
     samples fold back coherently -- so each line's sampled series is formed
     as the simulation forms it, and its variance about its own mean (``1 /
     N``) is summed with the line's weight.  The lines are those of a point

@@ -11,7 +11,8 @@ and asserts that the simulation rejects it by more than the same 3 standard erro
 Measured at full size (``studies/theory_vs_simulation.py``, 400 periods of 60 s, 40 m): lidar/cup 0.7833 +/- 0.0058
 against 0.7861 (z -0.5), cup/sonic 0.97907 +/- 0.00066 against 0.97915 (z -0.1); nacelle (300 periods of 60 s)
 lidar-rotor correlation 0.9061 +/- 0.0056 against 0.9022 (z +0.7).  Not held here: the nacelle's lidar/rotor std
-ratio (1.121 +/- 0.013 against 1.162, z -3.2 on those 300 periods; see the study).
+ratio (1.121 +/- 0.013 against 1.162, z -3.2 on those 300 periods) nor the 100-m conical ratio (z -2.1): the
+lidars' own interpolation between the box's nodes, which the functionals leave out (see the study).
 """
 
 import math
@@ -25,6 +26,8 @@ from cwlidar_sim.campaign.periods import theory as th
 from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
 from cwlidar_sim.campaign.scenes.conical import default_spacing
 from cwlidar_sim.sensors import ConicalLidar, Cup
+
+pytestmark = pytest.mark.slow  # about 3.5 minutes on 2 loaded cores
 
 #: 60-s periods at 40 m: one period's lidar/cup ratio scatters by ~0.10, so 100 give a standard error of ~0.01.
 N_CONICAL, DURATION, SPEED, SUB_DWELLS = 100, 60.0, 8.0, 2

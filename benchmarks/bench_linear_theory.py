@@ -2,14 +2,18 @@
 
     python benchmarks/bench_linear_theory.py [--quick] [--json PATH]
 
-Times (this interpreter, after a warm-up at one k1) ``functional_spectra`` of a
-1-s VAD scan's u (50 looks on the 30-degree cone, the focused beam's exact
-weighting, each look at its own time in the revolution) together with a cup
-(first-order response) at 100 m and U = 8 m/s, on 30 wavenumbers (1e-4..1
-rad/m; ``--quick``: 10), and, in the same run, the baseline: CS's 1-D filter
-model at that height (``cs_model.model_ratios``, spectrum "mann").  Prints the
-ratio of the two times and the two std ratios (lidar u over cup).  Runs in one
-fresh interpreter under the shared protocol of ``benchmarks/_protocol.py``.
+Times (this interpreter, after a warm-up at one k1) ``functional_spectra`` of
+one height of the CS scene as its period theory builds it
+(``campaign.periods.theory.conical_functionals`` of the bundled scene's lidar at
+100 m, U = 8 m/s: the VAD fit of one 1-s revolution, 50 estimates of 8
+sub-dwell looks each at its own azimuth and time, the beam's exact weighting;
+and the cup with its first-order response) on 30 wavenumbers (1e-4..1 rad/m;
+``--quick``: 10), and,
+in the same run, the baseline: CS's 1-D filter model at that height
+(``cs_model.model_ratios``, spectrum "mann").  Prints the ratio of the two
+times and the std ratios (VAD u over cup: the linear theory's over a 600-s
+period by ``period_variance``, and the 1-D model's).  Runs in one fresh
+interpreter under the shared protocol of ``benchmarks/_protocol.py``.
 """
 
 from __future__ import annotations
@@ -50,17 +54,17 @@ def _child(task):
 
     from cwlidar_sim.analysis import cs_model
     from cwlidar_sim.analysis import linear_theory as lt
-    from cwlidar_sim.analysis.rews_theory import beam_transfer
-    from cwlidar_sim.turbulence import MannParameters
+    from cwlidar_sim.campaign.execution.reproduce import bundled_scene
+    from cwlidar_sim.campaign.periods.theory import conical_functionals
+    from cwlidar_sim.sensors import ConicalLidar, Cup
 
     a = SimpleNamespace(quick=task["quick"])
-    p = MannParameters(0.05, 60.0, 3.2)
-    z, U, half, n_looks, cup_l = 100.0, 8.0, 30.0, 50, 2.3
-    r = z / math.cos(math.radians(half))
-    th = 2.0 * math.pi * (np.arange(n_looks) + 0.5) / n_looks
-    looks = lt.conical_looks(z, half, th, time_l=(th / (2.0 * math.pi) - 0.5), probe=beam_transfer(r, "exact"))
-    vad = lt.least_squares_functional(looks, ("u", "v", "w"))
-    cup = lt.point_functional((0.0, 0.0, z), ("u",), response=lt.first_order_response(cup_l / U))
+    z, U, period = 100.0, 8.0, 600.0
+    cs = bundled_scene("cs")
+    lidar = ConicalLidar(heights=(z,), **cs.lidar_fields(1.0))
+    p = cs.turbulence.params(z, U)
+    vad, cup = conical_functionals(lidar, z, U, revolutions=1, cup=Cup(position=(0.0, 0.0, z)))
+    n_looks = vad.looks.n_looks
     k1 = np.geomspace(1e-4, 1.0, 10 if a.quick else 30)
     lt.functional_spectra(k1[:1], p, [vad, cup], U)  # warm-up
     t0 = time.perf_counter()
@@ -70,13 +74,12 @@ def _child(task):
     cs_model._mann_coarse.cache_clear()
     base = cs_model.model_ratios(z, U, 1, spectrum="mann", params=p)
     db = time.perf_counter() - t0
-    lk = np.log(k1)
-    var_l = float(np.trapezoid(s.spectrum("0.u") * k1, lk))
-    var_c = float(np.trapezoid(s.spectrum("1.u") * k1, lk))
+    var_l = lt.period_variance(k1, s.spectrum("0.u"), U, period)["within"]
+    var_c = lt.period_variance(k1, s.spectrum("1.u"), U, period)["within"]
     log = [f"linear theory, one CS height (VAD 1 s, {n_looks} looks, exact weighting, + cup), "
            f"{k1.size} k1: {dt:.2f} s ({dt / k1.size:.3f} s per k1)",
            f"baseline cs_model.model_ratios (1-D filter model, Mann spectra): {db:.2f} s; ratio {dt / db:.1f}",
-           f"std ratio lidar u / cup over {k1[0]:g}..{k1[-1]:g} rad/m: linear theory {math.sqrt(var_l / var_c):.4f}, "
+           f"std ratio lidar u / cup within {period:g} s: linear theory {math.sqrt(var_l / var_c):.4f}, "
            f"CS model {base['std_ratio']:.4f}"]
     rows = [{"case": "cs_height", "k1": int(k1.size), "looks": n_looks, "wall_s": dt, "per_k1_s": dt / k1.size,
              "baseline_wall_s": db, "ratio_to_baseline": dt / db,

@@ -1155,3 +1155,62 @@ def linear_functional_cross_spectrum(k1, alpha_eps, L, gamma, U, looks_a, looks_
         val = np.conj(ax) * (P11 * bx + P12 * by) + np.conj(ay) * (P12 * bx + P22 * by)
         total += w2 * np.sum(wq * val)
     return total
+
+
+def mann_phi_matrix(k1, k2, k3, alpha_eps, L, gamma):
+    """The whole Mann tensor ``Phi_ij`` (shape (..., 3, 3)) for arrays, numpy only: :func:`mann_phi_components`'
+    rows of ``D A_iso`` (the same formulas) with the third row, ``Phi = (D A_iso)(D A_iso)^T``."""
+    from scipy.special import hyp2f1
+
+    k1, k2, k3 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (k1, k2, k3)))
+    kk = k1 * k1 + k2 * k2 + k3 * k3
+    kl = np.sqrt(kk) * L
+    beta = gamma * kl ** (-2.0 / 3.0) / np.sqrt(hyp2f1(1 / 3, 17 / 6, 4 / 3, -(kl ** -2.0)))
+    k30 = k3 + beta * k1
+    k0sq = k1 * k1 + k2 * k2 + k30 * k30
+    E = alpha_eps * L ** (5 / 3) * (k0sq * L * L) ** 2 / (1 + k0sq * L * L) ** (17 / 6)
+    a = np.sqrt(E / (4 * math.pi)) / k0sq
+    kh2 = k1 * k1 + k2 * k2
+    C1 = beta * k1 * k1 * (k0sq - 2 * k30 * k30 + beta * k1 * k30) / (kk * kh2)
+    ang = np.arctan2(beta * k1 * np.sqrt(kh2), k0sq - k30 * k1 * beta)
+    C2 = k2 * k0sq / kh2**1.5 * ang
+    z1 = C1 - k2 / k1 * C2
+    z2 = k2 / k1 * C1 + C2
+    m = np.stack([np.stack([z1 * k2, k30 - z1 * k1, -k2 * np.ones_like(k1)], -1),
+                  np.stack([-k30 + z2 * k2, -z2 * k1, k1 * np.ones_like(k2)], -1),
+                  (k0sq / kk)[..., None] * np.stack([k2, -k1 * np.ones_like(k2), 0.0 * k2], -1)], -2)
+    return (a * a)[..., None, None] * np.einsum("...ik,...jk->...ij", m, m)
+
+
+def linear_functional_matrix(k1, k2, k3, w, alpha_eps, L, gamma, U, outputs):
+    """``2 sum_n w_n g_a(k_n)^H Phi(k_n) g_b(k_n)`` at one k1 > 0 over given (k2, k3) nodes, plain numpy.
+
+    ``outputs`` is a list (one per output a) of lists of looks ``(w_c, p, n, z_R, t, tau)``: the output
+    ``sum w_c . (the Lorentzian average exp(-z_R |q|) along n of u about p)`` taken at time t through a
+    first-order filter of time constant tau (0: none), under Taylor's hypothesis (U along +x), so
+    ``g_a = sum w_c exp(i (k.p - k1 U t)) exp(-z_R |k.n|) / (1 - i k1 U tau)`` (``H(omega)`` at
+    ``omega = -k1 U``).  The tensor is :func:`mann_phi_matrix` (no package code).
+    """
+    k2 = np.asarray(k2, dtype=float)
+    k3 = np.asarray(k3, dtype=float)
+    phi = mann_phi_matrix(k1, k2, k3, alpha_eps, L, gamma)
+    g = np.zeros((len(outputs), k2.size, 3), dtype=complex)
+    for o, looks in enumerate(outputs):
+        for w_c, p, n, zr, t, tau in looks:
+            e = (np.exp(1j * (k1 * (p[0] - U * t) + k2 * p[1] + k3 * p[2]))
+                 * np.exp(-zr * np.abs(k1 * n[0] + k2 * n[1] + k3 * n[2])) / (1.0 - 1j * k1 * U * tau))
+            g[o] += e[:, None] * np.asarray(w_c, dtype=float)[None, :]
+    return 2.0 * np.einsum("n,ani,nij,bnj->ab", np.asarray(w, dtype=float), np.conj(g), phi, g)
+
+
+def log_plane_nodes(k1, L, h):
+    """Tensor-product trapezoid nodes (k2, k3, weight) over the plane, ``k = +-exp(v)`` in each direction, step
+    ``h`` in v over ``[ln(min(k1, 1/L)) - 20, ln(max(k1, 1/L)) + 9]`` (:func:`linear_functional_cross_spectrum`'s)."""
+    lo = math.log(min(k1, 1.0 / L)) - 20.0
+    hi = math.log(max(k1, 1.0 / L)) + 9.0
+    v = np.arange(lo, hi + h, h)
+    ev = np.exp(v)
+    q = np.concatenate([-ev[::-1], ev])
+    wq = np.concatenate([ev[::-1], ev]) * h
+    k2, k3 = (a.ravel() for a in np.meshgrid(q, q, indexing="ij"))
+    return k2, k3, np.outer(wq, wq).ravel()

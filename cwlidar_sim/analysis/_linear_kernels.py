@@ -24,22 +24,26 @@ from .._config import NJIT_PARALLEL
 
 
 @numba.njit(**NJIT_PARALLEL)
-def accumulate_kernel(k1, k2_n, k3_n, w_n, phi_n33, a_l, py_l, pz_l, nx_l, ny_l, nz_l, table_l, resp_l, weight_alc,
-                      tab_re_tq, tab_im_tq, tab_lq0_t, tab_inv_t, tab_v0_t, block, out_bab):
+def accumulate_kernel(k1, k2_n, k3_n, w_n, phi_n33, a_l, py_l, pz_l, nx_l, ny_l, nz_l, table_l, resp_l, nz_start_l,
+                      nz_ac_j, nz_w_j, tab_re_tq, tab_im_tq, tab_lq0_t, tab_inv_t, tab_v0_t, block, out_bab):
     """``out_bab[b] = sum_{n in block b} w_n g_a(k_n)^H Phi_n g_b(k_n)`` (blocks of ``block`` nodes).
 
     ``a_l = k1 (p_lx - U t_l)``; ``table_l`` the row of the look's probe in
     the tables (-1: a point); ``resp_l`` the look's time filter at
-    ``omega = -k1 U`` (complex, 1 when none); ``weight_alc`` the estimator
-    weights of every output (all functionals' outputs, looks concatenated).
+    ``omega = -k1 U`` (complex, 1 when none); the estimator weights of every
+    output (all functionals' outputs, looks concatenated) as look l's nonzero
+    entries ``j in nz_start_l[l] .. nz_start_l[l + 1] - 1``: weight
+    ``nz_w_j[j]`` of component ``nz_ac_j[j] % 3`` in output ``nz_ac_j[j] // 3``
+    (in increasing ``a * 3 + c``, the order of the dense loop they replace).
     """
     n_nodes = k2_n.shape[0]
     n_l = a_l.shape[0]
-    n_a = weight_alc.shape[0]
+    n_a = out_bab.shape[1]
     n_q = tab_re_tq.shape[1]
     n_blocks = out_bab.shape[0]
     for b in numba.prange(n_blocks):
         g = np.empty((n_a, 3), dtype=np.complex128)
+        gf = g.reshape(n_a * 3)
         pg = np.empty((n_a, 3), dtype=np.complex128)
         acc = np.zeros((n_a, n_a), dtype=np.complex128)
         for n in range(b * block, min((b + 1) * block, n_nodes)):
@@ -76,11 +80,8 @@ def accumulate_kernel(k1, k2_n, k3_n, w_n, phi_n33, a_l, py_l, pz_l, nx_l, ny_l,
                 ri = resp_l[ll].imag
                 er, ei = er * rr - ei * ri, er * ri + ei * rr
                 e = complex(er, ei)
-                for a in range(n_a):
-                    for c in range(3):
-                        wgt = weight_alc[a, ll, c]
-                        if wgt != 0.0:
-                            g[a, c] += wgt * e
+                for j in range(nz_start_l[ll], nz_start_l[ll + 1]):
+                    gf[nz_ac_j[j]] += nz_w_j[j] * e
             for a in range(n_a):
                 for c in range(3):
                     pg[a, c] = phi_n33[n, c, 0] * g[a, 0] + phi_n33[n, c, 1] * g[a, 1] + phi_n33[n, c, 2] * g[a, 2]

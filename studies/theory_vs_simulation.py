@@ -81,7 +81,8 @@ def _within(spec, name, U, T, dt, other=None):
 # --------------------------------------------------------------------------
 # conical: the CS scene's lidar against its cup
 # --------------------------------------------------------------------------
-def conical_case(height, n_periods, duration, *, speed=8.0, seed0=1000, sub_dwells=2, span=None, break_=None):
+def conical_case(height, n_periods, duration, *, speed=8.0, seed0=1000, sub_dwells=2, span=None, break_=None,
+                 interpolation="none", aliases=1):
     """Simulated and theoretical lidar/cup and cup/sonic std ratios at one height (module notes): two rows.
 
     ``break_`` (for the acceptance tests' negative checks): ``"vad_w"`` drops the VAD's coefficient of w in the
@@ -117,7 +118,12 @@ def conical_case(height, n_periods, duration, *, speed=8.0, seed0=1000, sub_dwel
     point = lt.point_functional(r0["in_situ_position"], ("u",))
     spec = lt.lattice_spectra(params, [vad, point], speed, shape, r0["box_spacing"])
     T = float(np.mean(n_scan)) * lidar.revolution_time
-    v_lidar = _within(spec, "0.u", speed, T, lidar.revolution_time)
+    if interpolation == "none":
+        v_lidar = _within(spec, "0.u", speed, T, lidar.revolution_time)
+    else:  # the lidar's looks read the box trilinearly (the point sensors: node_interpolated_variance below)
+        spec_l = lt.lattice_spectra(params, vad, speed, shape, r0["box_spacing"], interpolation=interpolation,
+                                    aliases=aliases)
+        v_lidar = _within(spec_l, "u", speed, T, lidar.revolution_time)
     # the cup and the sonic read the box between its nodes along x (the cup's step on its 10-Hz samples)
     cup = Cup(position=r0["in_situ_position"])
     lines = spec.spectrum("1.u") * (2.0 * math.pi / (shape[0] * r0["box_spacing"][0]))
@@ -140,7 +146,8 @@ def conical_case(height, n_periods, duration, *, speed=8.0, seed0=1000, sub_dwel
 # --------------------------------------------------------------------------
 # nacelle: the bundled scene's lidar against the rotor
 # --------------------------------------------------------------------------
-def nacelle_case(n_periods, duration, *, focus=100.0, seed0=2000, break_=None, spacing=None):
+def nacelle_case(n_periods, duration, *, focus=100.0, seed0=2000, break_=None, spacing=None, interpolation="none",
+                 aliases=1):
     """Simulated and theoretical lidar/rotor std ratio and correlation at the preview delay (module notes).
 
     ``break_``: ``"no_cells"`` the continuous probe over the whole beam (no span, no mean-wind tail),
@@ -196,11 +203,18 @@ def nacelle_case(n_periods, duration, *, focus=100.0, seed0=2000, break_=None, s
     T = n_s * dt
     vl, vr = _within(spec, "1.lidar", U, T, dt), _within(spec, "0.rotor", U, T, dt)
     vc = _within(spec, "1.lidar", U, T, dt, other="0.rotor")
+    th_corr = vc / math.sqrt(vl * vr)  # the plain lattice's (one interpolation per call: the cross needs both)
+    if interpolation != "none":
+        # the lidar reads the box trilinearly, the rotor its nodes across (y, z) and linearly along x (rews_from_box)
+        vl = _within(lt.lattice_spectra(params, est_f, U, shape, spacing, interpolation=interpolation,
+                                        aliases=aliases), "lidar", U, T, dt)
+        vr = _within(lt.lattice_spectra(params, rotor, U, shape, spacing, interpolation=("linear", "none", "none"),
+                                        aliases=aliases), "rotor", U, T, dt)
     t_th = time.perf_counter() - t0
     base = {"n": n_periods, "duration": duration, "box": tuple(shape), "t_sim": t_sim, "t_theory": t_th,
             "variances": {"sim lidar": float(np.mean(var_l)), "sim rotor": float(np.mean(var_r)), "theory lidar": vl,
                           "theory rotor": vr}}
-    th_ratio, th_corr = math.sqrt(vl / vr), vc / math.sqrt(vl * vr)
+    th_ratio = math.sqrt(vl / vr)
     return [dict(base, scene=f"nacelle {focus:g} m", stat="std ratio lidar/rotor", sim=ratio, se=se_ratio,
                  theory=th_ratio, z=(ratio - th_ratio) / se_ratio, sd_one=se_ratio * math.sqrt(n_periods)),
             dict(base, scene=f"nacelle {focus:g} m", stat="correlation lidar-rotor", sim=corr, se=se_corr,
@@ -213,9 +227,15 @@ def main(argv=None):
     ap.add_argument("--duration", type=float, default=120.0)
     ap.add_argument("--heights", type=float, nargs="*", default=[40.0, 100.0])
     ap.add_argument("--sub-dwells", type=int, default=2)
+    ap.add_argument("--interpolation", choices=("none", "linear"), default="linear")
+    ap.add_argument("--aliases", type=int, default=1)
+    ap.add_argument("--no-nacelle", action="store_true")
     args = ap.parse_args(argv)
-    out = [r for z in args.heights for r in conical_case(z, args.periods, args.duration, sub_dwells=args.sub_dwells)]
-    out += nacelle_case(args.periods, args.duration)
+    kw = {"interpolation": args.interpolation, "aliases": args.aliases}
+    out = [r for z in args.heights for r in conical_case(z, args.periods, args.duration, sub_dwells=args.sub_dwells,
+                                                         **kw)]
+    if not args.no_nacelle:
+        out += nacelle_case(args.periods, args.duration, **kw)
     for r in out:
         need = math.ceil((r["sd_one"] / 0.005) ** 2)
         print(f"{r['scene']:16s} {r['stat']:26s} sim {r['sim']:.4f} +/- {r['se']:.4f}  theory {r['theory']:.4f}  "

@@ -104,6 +104,7 @@ from ._linear_functionals import (
     lorentzian_probe,
     point_functional,
 )
+from ._linear_lattice import interpolated_lines
 from .rews_theory import _GL_W, _GL_X, _panels
 
 __all__ = [
@@ -548,7 +549,10 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
     plan = _plan(fs, probes, _FUSED)
     ones = np.ones(g2.size)
     if interp != ("none",) * 3:
-        return _interpolated_lattice(fs, names, df, rows, n1, k1, g2, g3, spacing, interp, aliases, U, probes, plan)
+        def acc(q1, k2, k3, w, phi, out):
+            _accumulate(fs, q1, k2, k3, w, phi, U, out, probes, plan)
+        k_lines, out = interpolated_lines(df, rows, k1, g2, g3, spacing, interp, aliases, n_a, acc)
+        return FunctionalSpectra(k_lines, names, out)
     for j, r in enumerate(rows):
         p6 = df.phi_rows(np.array([r]))[0].reshape(-1, 6)
         phi = np.empty((g2.size, 3, 3))
@@ -558,56 +562,6 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
         if 2 * r == n1:
             out[j] *= 0.5
     return FunctionalSpectra(np.abs(k1), names, out / df.dk1)
-
-
-#: Alias terms (m != 0) whose gain L_x^2 L_y^2 L_z^2 is below this are skipped (their power is below it).
-_ALIAS_TOL = 1e-12
-
-
-def _phi_row(df, r, n):
-    p6 = df.phi_rows(np.array([r]))[0].reshape(-1, 6)
-    phi = np.empty((n, 3, 3))
-    for c, (a, b) in enumerate(((0, 0), (1, 1), (2, 2), (0, 2), (0, 1), (1, 2))):
-        phi[:, a, b] = phi[:, b, a] = p6[:, c]
-    return phi
-
-
-def _interpolated_lattice(fs, names, df, rows, n1, k1, g2, g3, spacing, interp, M, U, probes, plan):
-    """:func:`lattice_spectra` with the sampler's linear interpolation on the axes ``interp`` (its notes)."""
-    dx, dy, dz = spacing
-    ms = [np.arange(-M, M + 1) if v == "linear" else np.zeros(1, np.int64) for v in interp]
-
-    def gain(q, d, on):
-        return np.sinc(q * d / (2.0 * math.pi)) ** 4 if on else 1.0  # L(q)^2
-
-    n_a = sum(f.n_outputs for f in fs)
-    lines = {}
-    for j, r in enumerate(rows):
-        phi = _phi_row(df, int(r), g2.size)
-        for m1 in ms[0]:
-            q1 = float(k1[j]) + 2.0 * math.pi * m1 / dx
-            gx = gain(q1, dx, interp[0] == "linear")
-            if q1 == 0.0 or gx == 0.0:
-                continue
-            acc = np.zeros((n_a, n_a), dtype=complex)
-            for m2 in ms[1]:
-                k2 = g2 + 2.0 * math.pi * m2 / dy
-                gy = gain(k2, dy, interp[1] == "linear")
-                for m3 in ms[2]:
-                    k3 = g3 + 2.0 * math.pi * m3 / dz
-                    w = gx * gy * gain(k3, dz, interp[2] == "linear") * np.ones(g2.size)
-                    keep = np.nonzero(w > (_ALIAS_TOL if (m1, m2, m3) != (0, 0, 0) else 0.0))[0]
-                    if keep.size:
-                        _accumulate(fs, q1, np.ascontiguousarray(k2[keep]), np.ascontiguousarray(k3[keep]),
-                                    np.ascontiguousarray(w[keep]), np.ascontiguousarray(phi[keep]), U, acc, probes,
-                                    plan)
-            if 2 * r == n1:
-                acc *= 0.5
-            key = int(round(abs(q1) / df.dk1))
-            lines[key] = lines.get(key, 0.0) + (np.conj(acc) if q1 < 0 else acc)
-    keys = sorted(lines)
-    out = np.array([lines[k] for k in keys]).reshape(len(keys), n_a, n_a)
-    return FunctionalSpectra(np.array(keys, dtype=float) * df.dk1, names, out / df.dk1)
 
 
 def per_hertz(spectrum_k, mean_speed: float):

@@ -80,8 +80,8 @@ over a box's own modes (the discrete spectra the generator draws,
 Included: frozen turbulence, every look's probe weighting along its own
 beam, time offsets (scan timing, preview shifts), per-look causal time
 filters.  Not included: evolving turbulence (see :mod:`.rews_theory` for the
-eddy-lifetime planes), a box's trilinear interpolation between its nodes,
-the nonlinearity of speeds (|u_h| taken as u, ``U + u'``), speckle, noise and
+eddy-lifetime planes), a box's trilinear interpolation between its nodes
+(except :func:`lattice_spectra`'s ``interpolation`` option), the nonlinearity of speeds (|u_h| taken as u, ``U + u'``), speckle, noise and
 the estimators' own response (:mod:`.estimator_theory`).
 """
 
@@ -104,6 +104,7 @@ from ._linear_functionals import (
     lorentzian_probe,
     point_functional,
 )
+from ._linear_lattice import interpolated_lines
 from .rews_theory import _GL_W, _GL_X, _panels
 
 __all__ = [
@@ -447,7 +448,7 @@ def functional_spectra(k1, params, functionals, mean_speed: float, *, quadrature
 
 
 def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, rows=None, correction: str = "cell",
-                    hf_compensation: bool = False) -> FunctionalSpectra:
+                    hf_compensation: bool = False, interpolation="none", aliases: int = 2) -> FunctionalSpectra:
     """The spectra of :func:`functional_spectra` as a box of this grid holds them: sums over its own modes.
 
     A box ``u(x) = sum_k S(k) exp(i k.x)`` (periodic, advected through the
@@ -477,11 +478,45 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
         The box's low-wavenumber correction (``generate_box``'s).
     hf_compensation : bool
         The box's high-frequency compensation (``generate_box``'s).
+    interpolation : {"none", "linear"} or a tuple of three of them
+        How the looks read the box between its nodes, per axis (x, y, z) or
+        for all three: ``"none"``, the modes themselves (a point on the
+        nodes); ``"linear"``, the sampler's trilinear interpolation
+        (:mod:`cwlidar_sim.beam.sampling`, notes below).
+    aliases : int
+        Aliases m kept per interpolated axis, ``|m| <= aliases`` (>= 0); the
+        power left out per axis is below ``2 / (3 pi^4 aliases^3)`` of a
+        mode's (2.5e-4 at 3).
 
     Returns
     -------
     FunctionalSpectra
-        On the rows' ``k1_n`` [rad/m].
+        On the rows' ``k1_n`` [rad/m]; with x interpolated, on the lines
+        ``|k1_n + 2 pi m1 / dx|`` the aliases reach.
+
+    Notes
+    -----
+    Linear interpolation along an axis of spacing d turns a mode's node
+    values ``exp(i k x_j)`` into the piecewise-linear function ::
+
+        sum_m L(k + 2 pi m / d) exp(i (k + 2 pi m / d) x),   L(q) = sinc^2(q d / 2)
+
+    (the Fourier series of the tent-function interpolant; its value at ``x =
+    x_j + f d`` is ``((1 - f) + f exp(i k d)) exp(i k x_j)``, the sampler's).
+    Trilinear interpolation is the product over the axes, so each box mode k
+    reaches the functionals as the continuum's wavenumbers ``k + 2 pi m / d``
+    with amplitudes ``L_x L_y L_z``.  Along x the advected box sweeps the looks
+    across the nodes, so the aliases m1 are lines of their own at ``k1 + 2 pi
+    m1 / dx`` (exact, each on the box's line grid, conjugated where negative).
+    Across (y, z) each look's reading depends on where it sits in its cell:
+    the aliases (m2, m3) interfere through ``exp(2 pi i m.p / d)``.  They are
+    summed in power, ``sum_m L^2 g^H Phi_d g`` at ``k + 2 pi m / d``: exact in
+    expectation over the box's lateral offset against the instrument (uniform
+    over a cell: the cross terms of two aliases carry ``exp(2 pi i (m - m').
+    offset / d)`` and average to zero); a scan whose looks sweep across many
+    cells averages them the same way, a point on a node does not (leave its
+    axes ``"none"``).  tests/analysis/test_linear_theory_lattice.py checks it
+    against the sampler's trilinear readings averaged over the offset.
     """
     from ..turbulence._discrete import discrete_field
     from ..turbulence.box import _check_grid
@@ -497,6 +532,12 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
     rows = np.arange(1, n1 // 2 + 1) if rows is None else np.array(rows, dtype=np.int64, ndmin=1)
     if rows.ndim != 1 or np.any(rows < 1) or np.any(rows > n1 // 2):
         raise ValueError(f"rows must be row indices in 1 .. {n1 // 2} (N1 // 2)")
+    interp = (interpolation,) * 3 if isinstance(interpolation, str) else tuple(interpolation)
+    if len(interp) != 3:
+        raise ValueError(f"interpolation must be 'none', 'linear' or a tuple of three of them, got {interpolation!r}")
+    for a, v in zip("xyz", interp):
+        check_choice(f"interpolation ({a})", v, ("none", "linear"))
+    aliases = check_int("aliases", aliases, lo=0)
     df = discrete_field("box", params, shape, spacing, correction=correction, hf_compensation=hf_compensation)
     q2 = 2.0 * math.pi * np.fft.fftfreq(shape[1], spacing[1])
     q3 = 2.0 * math.pi * np.fft.fftfreq(shape[2], spacing[2])
@@ -507,6 +548,11 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
     probes = _fast_probes(fs)
     plan = _plan(fs, probes, _FUSED)
     ones = np.ones(g2.size)
+    if interp != ("none",) * 3:
+        def acc(q1, k2, k3, w, phi, out):
+            _accumulate(fs, q1, k2, k3, w, phi, U, out, probes, plan)
+        k_lines, out = interpolated_lines(df, rows, k1, g2, g3, spacing, interp, aliases, n_a, acc)
+        return FunctionalSpectra(k_lines, names, out)
     for j, r in enumerate(rows):
         p6 = df.phi_rows(np.array([r]))[0].reshape(-1, 6)
         phi = np.empty((g2.size, 3, 3))

@@ -16,11 +16,25 @@ what a period compares:
   cup at that height (first-order response of its distance constant);
 * :func:`nacelle_functionals`: a nacelle lidar's REWS estimate over one
   revolution (delays and preview) and a rotor of weighted nodes.
+* :func:`node_interpolated_variance`: a point sensor's period variance
+  as the simulation reads it, between the box's nodes along x (its own
+  line lowered, aliases at the node frequency), through the cup's
+  response on its samples.
 
-The field's frame: the mean wind U along +x.  A look's probe is its beam's
-continuous weighting (:func:`cwlidar_sim.analysis.rews_theory.beam_transfer`
-of the lidar's ``weighting`` with the instrument's optics), not the
-simulation's discrete range cells.
+The field's frame: the mean wind U along +x.  A look's probe is, with
+``probe="continuous"`` (default), its beam's continuous weighting
+(:func:`cwlidar_sim.analysis.rews_theory.beam_transfer` of the lidar's
+``weighting`` with the instrument's optics, over the whole beam); with
+``probe="cells"``, what the simulation samples at tier ``los``: the lidar's
+range cells (:meth:`cwlidar_sim.sensors.base.LidarBase.probe_cells`: its
+span, cell length, growth and tail rule), the sub-points' weights summed
+(:func:`cells_probe`; the mean-wind tail carries no fluctuation).
+
+The nacelle lidar's yaw misalignment turns its beams in the field
+(:meth:`cwlidar_sim.sensors.NacelleLidar.yaw_matrix`); a platform motion is
+taken where it is a fixed offset and attitude (every sample equal: a tilted
+or displaced lidar), refused by name where it moves (the functional would
+change with time: no stationary spectrum describes it).
 """
 
 from __future__ import annotations
@@ -29,7 +43,14 @@ import numpy as np
 
 from ...analysis import linear_theory as lt
 from ...analysis.rews_theory import beam_transfer, scan_beams
-from ..._validation import check_int, check_real
+from ...beam.cells import ProbeCells
+from ...sensors.cup import cup_response
+from ..._validation import check_choice, check_int, check_real
+
+#: The looks' probe weightings (module notes).
+PROBES = ("continuous", "cells")
+#: Most entries of a :func:`cells_probe` table (the sum itself beyond).
+_CELLS_TABLE = 200_000
 
 
 def _probe(lidar, instrument):
@@ -38,7 +59,144 @@ def _probe(lidar, instrument):
                          radius=instrument.telescope_radius)
 
 
-def staring_functionals(lidar, sonic_position):
+def _look_probe(lidar, instrument, probe):
+    """``phi_hat`` of a look: the continuous weighting or the simulation's range cells (``probe``)."""
+    if check_choice("probe", probe, PROBES) == "cells":
+        return cells_probe(lidar.probe_cells(instrument))
+    return _probe(lidar, instrument)
+
+
+class _CellsProbe:
+    """``phi_hat(q) = sum_j w_j exp(-i q s_j)`` of range cells' sub-points, tabulated (:func:`cells_probe`)."""
+
+    def __init__(self, cells):
+        self.w_j = cells.fraction_j * np.repeat(cells.weight_s, np.diff(cells.ptr_s))
+        self.s_j = np.asarray(cells.sub_j, dtype=float)
+        length = max(float(np.ptp(cells.edges)), float(cells.cell_length))
+        # linear interpolation on steps of 2 pi / (128 L): within 1e-4 of the sum (its phases turn by L q)
+        self.dq = 2.0 * np.pi / (128.0 * length)
+        n_q = min(int(np.ceil(4.0 * np.pi / float(np.min(np.diff(cells.edges))) / self.dq)), _CELLS_TABLE)
+        q = np.arange(n_q + 2) * self.dq
+        self.q_max = float(q[-1])
+        v = np.concatenate([self._exact(q[i:i + 4096]) for i in range(0, q.size, 4096)])
+        self.re, self.im = v.real.copy(), v.imag.copy()
+
+    def _exact(self, q):
+        return np.exp(-1j * np.multiply.outer(q, self.s_j)) @ self.w_j
+
+    def __call__(self, q):
+        q = np.asarray(q, dtype=float)
+        a = np.abs(q).ravel()
+        out = np.empty(a.size, dtype=complex)
+        inside = a <= self.q_max
+        x = a[inside] / self.dq
+        i = np.minimum(x.astype(np.int64), self.re.size - 2)
+        t = x - i
+        out.real[inside] = self.re[i] + t * (self.re[i + 1] - self.re[i])
+        out.imag[inside] = self.im[i] + t * (self.im[i + 1] - self.im[i])
+        far = np.flatnonzero(~inside)
+        for lo in range(0, far.size, 4096):
+            out[far[lo:lo + 4096]] = self._exact(a[far[lo:lo + 4096]])
+        out = out.reshape(q.shape)
+        return np.where(q < 0, np.conj(out), out)
+
+
+def cells_probe(cells):
+    """``phi_hat`` of a lidar's range cells as the simulation samples them at tier ``los`` [-].
+
+    ``phi_hat(q) = sum_j w_j exp(-i q s_j)`` over the cells' sub-points
+    ``s_j`` [m] with weights ``w_j`` (the cell's weight times the
+    sub-point's share, :meth:`cwlidar_sim.beam.cells.ProbeCells.transfer`);
+    the mean-wind tail cell is left out (it sees no fluctuation), so
+    ``phi_hat(0)`` is the kept weight (1 for the 'renormalise' rule).
+    Tabulated on steps of ``2 pi / (128 L)`` (L the cells' extent: within
+    about 1e-4 of the sum) up to ``4 pi / (shortest cell)`` or 200000
+    steps, the sum itself beyond.
+
+    Parameters
+    ----------
+    cells : ProbeCells
+        :class:`cwlidar_sim.beam.cells.ProbeCells` (a sensor's ``cells``).
+
+    Returns
+    -------
+    callable
+        ``q [rad/m] -> phi_hat(q)`` (complex, vectorised), a
+        :class:`~cwlidar_sim.analysis.linear_theory.Looks` probe.
+    """
+    if not isinstance(cells, ProbeCells):
+        raise TypeError(f"cells must be a ProbeCells, got {type(cells).__name__}")
+    return _CellsProbe(cells)
+
+
+def node_interpolated_variance(k1_k, line_variance_k, mean_speed: float, times_t, dx: float, *, offset: float = 0.0,
+                               distance_constant: float | None = None) -> float:
+    """A point sensor's within-period variance as simulated: read between the box's nodes along x [m^2 s^-2].
+
+    The simulation reads a point sensor (a cup, a sonic: on a node across
+    the wind) by linear interpolation between the box's nodes along x as
+    the box is advected past it (position ``offset - U t`` on nodes ``n
+    dx``), samples it at ``times_t`` and, for a cup, runs
+    :func:`cwlidar_sim.sensors.cup_response` (its first-order step on the
+    samples, started at the first) over them.  A line ``exp(i k x)`` of the
+    box reaches it lowered (to ``sinc^4(k dx / 2)`` of its variance,
+    ``16 / pi^4`` at the Nyquist) with aliases at the node frequency ``U / dx``
+    (in all, the mean square ``(2 + cos(k dx)) / 3``) -- which the
+    samples fold back coherently -- so each line's sampled series is formed
+    as the simulation forms it, and its variance about its own mean (``1 /
+    N``) is summed with the line's weight.  The lines are those of a point
+    functional (:func:`~cwlidar_sim.analysis.linear_theory.lattice_spectra`
+    without a response: density times ``dk1``); the lidars' looks, averaged
+    over their probe and the scan, are left to the functionals.
+
+    Parameters
+    ----------
+    k1_k : array_like
+        The box's lines k1 [rad/m], >= 0.
+    line_variance_k : array_like
+        Each line's variance [m^2 s^-2] (one value per k1).
+    mean_speed : float
+        U [m/s], > 0.
+    times_t : array_like
+        The sensor's sample times over the period [s] (uniform, >= 2; a cup's every 0.1 s).
+    dx : float
+        The box's spacing along x [m], > 0.
+    offset : float
+        The sensor's x minus a node's at t = 0 [m].
+    distance_constant : float, optional
+        A cup's distance constant [m] (its response, linear: ``tau = l / U``); None: a sensor without response.
+
+    Returns
+    -------
+    float
+        The expected sample variance about the period's mean [m^2 s^-2].
+    """
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    d = check_real("dx", dx, lo=0.0, lo_open=True)
+    x0 = check_real("offset", offset)
+    k = np.asarray(k1_k, dtype=float).ravel()
+    var_k = np.asarray(line_variance_k, dtype=float).ravel()
+    if k.shape != var_k.shape or k.size < 1 or np.any(k < 0) or not np.all(np.isfinite(var_k)):
+        raise ValueError("k1_k must be wavenumbers >= 0 [rad/m] with one finite line_variance_k value each")
+    t = np.asarray(times_t, dtype=float).ravel()
+    if t.size < 2 or np.any(np.diff(t) <= 0):
+        raise ValueError("times_t must be >= 2 increasing sample times [s]")
+    if distance_constant is not None:
+        distance_constant = check_real("distance_constant", distance_constant, lo=0.0, lo_open=True)
+    s = (x0 - U * t) / d
+    n = np.floor(s)
+    f = s - n
+    total = 0.0
+    for k_i, v_i in zip(k, var_k):
+        g = np.exp(1j * k_i * d * n) * ((1.0 - f) + f * np.exp(1j * k_i * d))
+        if distance_constant is not None:
+            g = (cup_response(g.real, t[1] - t[0], distance_constant, mean_speed=U)
+                 + 1j * cup_response(g.imag, t[1] - t[0], distance_constant, mean_speed=U))
+        total += v_i * float(np.mean(np.abs(g - g.mean()) ** 2))
+    return total
+
+
+def staring_functionals(lidar, sonic_position, *, probe: str = "continuous"):
     """A staring lidar's line-of-sight speed and a sonic's wind along the same beam, as linear functionals.
 
     Parameters
@@ -47,6 +205,8 @@ def staring_functionals(lidar, sonic_position):
         The lidar (:class:`cwlidar_sim.sensors.StaringLidar`), in the field's frame.
     sonic_position : (x, y, z)
         The sonic's position [m].
+    probe : {"continuous", "cells"}
+        The beam's weighting or the simulation's range cells (module notes).
 
     Returns
     -------
@@ -58,13 +218,14 @@ def staring_functionals(lidar, sonic_position):
     inst = lidar.instrument
     n = np.asarray(lidar.direction, dtype=float)
     focus = np.asarray(lidar.position, dtype=float) + inst.focus * n
-    beam = lt.lidar_functional(lt.Looks([focus], [n], None, _probe(lidar, inst)), [1.0], ["lidar"])
+    beam = lt.lidar_functional(lt.Looks([focus], [n], None, _look_probe(lidar, inst, probe)), [1.0], ["lidar"])
     sonic = lt.LinearFunctional(lt.Looks(np.asarray(sonic_position, dtype=float).reshape(1, 3), [n]),
                                 n.reshape(1, 1, 3), ["sonic"])
     return beam, sonic
 
 
-def conical_functionals(lidar, height: float, mean_speed: float, *, revolutions: int = 1, cup=None):
+def conical_functionals(lidar, height: float, mean_speed: float, *, revolutions: int = 1, cup=None,
+                        probe: str = "continuous"):
     """A conical lidar's VAD fit (u, v, w) of ``revolutions`` at one height, and a cup there, as linear functionals.
 
     The looks: each estimate of the first block of ``revolutions`` at
@@ -87,6 +248,8 @@ def conical_functionals(lidar, height: float, mean_speed: float, *, revolutions:
     cup : Cup, optional
         The cup (:class:`cwlidar_sim.sensors.Cup`: its position and distance
         constant); None: no cup.
+    probe : {"continuous", "cells"}
+        The beams' weighting or the simulation's range cells (module notes).
 
     Returns
     -------
@@ -115,7 +278,7 @@ def conical_functionals(lidar, height: float, mean_speed: float, *, revolutions:
     n_lc = np.asarray(lidar.direction(az_l), dtype=float).reshape(-1, 3)
     inst = lidar.instrument_at(z)
     focus_lc = np.asarray(lidar.position, dtype=float)[None, :] + inst.focus * n_lc
-    looks = lt.Looks(focus_lc, n_lc, t_l - 0.5 * (t_e[0] + t_e[-1]), _probe(lidar, inst))
+    looks = lt.Looks(focus_lc, n_lc, t_l - 0.5 * (t_e[0] + t_e[-1]), _look_probe(lidar, inst, probe))
     coef_oe = np.linalg.pinv(np.asarray(lidar.direction(az_e), dtype=float).reshape(-1, 3))  # the fit of estimates
     vad = lt.lidar_functional(looks, np.repeat(coef_oe, nsub, axis=1) / nsub, ["u", "v", "w"])
     if cup is None:
@@ -123,18 +286,48 @@ def conical_functionals(lidar, height: float, mean_speed: float, *, revolutions:
     return vad, lt.point_functional(cup.position, ("u",), response=lt.first_order_response(cup.distance_constant / U))
 
 
-def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, n_beams: int = 8,
-                        preview_shift: float | None = None):
+def _nacelle_frame(lidar):
+    """``(origin, R, R_known)``: the lidar's position, the nacelle frame's axes in the field, the known attitude.
+
+    The yaw misalignment, and a platform motion that holds one offset and
+    attitude (module notes); a moving platform is refused by name.
+    """
+    yaw = lidar.yaw_matrix()
+    origin = np.asarray(lidar.position, dtype=float)
+    m = lidar.motion
+    if m is None:
+        return origin, yaw, np.eye(3)
+    moving = [k for k in ("surge", "sway", "heave", "roll_deg", "pitch_deg", "yaw_deg") if np.ptp(getattr(m, k)) > 0]
+    if moving:
+        raise ValueError(f"lidar.motion: a platform that moves ({', '.join('motion.' + k for k in moving)} vary) "
+                         "makes the lidar's looks change with time, which no stationary linear functional describes; "
+                         "allowed: motion None, or one fixed offset and attitude (every sample equal)")
+    d, _, rot = m.at(np.array([m.time[0]]))
+    return origin + d[0], yaw @ rot[0], (rot[0] if lidar.motion_correction else np.eye(3))
+
+
+def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, n_beams: int | None = 8,
+                        preview_shift: float | None = None, probe: str = "continuous"):
     """A nacelle lidar's REWS estimate over one revolution and a rotor of weighted nodes, as linear functionals.
 
-    The scan as :func:`cwlidar_sim.analysis.rews_theory.scan_beams` discretises
-    the lidar's cone (its geometry, revolution time and first azimuth, in the
-    nacelle frame, the hub at the origin): ``n_beams`` beams evenly over the
-    revolution, beam b's sample ``tau_b = (N - 1 - b) T / N`` old when the
-    estimate is formed (the phase after the last beam); each beam's
-    line-of-sight speed enters as ``v_b / n_bx`` with weight 1/N.  The
-    estimate is shifted by the preview ``preview_shift`` [s] (default
-    ``r cos a / U``, the focus's upwind distance).
+    With ``n_beams`` N: the scan as :func:`cwlidar_sim.analysis.rews_theory.scan_beams`
+    discretises the lidar's cone (its geometry, revolution time and first
+    azimuth, in the nacelle frame, the hub at the origin): N beams evenly
+    over the revolution, beam b's sample ``tau_b = (N - 1 - b) T / N`` old
+    when the estimate is formed (the phase after the last beam); each beam's
+    line-of-sight speed enters as ``v_b / m_bx`` with weight 1/N.  With
+    ``n_beams=None``: the simulation's own looks
+    (:meth:`cwlidar_sim.sensors.NacelleLidar.plan_record`): the first
+    revolution at ``focus`` of the lidar's schedule, ``estimates_per_rev``
+    estimates of ``sub_dwells`` looks each at their azimuths and times, each
+    estimate's mean line-of-sight speed over the x component of its looks'
+    mean known direction, averaged over the revolution (the period's
+    trailing revolution mean), formed at the last estimate's time.  Either
+    way the beams are turned by the yaw misalignment (and a fixed platform
+    attitude: module notes) in the field, the known directions (``m``) are
+    the nacelle frame's, and the estimate is shifted by the preview
+    ``preview_shift`` [s] (default ``r cos a / U``, the focus's upwind
+    distance).
 
     Parameters
     ----------
@@ -147,10 +340,12 @@ def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, 
     rotor_nodes : (y_n, z_n, w_n)
         The rotor's nodes in the rotor plane (x = 0) relative to the hub [m]
         and their weights (summing to 1).
-    n_beams : int
-        N >= 1.
+    n_beams : int or None
+        N >= 1, or None: the simulation's looks.
     preview_shift : float, optional
         The shift of the estimate [s].
+    probe : {"continuous", "cells"}
+        The beams' weighting or the simulation's range cells (module notes).
 
     Returns
     -------
@@ -161,16 +356,35 @@ def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, 
     if r not in tuple(lidar.focus_distances):
         raise ValueError(f"focus={focus!r} m is not one of the lidar's focus_distances {tuple(lidar.focus_distances)}")
     U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
-    n = check_int("n_beams", n_beams, lo=1, hi=10_000)
+    n = None if n_beams is None else check_int("n_beams", n_beams, lo=1, hi=10_000)
     y_n, z_n, w_n = (np.asarray(a, dtype=float).ravel() for a in rotor_nodes)
     if not (y_n.size == z_n.size == w_n.size) or abs(w_n.sum() - 1.0) > 1e-9:
         raise ValueError("rotor_nodes must be (y_n, z_n, w_n) of one length with weights summing to 1")
-    beams = scan_beams(lidar.geometry, n, r, all_phases=False, origin=lidar.position)
     shift = lidar.preview_distance(r) / U if preview_shift is None else check_real("preview_shift", preview_shift)
     inst = lidar.instrument_at(r)
-    # the look sees u_0(p - U (t + t_l) e1): a sample tau_b old and shifted by T is taken at t_l = -(T + tau_b)
-    looks = lt.Looks(beams.focus_points_bc, beams.direction_bc, -(shift + beams.delay_pb[0]), _probe(lidar, inst))
-    est = lt.lidar_functional(looks, beams.weight_b / beams.direction_bc[:, 0], ["lidar"])
+    origin, rot, known = _nacelle_frame(lidar)
+    if n is not None:
+        beams = scan_beams(lidar.geometry, n, r, all_phases=False, origin=(0.0, 0.0, 0.0))
+        m_lc, coef_l = beams.direction_bc, beams.weight_b / (beams.direction_bc @ known.T)[:, 0]
+        # the look sees u_0(p - U (t + t_l) e1): a sample tau_b old and shifted by T is taken at t_l = -(T + tau_b)
+        t_l = -(shift + beams.delay_pb[0])
+    else:
+        i = tuple(lidar.focus_distances).index(r)
+        nf, epr, nsub = len(lidar.focus_distances), lidar.estimates_per_rev, lidar.sub_dwells
+        cycle = nf * (lidar.revs_per_focus * lidar.revolution_time + (lidar.refocus_time if nf > 1 else 0.0))
+        time_e, az_e, fidx_e, _ = lidar.schedule(cycle)
+        idx = np.flatnonzero(fidx_e == i)[:epr]
+        off = (np.arange(nsub) + 0.5) / nsub - 0.5  # as NacelleLidar.plan_record: the looks within a dwell
+        dang = 360.0 / epr if lidar.circle else 0.0
+        t_el = time_e[idx, None] + off[None, :] * lidar.dwell_time
+        m_elc = lidar.nacelle_direction(az_e[idx, None] + off[None, :] * dang)
+        mx_e = (m_elc @ known.T).mean(axis=1)[:, 0]  # the x of the estimate's mean known direction
+        m_lc = m_elc.reshape(-1, 3)
+        coef_l = np.repeat(1.0 / (epr * nsub * mx_e), nsub)
+        t_l = (t_el - time_e[idx[-1]]).ravel() - shift
+    n_lc = m_lc @ rot.T
+    looks = lt.Looks(origin[None, :] + r * n_lc, n_lc, t_l, _look_probe(lidar, inst, probe))
+    est = lt.lidar_functional(looks, coef_l, ["lidar"])
     rotor_looks = lt.Looks(np.stack([0.0 * y_n, y_n, z_n], axis=1), np.tile([1.0, 0.0, 0.0], (y_n.size, 1)))
     rotor = lt.LinearFunctional(rotor_looks, w_n[None, :, None] * np.array([1.0, 0.0, 0.0]), ["rotor"])
     return rotor, est

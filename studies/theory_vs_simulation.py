@@ -1,0 +1,256 @@
+"""The linear theory against the simulation at tier ``los``, paired seeds: issue 33's acceptance.
+
+For each scene the simulation runs N seeded periods (the box, the lidar, the point sensor or the rotor from one
+seed: paired), and the pooled statistic is compared with the lattice theory of the box the simulation built (its
+generated shape and spacing: :func:`cwlidar_sim.analysis.linear_theory.lattice_spectra`) seen as the period sees it
+(:func:`~cwlidar_sim.analysis.linear_theory.period_variance`: the samples, the period, its mean removed), with the
+functionals of :mod:`cwlidar_sim.campaign.periods.theory` (``probe="cells"``: the simulation's range cells):
+
+* conical (the CS scene's lidar, one height a period, 1-s VAD scans): the lidar/cup std ratio,
+  ``sqrt(sum var_lidar / sum var_cup)`` over the periods (within-period variances, 1/N), and the cup/sonic ratio
+  (the cup's response); the cup and the sonic as the simulation reads them, between the box's nodes along x
+  (:func:`~cwlidar_sim.campaign.periods.theory.node_interpolated_variance`: at 40 m it lowers the point's variance
+  by 1.3 % and moves the lidar/cup ratio by +0.002);
+* nacelle (the bundled scene's frozen period, one focus): the lidar's revolution mean against the rotor's REWS at
+  the preview delay, the std ratio and the correlation coefficient.
+
+The standard error of a pooled statistic is the jackknife's over the periods; ``z = (sim - theory) / SE``.  It
+needs many periods: with 4 the jackknife of a ratio is itself uncertain by a factor of ~2 (the first run's 40-m
+"z = +7.9", 0.908 +/- 0.016 on 4 periods of 60 s, was that: one 60-s period's ratio scatters by 0.10, and 400
+periods give 0.7833 +/- 0.0058 against the theory's 0.7861, z = -0.5).  What the theory still leaves out (and so
+the residual holds): the lidars' own trilinear interpolation between the nodes -- a mode reaches a look lowered by
+about ``sinc^2(k_i d / 2)`` on each axis (tests/campaign/periods/test_theory_adapters.py), which the functionals
+do not hold; it leaves the simulated lidar low where the spacing is coarse against what the lidar resolves: 40 m
+(d = 2 m) z = -0.5 on 400 x 60 s, 100 m (d = 5 m) lidar/cup 0.6606 +/- 0.0101 against 0.6819 (z -2.1, 300 x 60 s),
+nacelle 100 m (d = 4 m) lidar/rotor std ratio 1.121 +/- 0.013 against 1.162 (z -3.2, 300 x 60 s: the rotor's
+variance agrees within 1 %, the lidar's is 6 % low; with dy = dz = 2 m the gap shrinks to 0.033, about the
+d^(2/3) the Mann spectrum's tail gives) while the lidar-rotor correlation agrees (z +0.7); and, second order in
+the turbulence intensity, the horizontal speed's nonlinearity, the VAD's rectified fit and its exclusion of the
+zero crossings (at tier los dropping the exclusion moves the 40-m ratio by 0.0004).
+
+The lidars' interpolation, computed (``--interpolation linear``, the default here:
+``lattice_spectra(interpolation="linear")``, the rotor's REWS linear along x only): it explains little of those
+residuals.  Conical 100 m lidar/cup 0.6819 -> 0.6788 (z -2.1 -> -1.8 against the 300 x 60 s above); nacelle
+lidar/rotor 1.1615 -> 1.1584 (z -3.2 -> -2.9; the lidar's within-period variance -0.6 %, the rotor's -0.04 %); the
+correlation is the plain lattice's (one interpolation per call).  The aliases (``--aliases 1`` against 0) move
+the lidars' variance by 2e-5 (conical) and 1.2e-4 (nacelle): the gains ``sinc^2(k d / 2)`` are the effect, and
+they act where the lidars' spectra are already small.  The remaining ~5 % of the nacelle lidar's variance is not
+the box's interpolation (open).
+
+Run (reduced size, a few minutes; the 60-s periods cost ~0.4 s each, one height's theory ~25 s)::
+
+    PYTHONPATH=. python studies/theory_vs_simulation.py --periods 100 --duration 60
+
+Full size (SE <= 0.005 for the std ratios: ~540 periods of 60 s at 40 m, about 4 minutes of simulation; at 100 m
+and for the nacelle see the printed estimate of the periods it needs)::
+
+    PYTHONPATH=. python studies/theory_vs_simulation.py --periods 540 --duration 60 --heights 40 100
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from cwlidar_sim.analysis import linear_theory as lt
+from cwlidar_sim.analysis.rews import RotorDisc, rews_from_box, rotor_node_weights
+from cwlidar_sim.campaign.execution.reproduce import bundled_scene
+from cwlidar_sim.campaign.periods import theory as th
+from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
+from cwlidar_sim.campaign.scenes.conical import default_spacing
+from cwlidar_sim.sensors import ConicalLidar, Cup
+from cwlidar_sim.sensors.nacelle import measure_nacelle
+from cwlidar_sim.turbulence.cover import cover_box
+
+
+def jackknife(num_i, den_i, cross_i=None):
+    """``(stat, se)`` of ``sqrt(sum num / sum den)`` (or ``sum cross / sqrt(sum num sum den)``) over periods i."""
+    num_i, den_i = np.asarray(num_i, float), np.asarray(den_i, float)
+
+    def stat(m):
+        if cross_i is None:
+            return math.sqrt(num_i[m].sum() / den_i[m].sum())
+        return np.asarray(cross_i, float)[m].sum() / math.sqrt(num_i[m].sum() * den_i[m].sum())
+
+    n = num_i.size
+    full = stat(np.ones(n, bool))
+    loo = np.array([stat(np.arange(n) != i) for i in range(n)])
+    return full, math.sqrt((n - 1) / n * np.sum((loo - loo.mean()) ** 2))
+
+
+def _within(spec, name, U, T, dt, other=None):
+    """The lattice lines' expected within-period (co)variance of a series sampled every ``dt`` over ``T``."""
+    F = spec.spectrum(name) if other is None else spec.cross(name, other).real
+    return lt.period_variance(spec.k1_k, F, U, T, sample_interval=dt, lines=True)["within"]
+
+
+# --------------------------------------------------------------------------
+# conical: the CS scene's lidar against its cup
+# --------------------------------------------------------------------------
+def conical_case(height, n_periods, duration, *, speed=8.0, seed0=1000, sub_dwells=2, span=None, break_=None,
+                 interpolation="none", aliases=1):
+    """Simulated and theoretical lidar/cup and cup/sonic std ratios at one height (module notes): two rows.
+
+    ``break_`` (for the acceptance tests' negative checks): ``"vad_w"`` drops the VAD's coefficient of w in the
+    theory, ``"no_cup_response"`` the cup's response, ``"probe_x2"`` doubles the theory's Rayleigh length.
+    """
+    cs = bundled_scene("cs")
+    d = default_spacing(height)
+    lf = cs.lidar_fields(d)
+    lf.pop("tier"), lf.pop("sub_dwells")
+    if span is not None:
+        lf["span"] = span
+    params, _, _ = cs.turbulence.resolve(height, speed)
+    t0 = time.perf_counter()
+    rows = [simulate_conical_period(height, seed0 + i, speed=speed, duration=duration, scan_revs=(1,), tier="los",
+                                    sub_dwells=sub_dwells, spacing=d, params=params, model=False,
+                                    lidar_overrides=lf) for i in range(n_periods)]
+    t_sim = time.perf_counter() - t0
+    n_scan = np.array([r["scans"][1]["n_scans"] for r in rows], float)
+    n_cup = duration * 10.0
+    var_l = np.array([r["scans"][1]["lidar_std"] ** 2 for r in rows]) * (n_scan - 1) / n_scan
+    var_c = np.array([r["cup_std"] ** 2 for r in rows]) * (n_cup - 1) / n_cup
+    sim, se = jackknife(var_l, var_c)
+    r0 = rows[0]
+    shape = (r0["box_shape"][0], 2 * r0["box_shape"][1], r0["box_shape"][2])
+    t0 = time.perf_counter()
+    lidar = ConicalLidar(**dict(lf, heights=(height,), tier="los", cell_length=d, sub_dwells=sub_dwells))
+    if break_ == "probe_x2":
+        lidar = lidar.replace(instrument=lidar.instrument.replace(
+            telescope_radius=lidar.instrument.telescope_radius / math.sqrt(2.0)))
+    vad = th.conical_functionals(lidar, height, speed, revolutions=1, probe="cells")
+    if break_ == "vad_w":
+        vad = lt.LinearFunctional(vad.looks, vad.weight_olc * np.array([1.0, 1.0, 0.0]), vad.names)
+    point = lt.point_functional(r0["in_situ_position"], ("u",))
+    spec = lt.lattice_spectra(params, [vad, point], speed, shape, r0["box_spacing"])
+    T = float(np.mean(n_scan)) * lidar.revolution_time
+    if interpolation == "none":
+        v_lidar = _within(spec, "0.u", speed, T, lidar.revolution_time)
+    else:  # the lidar's looks read the box trilinearly (the point sensors: node_interpolated_variance below)
+        spec_l = lt.lattice_spectra(params, vad, speed, shape, r0["box_spacing"], interpolation=interpolation,
+                                    aliases=aliases)
+        v_lidar = _within(spec_l, "u", speed, T, lidar.revolution_time)
+    # the cup and the sonic read the box between its nodes along x (the cup's step on its 10-Hz samples)
+    cup = Cup(position=r0["in_situ_position"])
+    lines = spec.spectrum("1.u") * (2.0 * math.pi / (shape[0] * r0["box_spacing"][0]))
+    v_cup = th.node_interpolated_variance(spec.k1_k, lines, speed, cup.times(duration), r0["box_spacing"][0],
+                                          distance_constant=None if break_ == "no_cup_response"
+                                          else cup.distance_constant)
+    t_sonic = lidar.schedule(duration).time_e
+    v_sonic = th.node_interpolated_variance(spec.k1_k, lines, speed, t_sonic, r0["box_spacing"][0])
+    var_s = np.array([r["sonic_std"] ** 2 for r in rows]) * (t_sonic.size - 1) / t_sonic.size
+    sim_cs, se_cs = jackknife(var_c, var_s)
+    theory, th_cs = math.sqrt(v_lidar / v_cup), math.sqrt(v_cup / v_sonic)
+    base = {"scene": f"conical {height:g} m", "n": n_periods, "duration": duration, "box": shape, "t_sim": t_sim,
+            "t_theory": time.perf_counter() - t0}
+    return [dict(base, stat="std ratio lidar/cup", sim=sim, se=se, theory=theory, z=(sim - theory) / se,
+                 sd_one=se * math.sqrt(n_periods)),
+            dict(base, stat="std ratio cup/sonic", sim=sim_cs, se=se_cs, theory=th_cs, z=(sim_cs - th_cs) / se_cs,
+                 sd_one=se_cs * math.sqrt(n_periods))]
+
+
+# --------------------------------------------------------------------------
+# nacelle: the bundled scene's lidar against the rotor
+# --------------------------------------------------------------------------
+def nacelle_case(n_periods, duration, *, focus=100.0, seed0=2000, break_=None, spacing=None, interpolation="none",
+                 aliases=1):
+    """Simulated and theoretical lidar/rotor std ratio and correlation at the preview delay (module notes).
+
+    ``break_``: ``"no_cells"`` the continuous probe over the whole beam (no span, no mean-wind tail),
+    ``"yaw"`` the theory's lidar yawed by 10 deg, ``"no_delay"`` the looks' times dropped.  ``spacing``: the box's
+    (dx, dy, dz) [m] instead of the scene's.
+    """
+    scene = bundled_scene("nacelle")
+    p = scene.periods[0]
+    s = scene.scan
+    U, params = p.mean_speed, scene.period_params(p)
+    lid = scene.sensor(p, (focus,)).replace(tier="los")
+    rotor_disc = RotorDisc(s.rotor_radius, s.rotor_exponent)
+    dt, epr = lid.dwell_time, lid.estimates_per_rev
+    m = int(round((lid.preview_distance(focus) / U - 0.5 * (lid.revolution_time - dt)) / dt))
+    var_l, var_r, cov = [], [], []
+    t0 = time.perf_counter()
+    for i in range(n_periods):
+        sp = s.spacing if spacing is None else spacing
+        box = cover_box(lid.box_region(min(np.atleast_1d(sp)), s.rotor_radius), U, duration, params, seed0 + i,
+                        spacing=sp, lateral_doubling=s.lateral_doubling)
+        rec = measure_nacelle(box, lid, duration, U)
+        u_e = rec.vlos_e / rec.direction_ec[:, 0]
+        c = np.concatenate([[0.0], np.cumsum(u_e)])
+        est = (c[epr:] - c[:-epr]) / epr  # estimate i + epr - 1: the revolution ending there
+        pos = lid.position
+        rews = rews_from_box(box, rotor_disc, pos[1], pos[2], x=pos[0], times=rec.time_e, U=U)
+        a = est[: est.size - m]
+        b = rews[epr - 1 + m:]
+        a, b = a - a.mean(), b - b.mean()
+        var_l.append(np.mean(a * a)), var_r.append(np.mean(b * b)), cov.append(np.mean(a * b))
+        n_s = a.size
+        if i == 0:
+            shape, spacing = box.attrs["generated_shape"], tuple(float(box[c][1] - box[c][0]) for c in "xyz")
+            w = rotor_node_weights(rotor_disc, box["y"].values, box["z"].values, pos[1], pos[2])
+            Y, Z = np.meshgrid(box["y"].values - pos[1], box["z"].values - pos[2], indexing="ij")
+            keep = w > 0
+            nodes = (Y[keep], Z[keep], w[keep] / w[keep].sum())
+        del box
+    t_sim = time.perf_counter() - t0
+    ratio, se_ratio = jackknife(var_l, var_r)
+    corr, se_corr = jackknife(var_l, var_r, cov)
+    t0 = time.perf_counter()
+    lid_th = lid.replace(position=(0.0, 0.0, 0.0))
+    if break_ == "yaw":
+        lid_th = lid_th.replace(yaw_misalignment_deg=10.0)
+    rotor, est_f = th.nacelle_functionals(lid_th, focus, U, nodes, n_beams=None, preview_shift=m * dt,
+                                          probe="continuous" if break_ == "no_cells" else "cells")
+    if break_ == "no_delay":
+        looks = est_f.looks
+        est_f = lt.LinearFunctional(lt.Looks(looks.point_lc, looks.direction_lc, None, looks.probe_l),
+                                    est_f.weight_olc, est_f.names)
+    spec = lt.lattice_spectra(params, [rotor, est_f], U, shape, spacing)
+    T = n_s * dt
+    vl, vr = _within(spec, "1.lidar", U, T, dt), _within(spec, "0.rotor", U, T, dt)
+    vc = _within(spec, "1.lidar", U, T, dt, other="0.rotor")
+    th_corr = vc / math.sqrt(vl * vr)  # the plain lattice's (one interpolation per call: the cross needs both)
+    if interpolation != "none":
+        # the lidar reads the box trilinearly, the rotor its nodes across (y, z) and linearly along x (rews_from_box)
+        vl = _within(lt.lattice_spectra(params, est_f, U, shape, spacing, interpolation=interpolation,
+                                        aliases=aliases), "lidar", U, T, dt)
+        vr = _within(lt.lattice_spectra(params, rotor, U, shape, spacing, interpolation=("linear", "none", "none"),
+                                        aliases=aliases), "rotor", U, T, dt)
+    t_th = time.perf_counter() - t0
+    base = {"n": n_periods, "duration": duration, "box": tuple(shape), "t_sim": t_sim, "t_theory": t_th,
+            "variances": {"sim lidar": float(np.mean(var_l)), "sim rotor": float(np.mean(var_r)), "theory lidar": vl,
+                          "theory rotor": vr}}
+    th_ratio = math.sqrt(vl / vr)
+    return [dict(base, scene=f"nacelle {focus:g} m", stat="std ratio lidar/rotor", sim=ratio, se=se_ratio,
+                 theory=th_ratio, z=(ratio - th_ratio) / se_ratio, sd_one=se_ratio * math.sqrt(n_periods)),
+            dict(base, scene=f"nacelle {focus:g} m", stat="correlation lidar-rotor", sim=corr, se=se_corr,
+                 theory=th_corr, z=(corr - th_corr) / se_corr, sd_one=se_corr * math.sqrt(n_periods))]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--periods", type=int, default=6)
+    ap.add_argument("--duration", type=float, default=120.0)
+    ap.add_argument("--heights", type=float, nargs="*", default=[40.0, 100.0])
+    ap.add_argument("--sub-dwells", type=int, default=2)
+    ap.add_argument("--interpolation", choices=("none", "linear"), default="linear")
+    ap.add_argument("--aliases", type=int, default=0)
+    ap.add_argument("--no-nacelle", action="store_true")
+    args = ap.parse_args(argv)
+    kw = {"interpolation": args.interpolation, "aliases": args.aliases}
+    out = [r for z in args.heights for r in conical_case(z, args.periods, args.duration, sub_dwells=args.sub_dwells,
+                                                         **kw)]
+    if not args.no_nacelle:
+        out += nacelle_case(args.periods, args.duration, **kw)
+    for r in out:
+        need = math.ceil((r["sd_one"] / 0.005) ** 2)
+        print(f"{r['scene']:16s} {r['stat']:26s} sim {r['sim']:.4f} +/- {r['se']:.4f}  theory {r['theory']:.4f}  "
+              f"z {r['z']:+.2f}  (N={r['n']}, T={r['duration']:g} s, box {r['box']}, sim {r['t_sim']:.0f} s, "
+              f"theory {r['t_theory']:.0f} s; SE 0.005 needs N ~ {need} of these)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,191 @@
+"""Issue 33's acceptance at reduced size: the lattice theory against the simulation at tier ``los``, paired seeds.
+
+The simulation runs N seeded periods (each its own box, lidar and point sensors); the theory is the expectation of the
+same statistic over the boxes the simulation draws (:func:`cwlidar_sim.analysis.linear_theory.lattice_spectra` of
+the generated shape and spacing, the adapters of :mod:`cwlidar_sim.campaign.periods.theory`).  The tolerance is
+3 standard errors of the pooled statistic, the jackknife's over the periods (their own scatter), and the z-scores
+are printed.  Each test also holds the theory with one ingredient broken -- the VAD's coefficient of w dropped, the
+cup's response removed, the probe twice as long (Rayleigh length x2), the nacelle lidar's preview delay dropped --
+and asserts that the simulation rejects it by more than the same 3 standard errors.
+
+Measured at full size (``studies/theory_vs_simulation.py``, 400 periods of 60 s, 40 m): lidar/cup 0.7833 +/- 0.0058
+against 0.7861 (z -0.5), cup/sonic 0.97907 +/- 0.00066 against 0.97915 (z -0.1); nacelle (300 periods of 60 s)
+lidar-rotor correlation 0.9061 +/- 0.0056 against 0.9022 (z +0.7).  Not held here: the nacelle's lidar/rotor std
+ratio (1.121 +/- 0.013 against 1.162, z -3.2 on those 300 periods) nor the 100-m conical ratio (z -2.1): the
+lidars' own interpolation between the box's nodes was the suspect, but computed
+(``lattice_spectra(interpolation="linear")``) it moves those theories by only -0.003 (z -1.8 and -2.9): open.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from cwlidar_sim.analysis import linear_theory as lt
+from cwlidar_sim.campaign.execution.reproduce import bundled_scene
+from cwlidar_sim.campaign.periods import theory as th
+from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
+from cwlidar_sim.campaign.scenes.conical import default_spacing
+from cwlidar_sim.sensors import ConicalLidar, Cup
+
+pytestmark = pytest.mark.slow  # about 3.5 minutes on 2 loaded cores
+
+#: 60-s periods at 40 m: one period's lidar/cup ratio scatters by ~0.10, so 100 give a standard error of ~0.01.
+N_CONICAL, DURATION, SPEED, SUB_DWELLS = 100, 60.0, 8.0, 2
+
+
+def _jackknife(num_i, den_i, cross_i=None):
+    """``(stat, se)`` of ``sqrt(sum num / sum den)`` (or ``sum cross / sqrt(sum num sum den)``) over the periods."""
+    num_i, den_i = np.asarray(num_i, float), np.asarray(den_i, float)
+
+    def stat(m):
+        if cross_i is None:
+            return math.sqrt(num_i[m].sum() / den_i[m].sum())
+        return np.asarray(cross_i, float)[m].sum() / math.sqrt(num_i[m].sum() * den_i[m].sum())
+
+    n = num_i.size
+    loo = np.array([stat(np.arange(n) != i) for i in range(n)])
+    return stat(np.ones(n, bool)), math.sqrt((n - 1) / n * np.sum((loo - loo.mean()) ** 2))
+
+
+def _check(name, sim, se, theory, broken):
+    """``|sim - theory| <= 3 se`` and every broken theory outside 3 se; the z-scores printed (``pytest -s``)."""
+    z = (sim - theory) / se
+    zb = {k: (sim - v) / se for k, v in broken.items()}
+    print(f"\n{name}: sim {sim:.4f} +/- {se:.4f}, theory {theory:.4f}, z {z:+.2f}; broken: "
+          + ", ".join(f"{k} {v:.4f} (z {zb[k]:+.1f})" for k, v in broken.items()))
+    assert abs(z) <= 3.0, f"{name}: the simulation {sim:.4f} +/- {se:.4f} against the theory {theory:.4f}"
+    for k, v in zb.items():
+        assert abs(v) > 3.0, f"{name}: a theory with {k} ({broken[k]:.4f}) is not rejected"
+
+
+@pytest.fixture(scope="module")
+def conical_40m():
+    """The CS scene's lidar at 40 m (tier los, 1-s VAD scans) and its cup and sonic: N periods and the theory."""
+    height = 40.0
+    cs = bundled_scene("cs")
+    d = default_spacing(height)
+    lf = cs.lidar_fields(d)
+    lf.pop("tier"), lf.pop("sub_dwells")
+    params, _, _ = cs.turbulence.resolve(height, SPEED)
+    rows = [simulate_conical_period(height, 1000 + i, speed=SPEED, duration=DURATION, scan_revs=(1,), tier="los",
+                                    sub_dwells=SUB_DWELLS, spacing=d, params=params, model=False,
+                                    lidar_overrides=lf) for i in range(N_CONICAL)]
+    lidar = ConicalLidar(**dict(lf, heights=(height,), tier="los", cell_length=d, sub_dwells=SUB_DWELLS))
+    cup = Cup(position=rows[0]["in_situ_position"])
+    t_cup, t_sonic = cup.times(DURATION), lidar.schedule(DURATION).time_e
+    n_scan = np.array([r["scans"][1]["n_scans"] for r in rows], float)
+    # the within-period variances (1/N) of the lidar's 1-s speeds, the 10-Hz cup and the 50-Hz sonic
+    var_l = np.array([r["scans"][1]["lidar_std"] ** 2 for r in rows]) * (n_scan - 1) / n_scan
+    var_c = np.array([r["cup_std"] ** 2 for r in rows]) * (t_cup.size - 1) / t_cup.size
+    var_s = np.array([r["sonic_std"] ** 2 for r in rows]) * (t_sonic.size - 1) / t_sonic.size
+    # the theory of the box the simulation draws: its generated shape (laterally doubled) and spacing
+    r0 = rows[0]
+    shape, spacing = (r0["box_shape"][0], 2 * r0["box_shape"][1], r0["box_shape"][2]), r0["box_spacing"]
+    vad = th.conical_functionals(lidar, height, SPEED, probe="cells")
+    long_probe = lidar.replace(instrument=lidar.instrument.replace(
+        telescope_radius=lidar.instrument.telescope_radius / math.sqrt(2.0)))  # z_R ~ 1 / a^2: twice as long
+    vad_x2 = th.conical_functionals(long_probe, height, SPEED, probe="cells")
+    vad_no_w = lt.LinearFunctional(vad.looks, vad.weight_olc * np.array([1.0, 1.0, 0.0]), vad.names)
+    point = lt.point_functional(cup.position, ("u",))
+    spec = lt.lattice_spectra(params, [vad, vad_x2, vad_no_w, point], SPEED, shape, spacing)
+    T = float(np.mean(n_scan)) * lidar.revolution_time
+
+    def lidar_var(name):
+        return lt.period_variance(spec.k1_k, spec.spectrum(name), SPEED, T, sample_interval=lidar.revolution_time,
+                                  lines=True)["within"]
+
+    lines = spec.spectrum("3.u") * (2.0 * math.pi / (shape[0] * spacing[0]))
+    theory = {"lidar": lidar_var("0.u"), "lidar probe x2": lidar_var("1.u"), "lidar no w": lidar_var("2.u"),
+              "cup": th.node_interpolated_variance(spec.k1_k, lines, SPEED, t_cup, spacing[0],
+                                                   distance_constant=cup.distance_constant),
+              "cup no response": th.node_interpolated_variance(spec.k1_k, lines, SPEED, t_cup, spacing[0]),
+              "sonic": th.node_interpolated_variance(spec.k1_k, lines, SPEED, t_sonic, spacing[0])}
+    return {"var_l": var_l, "var_c": var_c, "var_s": var_s, "theory": theory}
+
+
+def test_conical_lidar_cup_ratio_is_the_theory(conical_40m):
+    """The lidar/cup std ratio at 40 m within 3 standard errors of the theory (VAD fit of the sub-dwell looks, the
+    range cells, the cup between the nodes through its response); the VAD without w's coefficient, the probe twice
+    as long and the cup without its response are each outside them."""
+    c, t = conical_40m, conical_40m["theory"]
+    sim, se = _jackknife(c["var_l"], c["var_c"])
+    ratio = lambda lid, cup: math.sqrt(t[lid] / t[cup])  # noqa: E731
+    _check("conical 40 m lidar/cup", sim, se, ratio("lidar", "cup"),
+           {"VAD w dropped": ratio("lidar no w", "cup"), "probe x2": ratio("lidar probe x2", "cup")})
+
+
+def test_conical_cup_sonic_ratio_is_the_theory(conical_40m):
+    """The cup/sonic std ratio (the cup's first-order response on its 10-Hz samples) within 3 standard errors of the
+    theory; without the response the theory is outside them."""
+    c, t = conical_40m, conical_40m["theory"]
+    sim, se = _jackknife(c["var_c"], c["var_s"])
+    _check("conical 40 m cup/sonic", sim, se, math.sqrt(t["cup"] / t["sonic"]),
+           {"no cup response": math.sqrt(t["cup no response"] / t["sonic"])})
+
+
+#: 60-s periods of the bundled nacelle scene's frozen period: one period's correlation scatters by ~0.10.
+N_NACELLE = 100
+
+
+@pytest.fixture(scope="module")
+def nacelle_100m():
+    """The bundled nacelle scene's lidar (focus 100 m, tier los) against its rotor's REWS at the preview delay."""
+    from cwlidar_sim.analysis.rews import RotorDisc, rews_from_box, rotor_node_weights
+    from cwlidar_sim.sensors.nacelle import measure_nacelle
+    from cwlidar_sim.turbulence.cover import cover_box
+
+    focus = 100.0
+    scene = bundled_scene("nacelle")
+    p, s = scene.periods[0], scene.scan
+    U, params = p.mean_speed, scene.period_params(p)
+    lid = scene.sensor(p, (focus,)).replace(tier="los")
+    disc = RotorDisc(s.rotor_radius, s.rotor_exponent)
+    dt, epr = lid.dwell_time, lid.estimates_per_rev
+    # the preview delay in estimates: the revolution mean's centre against the rotor's time
+    m = int(round((lid.preview_distance(focus) / U - 0.5 * (lid.revolution_time - dt)) / dt))
+    pos = lid.position
+    var_l, var_r, cov = [], [], []
+    for i in range(N_NACELLE):
+        box = cover_box(lid.box_region(s.spacing, s.rotor_radius), U, DURATION, params, 2000 + i, spacing=s.spacing,
+                        lateral_doubling=s.lateral_doubling)
+        rec = measure_nacelle(box, lid, DURATION, U)
+        c = np.concatenate([[0.0], np.cumsum(rec.vlos_e / rec.direction_ec[:, 0])])
+        est = (c[epr:] - c[:-epr]) / epr  # the revolution ending at estimate epr - 1, epr, ...
+        rews = rews_from_box(box, disc, pos[1], pos[2], x=pos[0], times=rec.time_e, U=U)
+        a, b = est[: est.size - m], rews[epr - 1 + m:]
+        a, b = a - a.mean(), b - b.mean()
+        var_l.append(np.mean(a * a)), var_r.append(np.mean(b * b)), cov.append(np.mean(a * b))
+        if i == 0:
+            n_s = a.size
+            shape, spacing = box.attrs["generated_shape"], tuple(float(box[c][1] - box[c][0]) for c in "xyz")
+            w = rotor_node_weights(disc, box["y"].values, box["z"].values, pos[1], pos[2])
+            Y, Z = np.meshgrid(box["y"].values - pos[1], box["z"].values - pos[2], indexing="ij")
+            nodes = (Y[w > 0], Z[w > 0], w[w > 0] / w[w > 0].sum())
+        del box
+    lid0 = lid.replace(position=(0.0, 0.0, 0.0))
+    rotor, est_f = th.nacelle_functionals(lid0, focus, U, nodes, n_beams=None, preview_shift=m * dt, probe="cells")
+    looks = est_f.looks
+    no_delay = lt.LinearFunctional(lt.Looks(looks.point_lc, looks.direction_lc, None, looks.probe_l),
+                                   est_f.weight_olc, ["no delay"])
+    yawed = th.nacelle_functionals(lid0.replace(yaw_misalignment_deg=20.0), focus, U, nodes, n_beams=None,
+                                   preview_shift=m * dt, probe="cells")[1]
+    spec = lt.lattice_spectra(params, [rotor, est_f, no_delay, yawed], U, shape, spacing)
+
+    def var(a, b=None):
+        F = spec.spectrum(a) if b is None else spec.cross(a, b).real
+        return lt.period_variance(spec.k1_k, F, U, n_s * dt, sample_interval=dt, lines=True)["within"]
+
+    v_r = var("0.rotor")
+    corr = {name: var(name, "0.rotor") / math.sqrt(var(name) * v_r) for name in ("1.lidar", "2.no delay", "3.lidar")}
+    return {"var_l": var_l, "var_r": var_r, "cov": cov, "corr": corr}
+
+
+def test_nacelle_lidar_rotor_correlation_is_the_theory(nacelle_100m):
+    """The correlation of the lidar's revolution mean with the rotor's REWS at the preview delay within 3 standard
+    errors of the theory (the simulation's looks, range cells, delays); the looks' delays dropped (no preview) and
+    a lidar yawed by 20 deg are each outside them."""
+    c = nacelle_100m
+    sim, se = _jackknife(c["var_l"], c["var_r"], c["cov"])
+    _check("nacelle 100 m lidar-rotor correlation", sim, se, c["corr"]["1.lidar"],
+           {"no delay": c["corr"]["2.no delay"], "yaw 20 deg": c["corr"]["3.lidar"]})

@@ -299,6 +299,73 @@ def reset_peak() -> bool:
         return False
 
 
+def stage_seconds(ds, stage) -> float:
+    """The sum over periods of one stage's seconds in the results' ``timing`` attribute (per period or flat)."""
+    timing = json.loads(ds.attrs["timing"])
+    if stage in timing:
+        return float(timing[stage])
+    return float(sum(v.get(stage, 0.0) for v in timing.values() if isinstance(v, dict)))
+
+
+def spectral_against_floor(scene, sensor_module, measure_name) -> tuple:
+    """Run ``scene`` (results and figures) and its tier-1 floor (tier ``los``, no variants) in this process.
+
+    The lidar stage's CPU seconds (every thread's) are timed around ``sensor_module.<measure_name>``
+    (replaced here for the rest of the process); the JIT must be warm.  Returns the wall and CPU
+    seconds of both runs and their ratios, the lidar stage's seconds (CPU and from the results'
+    ``timing``), the real-time factors (the scene's simulated seconds per wall, CPU and lidar-stage
+    second), the periods' own compute ratio, both ``timing`` attributes, the units and the peak
+    memory; and the spectral run's results (for a benchmark's own extra numbers): ``(out, ds)``.
+    """
+    import dataclasses
+    import tempfile
+
+    from cwlidar_sim.campaign import run_scene
+    from cwlidar_sim.campaign.registry import kind_of
+
+    real, lidar_cpu = getattr(sensor_module, measure_name), []
+
+    def timed_measure(*args, **kw):
+        c = time.process_time()
+        try:
+            return real(*args, **kw)
+        finally:
+            lidar_cpu.append(time.process_time() - c)
+
+    setattr(sensor_module, measure_name, timed_measure)
+    out = {}
+    simulated = sum(scene.period_duration(p) for p in scene.periods)
+    with tempfile.TemporaryDirectory() as tmp:
+        t, c = time.perf_counter(), time.process_time()
+        ds = run_scene(scene, tmp, progress=False)
+        kind_of(scene).figures(ds, tmp)
+        out["wall_s"], out["cpu_s"] = time.perf_counter() - t, time.process_time() - c
+    out["lidar_cpu_s"] = sum(lidar_cpu)
+    out["realtime_factor_lidar_cpu"] = simulated / out["lidar_cpu_s"]
+    floor = scene.replace(lidar=dataclasses.replace(scene.lidar, tier="los", variants=()))
+    with tempfile.TemporaryDirectory() as tmp:  # written and drawn as the spectral run is: like for like
+        t, c = time.perf_counter(), time.process_time()
+        fl = run_scene(floor, tmp, progress=False)
+        kind_of(floor).figures(fl, tmp)
+        out["floor_s"], out["floor_cpu_s"] = time.perf_counter() - t, time.process_time() - c
+    out["cpu_ratio_to_floor"] = out["cpu_s"] / out["floor_cpu_s"]  # steadier than wall time on a loaded machine
+    out["floor_lidar_cpu_s"] = sum(lidar_cpu) - out["lidar_cpu_s"]
+    out["lidar_cpu_ratio_to_floor"] = out["lidar_cpu_s"] / out["floor_lidar_cpu_s"]  # the chain's own cost
+    out["units"] = len(scene.unit_names())
+    out["simulated_s"] = simulated
+    out["lidar_s"] = stage_seconds(ds, "lidar")
+    out["floor_lidar_s"] = stage_seconds(fl, "lidar")
+    out["realtime_factor"] = simulated / out["wall_s"]
+    out["realtime_factor_cpu"] = simulated / out["cpu_s"]  # per CPU second: what one free core would give
+    # the periods' own compute (box, lidar, fits), without writing or figures, against the floor's
+    out["compute_ratio_to_floor"] = stage_seconds(ds, "total") / stage_seconds(fl, "total")
+    out["realtime_factor_lidar"] = simulated / out["lidar_s"] if out["lidar_s"] > 0 else None
+    out["timing"] = json.loads(ds.attrs["timing"])
+    out["floor_timing"] = json.loads(fl.attrs["timing"])
+    out["peak_bytes"] = vmhwm()
+    return out, ds
+
+
 def scene_benchmark_main(script, child, *, name, targets, what, argv=None, extra=None) -> int:
     """The ``main`` of a benchmark that times one bundled scene against its tier-1 floor in a fresh child.
 

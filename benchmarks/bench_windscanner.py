@@ -30,31 +30,19 @@ import dataclasses
 import json
 import os
 import sys
-import tempfile
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import _protocol  # noqa: E402  (the shared child-process protocol)
-from _protocol import vmhwm  # noqa: E402
 
 TARGET_S = {"full": 1800.0, "quick": 180.0}
 #: Issue 31's target: spectral over the floor at most this (the 50x real time is the SpinnerLidar's).
 TARGET_RATIO = 3.0
 
 
-def _stage_seconds(ds, stage) -> float:
-    """The sum over periods of one stage's seconds in the results' ``timing`` attribute (per period or flat)."""
-    timing = json.loads(ds.attrs["timing"])
-    if stage in timing:
-        return float(timing[stage])
-    return float(sum(v.get(stage, 0.0) for v in timing.values() if isinstance(v, dict)))
-
-
 def _child(task) -> dict:
     quick, threads = task["quick"], task["threads"]
     from cwlidar_sim import _config
     from cwlidar_sim.campaign import bundled_scene, run_scene
-    from cwlidar_sim.campaign.registry import kind_of
 
     _config.set_num_threads(threads)
     scene = bundled_scene("windscanner", quick=quick)
@@ -62,49 +50,9 @@ def _child(task) -> dict:
     for tier in ("los", "spectral"):
         run_scene(scene.replace(duration=3 * scene.scanner.segment_duration, periods=scene.periods[:1],
                                 lidar=dataclasses.replace(scene.lidar, tier=tier)), progress=False)
-    # the lidar stage's CPU seconds (every thread of this process), summed over the periods' calls
     import cwlidar_sim.sensors.windscanner as sensor_module
 
-    real, lidar_cpu = sensor_module.measure_windscanner, []
-
-    def timed(*args, **kw):
-        c = time.process_time()
-        try:
-            return real(*args, **kw)
-        finally:
-            lidar_cpu.append(time.process_time() - c)
-
-    sensor_module.measure_windscanner = timed
-    out = {}
-    simulated = sum(scene.period_duration(p) for p in scene.periods)
-    with tempfile.TemporaryDirectory() as tmp:
-        t, c = time.perf_counter(), time.process_time()
-        ds = run_scene(scene, tmp, progress=False)
-        kind_of(scene).figures(ds, tmp)
-        out["wall_s"], out["cpu_s"] = time.perf_counter() - t, time.process_time() - c
-    out["lidar_cpu_s"] = sum(lidar_cpu)
-    out["realtime_factor_lidar_cpu"] = simulated / out["lidar_cpu_s"]
-    floor = scene.replace(lidar=dataclasses.replace(scene.lidar, tier="los", variants=()))
-    with tempfile.TemporaryDirectory() as tmp:  # written and drawn as the spectral run is: like for like
-        t, c = time.perf_counter(), time.process_time()
-        fl = run_scene(floor, tmp, progress=False)
-        kind_of(floor).figures(fl, tmp)
-        out["floor_s"], out["floor_cpu_s"] = time.perf_counter() - t, time.process_time() - c
-    out["cpu_ratio_to_floor"] = out["cpu_s"] / out["floor_cpu_s"]  # steadier than wall time on a loaded machine
-    out["floor_lidar_cpu_s"] = sum(lidar_cpu) - out["lidar_cpu_s"]
-    out["lidar_cpu_ratio_to_floor"] = out["lidar_cpu_s"] / out["floor_lidar_cpu_s"]  # the chain's own cost
-    out["units"] = len(scene.unit_names())
-    out["simulated_s"] = simulated
-    out["lidar_s"] = _stage_seconds(ds, "lidar")
-    out["floor_lidar_s"] = _stage_seconds(fl, "lidar")
-    out["realtime_factor"] = simulated / out["wall_s"]
-    out["realtime_factor_cpu"] = simulated / out["cpu_s"]  # per CPU second: what one free core would give
-    # the periods' own compute (box, lidar, fits), without writing or figures, against the floor's
-    out["compute_ratio_to_floor"] = _stage_seconds(ds, "total") / _stage_seconds(fl, "total")
-    out["realtime_factor_lidar"] = simulated / out["lidar_s"] if out["lidar_s"] > 0 else None
-    out["timing"] = json.loads(ds.attrs["timing"])
-    out["floor_timing"] = json.loads(fl.attrs["timing"])
-    out["peak_bytes"] = vmhwm()
+    out, ds = _protocol.spectral_against_floor(scene, sensor_module, "measure_windscanner")
     out["std_ratio_to_sonic"] = (ds.wind_std.sel(estimate="main") / ds.sonic_std).values.round(4).tolist()
     return out
 

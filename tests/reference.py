@@ -328,13 +328,8 @@ def mann_phi_horizontal(k1, k2, k3, alpha_eps, L, gamma):
     return mann_phi_components(k1, k2, k3, alpha_eps, L, gamma)[:3]
 
 
-def mann_phi_components(k1, k2, k3, alpha_eps, L, gamma):
-    """Phi_11, Phi_22, Phi_12, Phi_33 of the Mann tensor for arrays, numpy only.
-
-    The same formulas as :func:`mann_amplitude` (PHYSICS.md section 1, scipy's
-    hyp2f1 for the lifetime, the arctan branch made continuous with atan2),
-    vectorised; no package code.  k1 must be non-zero.
-    """
+def _mann_rows(k1, k2, k3, alpha_eps, L, gamma):
+    """``a`` and the first two rows of ``D A_iso / a`` (and k0^2, k^2, kh^2) of the Mann tensor, numpy only."""
     from scipy.special import hyp2f1
 
     k1, k2, k3 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (k1, k2, k3)))
@@ -355,6 +350,17 @@ def mann_phi_components(k1, k2, k3, alpha_eps, L, gamma):
     # (0, 0, k0^2 / k^2), so the third row of D A_iso is (k0^2 / k^2) a (k2, -k1, 0)
     m1 = (z1 * k2, k30 - z1 * k1, -k2 * np.ones_like(k1))
     m2 = (-k30 + z2 * k2, -z2 * k1, k1)
+    return a, m1, m2, k0sq, kk, kh2
+
+
+def mann_phi_components(k1, k2, k3, alpha_eps, L, gamma):
+    """Phi_11, Phi_22, Phi_12, Phi_33 of the Mann tensor for arrays, numpy only.
+
+    The same formulas as :func:`mann_amplitude` (PHYSICS.md section 1, scipy's
+    hyp2f1 for the lifetime, the arctan branch made continuous with atan2),
+    vectorised; no package code.  k1 must be non-zero.
+    """
+    a, m1, m2, k0sq, kk, kh2 = _mann_rows(k1, k2, k3, alpha_eps, L, gamma)
     P11 = a * a * sum(x * x for x in m1)
     P22 = a * a * sum(x * x for x in m2)
     P12 = a * a * sum(x * y for x, y in zip(m1, m2))
@@ -1160,24 +1166,9 @@ def linear_functional_cross_spectrum(k1, alpha_eps, L, gamma, U, looks_a, looks_
 def mann_phi_matrix(k1, k2, k3, alpha_eps, L, gamma):
     """The whole Mann tensor ``Phi_ij`` (shape (..., 3, 3)) for arrays, numpy only: :func:`mann_phi_components`'
     rows of ``D A_iso`` (the same formulas) with the third row, ``Phi = (D A_iso)(D A_iso)^T``."""
-    from scipy.special import hyp2f1
-
-    k1, k2, k3 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (k1, k2, k3)))
-    kk = k1 * k1 + k2 * k2 + k3 * k3
-    kl = np.sqrt(kk) * L
-    beta = gamma * kl ** (-2.0 / 3.0) / np.sqrt(hyp2f1(1 / 3, 17 / 6, 4 / 3, -(kl ** -2.0)))
-    k30 = k3 + beta * k1
-    k0sq = k1 * k1 + k2 * k2 + k30 * k30
-    E = alpha_eps * L ** (5 / 3) * (k0sq * L * L) ** 2 / (1 + k0sq * L * L) ** (17 / 6)
-    a = np.sqrt(E / (4 * math.pi)) / k0sq
-    kh2 = k1 * k1 + k2 * k2
-    C1 = beta * k1 * k1 * (k0sq - 2 * k30 * k30 + beta * k1 * k30) / (kk * kh2)
-    ang = np.arctan2(beta * k1 * np.sqrt(kh2), k0sq - k30 * k1 * beta)
-    C2 = k2 * k0sq / kh2**1.5 * ang
-    z1 = C1 - k2 / k1 * C2
-    z2 = k2 / k1 * C1 + C2
-    m = np.stack([np.stack([z1 * k2, k30 - z1 * k1, -k2 * np.ones_like(k1)], -1),
-                  np.stack([-k30 + z2 * k2, -z2 * k1, k1 * np.ones_like(k2)], -1),
+    a, m1, m2, k0sq, kk, kh2 = _mann_rows(k1, k2, k3, alpha_eps, L, gamma)
+    k1, k2, _ = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (k1, k2, k3)))
+    m = np.stack([np.stack(m1, -1), np.stack(m2, -1),
                   (k0sq / kk)[..., None] * np.stack([k2, -k1 * np.ones_like(k2), 0.0 * k2], -1)], -2)
     return (a * a)[..., None, None] * np.einsum("...ik,...jk->...ij", m, m)
 

@@ -328,11 +328,14 @@ def summarise(ds):
         return np.array(mean), np.array(err), np.array(count)
 
     HS = ("height", "scan_s")
-    for var, selected in (("std_ratio", True), ("radial_variance_ratio", True), ("mean_speed_bias", True),
-                          ("tp", True), ("ambiguity_rate", True), ("scan_availability", False),
-                          ("points_used_fraction", False), ("std_ratio_model", False),
-                          ("std_ratio_model_mann", False), ("radial_variance_ratio_model", False),
-                          ("radial_variance_ratio_model_mann", False)):
+    averaged = (("std_ratio", True), ("radial_variance_ratio", True), ("mean_speed_bias", True),
+                ("tp", True), ("ambiguity_rate", True), ("scan_availability", False),
+                ("points_used_fraction", False), ("std_ratio_model", False),
+                ("std_ratio_model_mann", False), ("radial_variance_ratio_model", False),
+                ("radial_variance_ratio_model_mann", False))
+    if "std_ratio_cup_continuum" in ds:  # against the cup with its sub-grid variance restored (periods.in_situ)
+        averaged += (("std_ratio_cup_continuum", True),)
+    for var, selected in averaged:
         mean, err, n = by_height(var, selected)
         attrs = dict(ds[var].attrs)
         how = "selected periods" if selected else "periods"
@@ -350,13 +353,6 @@ def summarise(ds):
     if "answer" in ds.attrs:  # the theory alone: no scatter over seeds to take a standard error of
         for var in [v for v in out if v.endswith("_sigma")]:
             out[var] = (out[var][0], np.full(np.shape(out[var][1]), np.nan), out[var][2])
-    if "std_ratio_cup_continuum" in ds:  # against the cup with its sub-grid variance restored (periods.in_situ)
-        mean, err, _ = by_height("std_ratio_cup_continuum", True)
-        attrs = dict(ds["std_ratio_cup_continuum"].attrs)
-        out["std_ratio_cup_continuum"] = (HS, mean, {**attrs, "long_name": f"{attrs.get('long_name', '')} (mean "
-                                                     "over the selected periods)"})
-        out["std_ratio_cup_continuum_sigma"] = (HS, err, {"units": "1", "long_name": "standard error of "
-                                                          "std_ratio_cup_continuum"})
     for var in ("std_ratio_variant", "mean_speed_bias_variant", "tp_variant", "scan_availability_variant"):
         if var not in ds:
             continue

@@ -70,9 +70,6 @@ K1_RANGE = (1e-4, 1.0)
 #: The plane quadrature's ``resolution``: 10, 20 and 40 give the same ratios to 1e-4 there.
 RESOLUTION = 20.0
 
-_CACHE: dict = {}
-
-
 def _merge_sub_dwells(vad, nsub: int):
     """The VAD's u output with each estimate's ``nsub`` looks merged into one (module notes)."""
     looks = vad.looks
@@ -126,8 +123,10 @@ def unit_theory(lidar, height: float, mean_speed: float, duration: float, params
     """
     key = (repr(lidar), float(height), float(mean_speed), float(duration), repr(params), tuple(scan_revs), repr(cup),
            N_K1, K1_RANGE, RESOLUTION)
-    if key in _CACHE:
-        return _CACHE[key]
+    return th.cached(key, lambda: _unit_theory(lidar, height, mean_speed, duration, params, scan_revs, cup))
+
+
+def _unit_theory(lidar, height, mean_speed, duration, params, scan_revs, cup) -> dict:
     t0 = time.perf_counter()
     z, U, T = float(height), float(mean_speed), float(duration)
     vad, cupf = th.conical_functionals(lidar, z, U, revolutions=1, cup=cup)
@@ -152,7 +151,6 @@ def unit_theory(lidar, height: float, mean_speed: float, duration: float, params
         var = lt.period_variance(kd, F, U, n_s * dt, sample_interval=dt)["within"] * n_s / (n_s - 1)
         out["scans"][n] = {"lidar_std": math.sqrt(var), "std_ratio": math.sqrt(var / var_c)}
     out["wall_s"] = time.perf_counter() - t0
-    _CACHE[key] = out
     return out
 
 

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-__all__ = ["field_subgrid_variance", "subgrid_unavailable", "continuum_std", "UNIT_VARS"]
+__all__ = ["field_subgrid_variance", "subgrid_unavailable", "continuum_std", "sonic_variables", "UNIT_VARS"]
 
 #: A conical unit's point-sensor variables added beside ``cup_std`` and ``sonic_std`` (units, long name).
 UNIT_VARS = {
@@ -112,3 +112,37 @@ def field_subgrid_variance(field, position, params, mean_speed: float, duration:
 def continuum_std(std: float, subgrid_variance: float) -> float:
     """``sqrt(std^2 + subgrid_variance)`` [m s-1]: a simulated sigma with its sub-grid variance restored."""
     return math.sqrt(max(0.0, float(std) ** 2 + float(subgrid_variance)))
+
+
+def sonic_variables(dims, sonic_std, subgrid_variance, reason: str = "", *, along: str = "") -> dict:
+    """A period's ``sonic_subgrid_variance`` and ``sonic_std_continuum`` result variables (staring, WindScanner).
+
+    Parameters
+    ----------
+    dims : tuple of str
+        The variables' dimensions (``period`` first).
+    sonic_std, subgrid_variance : array_like
+        The sonic's simulated sigma [m s-1] and its sub-grid variance [m^2 s^-2]
+        (:func:`field_subgrid_variance`), shaped as ``dims``.
+    reason : str
+        :func:`subgrid_unavailable` of the period's field: when not empty, the
+        variance's ``comment`` (why it is NaN).
+    along : str
+        What the sonic reads, for the long name (e.g. ``" along the beam"``).
+
+    Returns
+    -------
+    dict
+        ``name: (dims, values, attrs)``, sigma with the variance restored elementwise as :func:`continuum_std`.
+    """
+    std = np.asarray(sonic_std, dtype=np.float64)
+    sub = np.asarray(subgrid_variance, dtype=np.float64)
+    note = {"comment": reason} if reason else {}
+    return {
+        "sonic_subgrid_variance": (dims, sub, {"units": "m2 s-2", "long_name": f"the sonic's expected variance{along} "
+                                               "below the field's grid (continuum - field; analysis.point_subgrid)",
+                                               **note}),
+        "sonic_std_continuum": (dims, np.sqrt(np.maximum(0.0, std**2 + sub)),
+                                {"units": "m s-1", "long_name": "sonic_std with its sub-grid variance restored: "
+                                 "sqrt(sonic_std^2 + sonic_subgrid_variance)"}),
+    }

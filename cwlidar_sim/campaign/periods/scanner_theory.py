@@ -64,9 +64,9 @@ import numpy as np
 
 from ...analysis import linear_theory as lt
 from ...analysis.disc_fit import disc_design
-from ...analysis.rews_theory import beam_transfer
 from ...analysis.spectra import bin_average, segment_spectra
 from ..._validation import check_int, check_real
+from .theory import _probe, cached
 
 __all__ = ["windscanner_functionals", "windscanner_theory", "spinner_functionals", "spinner_theory",
            "rotor_disc_nodes", "windscanner_variables", "spinner_variables", "spinner_k_edges"]
@@ -85,25 +85,6 @@ _RESULTS_RESOLUTION = 20.0
 _SPINNER_BINS = 8
 #: The spinner periods' theory: every 4th estimate of the rosette, the rotor's disc on 12 x 32 nodes.
 _SPINNER_STRIDE, _SPINNER_ROTOR = 4, (12, 32)
-#: The theory already computed in this process, by scene (the geometry, the tensor, U, T and k), not realisation.
-_CACHE: dict = {}
-_CACHE_SIZE = 32
-
-
-def _cached(key, compute):
-    """``compute()``, once per ``key`` in this process (the oldest of :data:`_CACHE_SIZE` dropped)."""
-    if key not in _CACHE:
-        if len(_CACHE) >= _CACHE_SIZE:
-            _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = compute()
-    return _CACHE[key]
-
-
-def _probe(lidar, instrument):
-    """``phi_hat`` of the lidar's weighting at the instrument's focus, with its optics (:mod:`cwlidar_sim.campaign.periods.theory`'s rule)."""
-    return beam_transfer(instrument.focus, lidar.weighting, wavelength=instrument.wavelength,
-                         radius=instrument.telescope_radius)
-
 
 # --------------------------------------------------------------------------
 # WindScanner
@@ -377,7 +358,7 @@ def windscanner_variables(scene, index: int, k_k) -> dict:
     ratio, cross, wr = np.full((3, k.size), np.nan), np.full((3, k.size), np.nan), np.nan
     if scene.scanner.pattern == "point":
         params, U, T = scene.period_params(p), p.mean_speed, scene.period_duration(p)
-        th = _cached(("windscanner", repr(ws), repr(params), U, T, k.tobytes()),
+        th = cached(("windscanner", repr(ws), repr(params), U, T, k.tobytes()),
                      lambda: windscanner_theory(ws, params, U, k, period=T, resolution=_RESULTS_RESOLUTION))
         ratio, cross, wr = np.array(th["ratio_ck"]), np.array(th["cross_ck"]), th["w_variance_ratio"]
     how = (f"linear theory, frozen Mann continuum, the beams' '{ws.weighting}' weighting at each unit's range, "
@@ -449,7 +430,7 @@ def spinner_variables(scene, index: int, rews_er, rotor_r) -> dict:
         nodes = rotor_disc_nodes(sc.rotor_radius, sc.rotor_exponent, n_radial=_SPINNER_ROTOR[0],
                                  n_azimuth=_SPINNER_ROTOR[1])
         key = ("spinner", repr(lid), repr(params), U, sc.rotor_radius, sc.rotor_exponent, sc.w_zero, kc.tobytes())
-        theory = np.array(_cached(key, lambda: spinner_theory(
+        theory = np.array(cached(key, lambda: spinner_theory(
             lid, params, U, kc, sc.rotor_radius, rotor_exponent=sc.rotor_exponent, w_zero=sc.w_zero, sub_dwells=1,
             stride=stride, rotor_nodes=nodes, resolution=_RESULTS_RESOLUTION)["coherence_k"]))
     P = ("period",)

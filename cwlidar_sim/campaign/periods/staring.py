@@ -424,16 +424,10 @@ def period_dataset(scene: Scene, params, r: dict):
                              {"units": "1", "long_name": "valid 50 Hz estimates in each 10 Hz block"}),
     }
     if "sonic_std" in r:  # the sonic's sigma along the beam, raw and with its sub-grid variance (periods.in_situ)
-        sub = r["sonic_subgrid_variance"]
         dv["sonic_std"] = (("period",), pk(r["sonic_std"]), {"units": "m s-1", "long_name": "standard deviation "
                            "(ddof = 1) of the sonic's 32 Hz speed along the beam, its noise included"})
-        dv["sonic_subgrid_variance"] = (("period",), pk(sub), dict(
-            {"units": "m2 s-2", "long_name": "the sonic's expected variance along the beam below the field's grid "
-             "(continuum - field; analysis.point_subgrid)"},
-            **({"comment": r["sonic_subgrid_note"]} if r["sonic_subgrid_note"] else {})))
-        dv["sonic_std_continuum"] = (("period",), pk(in_situ.continuum_std(r["sonic_std"], sub)),
-                                     {"units": "m s-1", "long_name": "sonic_std with its sub-grid variance restored: "
-                                      "sqrt(sonic_std^2 + sonic_subgrid_variance)"})
+        dv.update(in_situ.sonic_variables(("period",), pk(r["sonic_std"]), pk(r["sonic_subgrid_variance"]),
+                                          r["sonic_subgrid_note"], along=" along the beam"))
     if params is None:  # a tensor per period (the scene's table depends on the mean speed)
         for name, units in (("alpha_eps", "m4/3 s-2"), ("length_scale", "m"), ("gamma", "1")):
             dv[f"mann_{name}"] = (("period",), pk(getattr(own, name)),

@@ -53,6 +53,25 @@ PROBES = ("continuous", "cells")
 _CELLS_TABLE = 200_000
 
 
+#: The theory already computed in this process, by what it depends on (geometry, tensor, U, T, numerics), not the
+#: realisation (:func:`cached`).
+_CACHE: dict = {}
+_CACHE_SIZE = 32
+
+
+def cached(key, compute):
+    """``compute()``, once per ``key`` in this process (the oldest of ``_CACHE_SIZE`` entries dropped).
+
+    The periods' theory depends on the scene, not the realisation: every
+    period that shares a geometry, tensor, U and duration reuses it.
+    """
+    if key not in _CACHE:
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.pop(next(iter(_CACHE)))
+        _CACHE[key] = compute()
+    return _CACHE[key]
+
+
 def _probe(lidar, instrument):
     """``phi_hat`` of the lidar's weighting at the instrument's focus, with its optics."""
     return beam_transfer(instrument.focus, lidar.weighting, wavelength=instrument.wavelength,

@@ -44,7 +44,7 @@ from ...signal.processing import usable_mask
 from ..scenes.spec import RESULTS_VERSION
 from ..scenes.windscanner import WindScannerScene
 from .scanner_theory import windscanner_variables
-from .in_situ import continuum_std, field_subgrid_variance, subgrid_unavailable
+from .in_situ import field_subgrid_variance, sonic_variables, subgrid_unavailable
 
 __all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "summary", "period_record",
            "COST_S_PER_SIM_HOUR", "COMPONENTS"]
@@ -205,13 +205,9 @@ def run_unit(scene: WindScannerScene, index: int, params=None, *, status=None):
     # the sonic's variance below the box's grid per component and its sigma with it restored (periods.in_situ)
     sub_c = np.array([field_subgrid_variance(box, s.target, scene.period_params(p), U, time_k.size / fs,
                                              direction=tuple(d), sample_interval=1.0 / fs) for d in np.eye(3)])
-    note = {"comment": subgrid_unavailable(box)} if subgrid_unavailable(box) else {}
-    cont_c = np.array([continuum_std(a, b) for a, b in zip(sonic_kc.std(axis=0, ddof=1), sub_c)])
-    dv["sonic_subgrid_variance"] = (P + ("component",), sub_c[None], {"units": "m2 s-2", "long_name": "the sonic's "
-                                    "expected variance below the box's grid (continuum - box; analysis.point_subgrid)",
-                                    **note})
-    dv["sonic_std_continuum"] = (P + ("component",), cont_c[None], {"units": "m s-1", "long_name": "sonic_std with "
-                                 "its sub-grid variance restored: sqrt(sonic_std^2 + sonic_subgrid_variance)"})
+    dv.update(sonic_variables(P + ("component",), sonic_kc.std(axis=0, ddof=1)[None], sub_c[None],
+                              subgrid_unavailable(box)))
+    cont_c = dv["sonic_std_continuum"][1][0]
     dv["std_ratio_sonic_continuum"] = (P + E, (std / cont_c)[None], {"units": "1", "long_name": "wind_std over "
                                        "sonic_std_continuum: the reconstructed component against the continuum sonic"})
     coords = {

@@ -21,25 +21,9 @@ from cwlidar_sim.campaign.execution import batch
 from cwlidar_sim.campaign.execution.reproduce import bundled_text
 from cwlidar_sim.campaign.execution.sweep import expand, loads_campaign
 from cwlidar_sim.cli import main
+from kind_scenes import WINDSCANNER
 
-WINDSCANNER = """
-name = "ws"
-kind = "windscanner"
-seed = 4
-duration = 30.0
-[scanner]
-spacing = 4.0
-segment_duration = 10.0
-[lidar]
-tier = "los"
-[turbulence]
-alpha_eps = 0.05
-length_scale = 33.6
-gamma = 3.9
-[[period]]
-name = "a"
-mean_speed = 8.0
-[[period]]
+WINDSCANNER_TWO_PERIODS = WINDSCANNER + """[[period]]
 name = "b"
 mean_speed = 11.0
 """
@@ -55,7 +39,7 @@ def spinner_text():
     return text
 
 
-TEXTS = {"spinner": spinner_text, "windscanner": lambda: WINDSCANNER}
+TEXTS = {"spinner": spinner_text, "windscanner": lambda: WINDSCANNER_TWO_PERIODS}
 #: (a scene field of the kind's own to sweep, its two values, a product that must change with it)
 SWEEPS = {"spinner": ("scan.focus_distance", [60.0, 100.0], "preview_time"),
           "windscanner": ("scanner.unit_height", [2.0, 11.0], "wind_std")}

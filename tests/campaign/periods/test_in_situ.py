@@ -5,6 +5,7 @@ import math
 import pytest
 
 from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
+from kind_scenes import WINDSCANNER
 
 
 def test_conical_period_reports_the_cup_and_sonic_below_the_grid():
@@ -41,8 +42,6 @@ misalignment_deg = {theta}
 @pytest.mark.parametrize("theta, kind", [(0.0, "line"), (10.0, "plane")])
 def test_staring_sonic_reports_its_beam_projection_below_the_grid(theta, kind):
     """The staring sonic reads the wind along the beam: its 32-Hz series' sub-grid variance, in the period's field."""
-    import numpy as np
-
     from cwlidar_sim.analysis.point_subgrid import point_subgrid_variance
     from cwlidar_sim.campaign import loads_scene, registry
     from cwlidar_sim.campaign.periods.staring_field import period_params, plan_field
@@ -71,24 +70,6 @@ def test_staring_sonic_reports_its_beam_projection_below_the_grid(theta, kind):
     assert "comment" not in ds.sonic_subgrid_variance.attrs
 
 
-WINDSCANNER = """
-name = "ws"
-kind = "windscanner"
-seed = 4
-duration = 30.0
-[scanner]
-spacing = 4.0
-segment_duration = 10.0
-[lidar]
-tier = "los"
-[turbulence]
-alpha_eps = 0.05
-length_scale = 33.6
-gamma = 3.9
-[[period]]
-name = "a"
-mean_speed = 8.0
-"""
 
 
 def test_windscanner_sonic_reports_each_component_below_the_grid():

@@ -1,37 +1,18 @@
 """The WindScanner's and the SpinnerLidar's linear functionals (campaign/periods/scanner_theory.py): their limits, and
 the WindScanner's transfer functions against the simulated tier-los ones."""
 
-import dataclasses
-
 import numpy as np
 import pytest
 
-from cwlidar_sim.analysis import linear_theory as lt
 from cwlidar_sim.campaign import loads_scene
 from cwlidar_sim.campaign.periods import scanner_theory as st
-from cwlidar_sim.sensors import windscanner as wsm
+from cwlidar_sim.campaign.periods import theory as th
 from cwlidar_sim.sensors.spinner import SpinnerLidar
 from cwlidar_sim.sensors.windscanner import WindScanner
+from kind_scenes import WINDSCANNER
 
 RNG = np.random.default_rng(31)
-WS_SCENE = """
-name = "ws"
-kind = "windscanner"
-seed = 4
-duration = 30.0
-[scanner]
-spacing = 4.0
-segment_duration = 10.0
-[lidar]
-tier = "los"
-[turbulence]
-alpha_eps = 0.05
-length_scale = 33.6
-gamma = 3.9
-[[period]]
-name = "a"
-mean_speed = 8.0
-"""
+WS_SCENE = WINDSCANNER
 K_RANDOM = RNG.normal(scale=0.05, size=(3, 16))  # (k1, k2, k3) [rad/m]
 
 
@@ -124,7 +105,7 @@ def test_the_periods_theory_is_computed_once_per_scene_not_per_realisation(monke
                 "w_variance_ratio": U}
 
     monkeypatch.setattr(st, "windscanner_theory", fake)
-    monkeypatch.setattr(st, "_CACHE", {})
+    monkeypatch.setattr(th, "_CACHE", {})
     extra = '[[period]]\nname = "b"\nmean_speed = 8.0\nseed = 7\n[[period]]\nname = "c"\nmean_speed = 9.0\n'
     scene = loads_scene(WS_SCENE + extra)
     edges = scene.scanner.k_edges()

@@ -9,25 +9,9 @@ import pytest
 from cwlidar_sim._bundled import bundled_or_path
 from cwlidar_sim.campaign import loads_scene, registry
 from cwlidar_sim.cli import main
+from kind_scenes import WINDSCANNER
 
-SCENE = """
-name = "ws"
-kind = "windscanner"
-seed = 4
-duration = 30.0
-[scanner]
-spacing = 4.0
-segment_duration = 10.0
-[lidar]
-tier = "los"
-[turbulence]
-alpha_eps = 0.05
-length_scale = 33.6
-gamma = 3.9
-[[period]]
-name = "a"
-mean_speed = 8.0
-"""
+SCENE = WINDSCANNER
 
 
 def test_the_bundled_scene_is_found_by_name_and_is_a_windscanner():

@@ -105,6 +105,7 @@ from ._linear_functionals import (
     point_functional,
 )
 from ._linear_lattice import interpolated_lines
+from ._linear_period import _check_k1, _dirichlet2, _loglog, PeriodStatistic, period_variance, refine_k1  # noqa: F401
 from .rews_theory import _GL_W, _GL_X, _panels
 
 __all__ = [
@@ -122,6 +123,9 @@ __all__ = [
     "lattice_spectra",
     "per_hertz",
     "period_variance",
+    "PeriodStatistic",
+    "AdaptiveSpectra",
+    "adaptive_spectra",
 ]
 
 #: Nodes per chunk of the (k2, k3) quadrature (memory: n_looks x chunk complex values).
@@ -193,13 +197,6 @@ def _check_functionals(functionals):
             raise TypeError(f"functionals[{i}] must be a LinearFunctional, got {type(f).__name__}")
     names = fs[0].names if len(fs) == 1 else tuple(f"{i}.{n}" for i, f in enumerate(fs) for n in f.names)
     return fs, names
-
-
-def _check_k1(k1):
-    k = np.array(k1, dtype=float, ndmin=1)
-    if k.ndim != 1 or not np.all(np.isfinite(k) & (k > 0)):
-        raise ValueError("k1 must be a 1-D array of wavenumbers > 0 rad/m")
-    return k
 
 
 class _Table:
@@ -570,125 +567,78 @@ def per_hertz(spectrum_k, mean_speed: float):
     return (2.0 * math.pi / U) * np.asarray(spectrum_k)
 
 
-# --------------------------------------------------------------------------
-# period statistics
-# --------------------------------------------------------------------------
-def _loglog(k_src, F_src, k):
-    """Log-log interpolation of a positive spectrum, flat below its grid, its last power law above."""
-    lk = np.log(k_src)
-    lf = np.log(np.maximum(F_src, 1e-300))
-    x = np.log(np.maximum(k, k_src[0]))
-    slope = (lf[-1] - lf[-2]) / (lk[-1] - lk[-2])
-    return np.exp(np.where(x > lk[-1], lf[-1] + slope * (x - lk[-1]), np.interp(x, lk, lf)))
+@dataclasses.dataclass(frozen=True)
+class AdaptiveSpectra:
+    """The spectra of :func:`adaptive_spectra` on their refined k1 grid and the statistics' variances there.
+
+    Attributes
+    ----------
+    spectra : FunctionalSpectra
+        On the refined grid (every output and cross-spectrum).
+    within : tuple of float
+        Per statistic, ``within`` [m^2 s^-2] of :func:`period_variance` on
+        that grid (no ``N / (N - 1)``).
+    error : tuple of float
+        Per statistic, the refinement's bound on the grid's relative error
+        of ``within`` (:mod:`cwlidar_sim.analysis._linear_period`).
+    converged : bool
+        Whether every error is within the tolerance (False: ``max_k1`` reached).
+    rounds : int
+        Refinement rounds.
+    """
+
+    spectra: FunctionalSpectra
+    within: tuple
+    error: tuple
+    converged: bool
+    rounds: int
 
 
-def _dirichlet2(x, n):
-    """``|sum_{m<n} exp(i m x)|^2 / n^2`` [-]."""
-    s = np.sin(0.5 * x)
-    small = np.abs(s) < 1e-12
-    return np.where(small, 1.0, (np.sin(0.5 * n * x) / (n * np.where(small, 1.0, s))) ** 2)
+def adaptive_spectra(params, functionals, mean_speed: float, statistics, *, k1_range=(1e-4, 1.0), n_start: int = 9,
+                     tol: float = 1e-3, max_k1: int = 400, quadrature: str = "plane",
+                     resolution: float = 60.0) -> AdaptiveSpectra:
+    """:func:`functional_spectra` on a k1 grid refined until each period statistic's variance is settled to ``tol``.
 
-
-def period_variance(k1, spectrum_k, mean_speed: float, period: float, *, sample_interval: float | None = None,
-                    block: float | None = None, lines: bool = False) -> dict:
-    """Expected variance of a statistic's samples within a period (mean removed) and of the period's mean.
-
-    For a statistic with one-sided spectrum ``F(k1)``, seen at rest
-    (``omega = U k1``), sampled every ``sample_interval`` over ``period``
-    (``N = period / sample_interval`` samples) or continuously, each sample
-    optionally a block average over ``block`` [s]:
-
-    * ``within = integral F B (1 - D_N)`` -- the expected (1/N) sample
-      variance about the period's own mean;
-    * ``of_mean = integral F B D_N`` -- the variance of the period mean,
-
-    with ``B = sinc^2(omega block / 2)`` and ``D_N = |sum_m exp(i m omega
-    dt)|^2 / N^2`` (``sinc^2(omega T / 2)`` when continuous).  Sampling's
-    aliasing is included (``D_N`` is periodic in omega); ``within + of_mean``
-    is the variance.
+    The grid starts from ``n_start`` log-spaced k1 over ``k1_range`` and is
+    bisected (in ln k1) where the spectra's log-log interpolation would move
+    a statistic's ``within`` (its kernel: block, sampling and its aliasing,
+    mean removal, the repetition's comb) by more than its share of ``tol``
+    (:mod:`cwlidar_sim.analysis._linear_period`).
 
     Parameters
     ----------
-    k1, spectrum_k : array_like
-        A spectrum [m^3 s^-2] on an increasing grid of k1 [rad/m], log-log
-        interpolated (200 per decade give 1e-4 about a knee), held flat below the
-        grid and extended by its last power law above; with ``lines=True``
-        the lines of :func:`lattice_spectra` (density times ``dk1`` is each
-        line's variance; nothing outside them).
+    params : MannParameters
+    functionals : LinearFunctional or sequence of them
     mean_speed : float
-        U [m/s].
-    period : float
-        T [s], > 0.
-    sample_interval : float, optional
-        dt [s]; None: continuous.
-    block : float, optional
-        Block-average duration [s]; None: none.
-    lines : bool
+        U [m/s], > 0.
+    statistics : sequence of PeriodStatistic
+        The variances to converge; their outputs name the functionals' outputs.
+    k1_range : (float, float)
+        The grid's ends [rad/m] (below: flat; above: the last power law).
+    n_start : int
+        Starting k1 (>= 2): the coarsest interval the refinement tests.
+    tol : float
+        Relative tolerance of each ``within``, > 0.
+    max_k1 : int
+        Most k1 evaluated.
+    quadrature, resolution
+        :func:`functional_spectra`'s.
 
     Returns
     -------
-    dict
-        ``within``, ``of_mean``, ``total`` [m^2 s^-2].
+    AdaptiveSpectra
     """
-    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
-    T = check_real("period", period, lo=0.0, lo_open=True)
-    k_src = _check_k1(k1)
-    F_src = np.asarray(spectrum_k, dtype=float).ravel()
-    if F_src.shape != k_src.shape or not np.all(np.isfinite(F_src)):
-        raise ValueError("spectrum_k must be finite, one value per k1")
-    n = None
-    if sample_interval is not None:
-        dt = check_real("sample_interval", sample_interval, lo=0.0, lo_open=True)
-        n = check_int("period / sample_interval", int(round(T / dt)), lo=1)
-    b = 0.0 if block is None else check_real("block", block, lo=0.0)
+    fs, names = _check_functionals(functionals)
+    stats = list(statistics)
+    if not stats or not all(isinstance(st, PeriodStatistic) for st in stats):
+        raise TypeError("statistics must be a non-empty sequence of PeriodStatistic")
+    probe = FunctionalSpectra(np.ones(1), names, np.zeros((1, len(names), len(names)), dtype=complex))
+    index = [probe._index(st.output) for st in stats]
 
-    def kernels(k):
-        om = U * k
-        B = np.sinc(om * b / (2.0 * math.pi)) ** 2
-        D = np.sinc(om * T / (2.0 * math.pi)) ** 2 if n is None else _dirichlet2(om * dt, n)
-        return B * (1.0 - D), B * D
+    def evaluate(k):
+        return functional_spectra(k, params, fs, mean_speed, quadrature=quadrature, resolution=resolution).matrix_kab
 
-    if lines:
-        if np.any(np.diff(k_src) <= 0):
-            raise ValueError("k1 must increase")
-        dk = 2.0 * math.pi / U / T if k_src.size == 1 else float(np.min(np.diff(k_src)))
-        kw, km = kernels(k_src)
-        var = F_src * dk
-        w_, m_ = float(np.sum(var * kw)), float(np.sum(var * km))
-        return {"within": w_, "of_mean": m_, "total": w_ + m_}
-    if k_src.size < 2 or np.any(np.diff(k_src) <= 0):
-        raise ValueError("k1 must hold at least 2 increasing wavenumbers")
-
-    def FB(k):
-        return _loglog(k_src, F_src, k) * np.sinc(U * k * b / (2.0 * math.pi)) ** 2
-
-    dk_t = 2.0 * math.pi / (U * T)  # the spacing of the period's own harmonics in k1
-    h = dk_t / 16.0
-    # total: uniform nodes over the low band, geometric above, the last power law's tail in closed form
-    k_band = 200.0 * dk_t
-    ku = (np.arange(int(math.ceil(k_band / h))) + 0.5) * h
-    k_end = max(k_src[-1], k_band) * 1e4
-    kg = np.geomspace(ku[-1] + 0.5 * h, k_end, 8001)
-    lg = np.log(kg)
-    kc = np.exp(0.5 * (lg[1:] + lg[:-1]))
-    total = float(np.sum(FB(ku)) * h + np.sum(FB(kc) * np.diff(kg)))
-    slope = math.log(F_src[-1] / F_src[-2]) / math.log(k_src[-1] / k_src[-2]) if F_src[-2] > 0 else -math.inf
-    if slope < -1.0 and b == 0.0:
-        total += float(_loglog(k_src, F_src, np.array([k_end]))[0]) * k_end / (-slope - 1.0)
-    if n is None:
-        # of the mean: sinc^2(U k T / 2) resolved over the low band; above it its average 1 / (2 x^2)
-        x = 0.5 * U * T * kc
-        of_mean = float(np.sum(FB(ku) * np.sinc(U * ku * T / (2.0 * math.pi)) ** 2) * h
-                        + np.sum(FB(kc) * np.diff(kg) / (2.0 * x * x)))
-    else:
-        # sampled: fold onto the base band [0, k_s / 2] over 64 aliases, D_N's average 1 / N beyond
-        k_s = 2.0 * math.pi / (U * dt)
-        kb = (np.arange(int(math.ceil(0.5 * k_s / h))) + 0.5) * (0.5 * k_s / int(math.ceil(0.5 * k_s / h)))
-        hb = 0.5 * k_s / kb.size
-        acc = FB(kb)
-        for m in range(1, 65):
-            acc = acc + FB(m * k_s - kb) + FB(m * k_s + kb)
-        of_mean = float(np.sum(acc * _dirichlet2(U * kb * dt, n)) * hb)
-        beyond = kc > 64.5 * k_s
-        of_mean += float(np.sum(FB(kc[beyond]) * np.diff(kg)[beyond])) / n
-    return {"within": total - of_mean, "of_mean": of_mean, "total": total}
+    r = refine_k1(evaluate, index, stats, mean_speed, k1_range, n_start=n_start, tol=tol, max_k1=max_k1)
+    s = FunctionalSpectra(r["k1"], names, r["matrix"])
+    within = tuple(st.variance(s.k1_k, s.spectrum(a), mean_speed) for st, a in zip(stats, index))
+    return AdaptiveSpectra(s, within, r["error"], r["converged"], r["rounds"])

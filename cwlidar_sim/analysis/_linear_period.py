@@ -46,8 +46,8 @@ __all__ = ["PeriodStatistic", "period_variance", "refine_k1"]
 
 #: Log-spaced nodes per interval of the refinement's error integral.
 _SUB = 32
-#: The change a bisection makes over what it leaves: the cubic spline's error goes as the width to the fourth
-#: (15 for a smooth spectrum; 8 leaves a margin).
+#: The change a bisection makes over what it leaves, once the changes of successive bisections fall as the
+#: spline's error should (as the width to the fourth: 15 for a smooth spectrum; 8 leaves a margin).
 _RICHARDSON = 8.0
 
 
@@ -347,6 +347,7 @@ def refine_k1(evaluate, index_s, statistics, mean_speed: float, k1_range=(1e-4, 
     M = np.asarray(evaluate(k))
     open_i = np.ones(k.size - 1, dtype=bool)
     est = np.zeros((len(kernels), k.size - 1))  # per statistic and interval, the estimated error left in it
+    made = np.zeros((len(kernels), k.size - 1))  # the change of the bisection that made it (0: none yet)
     rounds = 0
     while open_i.any() and k.size + int(open_i.sum()) <= max_k1:
         ia = np.nonzero(open_i)[0]
@@ -358,12 +359,16 @@ def refine_k1(evaluate, index_s, statistics, mean_speed: float, k1_range=(1e-4, 
         err = np.array([_interval_errors(k, M[:, a, a].real, k_new[order], M_new[:, a, a].real, k[ia], k[ia + 1],
                                          kern, U) for a, kern in zip(index_s, kernels)])
         M = M_new
-        # each bisected interval's halves: a third of the change each (Richardson, error ~ width^2), split in two
-        e_new, pos = [], dict(zip(ia.tolist(), range(ia.size)))
+        # a bisected interval's halves share what its change leaves: 1 / _RICHARDSON of it where the change fell
+        # at least fourfold from the bisection before (the spline's order seen), all of it else
+        seen = np.all(err <= 0.25 * made[:, ia], axis=0)
+        left = err / np.where(seen, _RICHARDSON, 1.0)
+        e_new, m_new, pos = [], [], dict(zip(ia.tolist(), range(ia.size)))
         for i in range(k.size - 1):
             j = pos.get(i)
-            e_new += [est[:, i]] if j is None else [err[:, j] / _RICHARDSON / 2.0] * 2
-        k, est = k_new[order], np.stack(e_new, axis=1)
+            e_new += [est[:, i]] if j is None else [0.5 * left[:, j]] * 2
+            m_new += [made[:, i]] if j is None else [err[:, j]] * 2
+        k, est, made = k_new[order], np.stack(e_new, axis=1), np.stack(m_new, axis=1)
         rounds += 1
         # open the intervals of largest estimate until what stays shut holds at most half the tolerance
         budget = tol * np.array([_scale(k, M[:, a, a].real, kern, U) for a, kern in zip(index_s, kernels)])

@@ -18,7 +18,7 @@ def _pair():
     """u weighted 0.6 and 0.4 at two points D apart along the wind: ``|0.6 + 0.4 exp(i k1 D)|^2`` times u's
     spectrum, dips to 1/25 at ``k1 = pi (2 m + 1) / D`` (sharp in log-log), each look a Lorentzian along x
     (``exp(-2 zR k1)``: a steep last power law at 1 rad/m, the grids' end); and a cup (first-order response)."""
-    looks = lt.Looks([[0.0, 0.0, 50.0], [D, 0.0, 50.0]], [[1.0, 0.0, 0.0]] * 2, probe_l=lt.lorentzian_probe(3.0))
+    looks = lt.Looks([[0.0, 0.0, 50.0], [D, 0.0, 50.0]], [[1.0, 0.0, 0.0]] * 2, probe_l=lt.lorentzian_probe(10.0))
     w = np.zeros((1, 2, 3))
     w[0, :, 0] = (0.6, 0.4)
     pair = lt.LinearFunctional(looks, w, ("u",))

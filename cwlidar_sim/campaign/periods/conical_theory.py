@@ -15,14 +15,22 @@ turbulence intensity, from the Mann tensor of the unit
   position and time with their summed weights (exact for a uniform wind; the looks lie
   within 1 m of each other); a scan of n revolutions is the mean of n
   successive one-revolution fits (checked against the n-revolution fit's own
-  weights), so its spectrum is the one-revolution spectrum (log-log
-  interpolated on a dense grid) times ``|sum_m exp(i m k1 U T_rev)|^2 / n^2``;
+  weights), so its spectrum is the one-revolution spectrum times
+  ``|sum_m exp(i m k1 U T_rev)|^2 / n^2`` (:class:`~cwlidar_sim.analysis.linear_theory.PeriodStatistic`'s
+  ``repeat``);
 * the cup: u at the cup's position with its first-order response (time
   constant ``distance_constant / U``);
 * the period: the spectra's expected sample variance about the period's own
   mean (:func:`cwlidar_sim.analysis.linear_theory.period_variance`: scans
   every ``n T_rev``, the cup at its rate, aliasing included), times
   ``N / (N - 1)`` (the simulation's ``ddof = 1``), over the period's duration.
+
+The spectra are computed on an adaptive k1 grid
+(:func:`cwlidar_sim.analysis.linear_theory.adaptive_spectra`: from
+:data:`N_START` log-spaced k1 over :data:`K1_RANGE`, bisected where the
+spline interpolation would move the cup's or a scan's period variance by
+more than its share of :data:`TOL`), the plane quadrature at
+:data:`RESOLUTION`.
 
 The ratio is ``sqrt(E[s_lidar^2] / E[s_cup^2])``; the simulation averages
 per-period ratios ``s_lidar / s_cup`` over periods (a second-order
@@ -55,7 +63,8 @@ from ...analysis import linear_theory as lt
 from . import theory as th
 from .conical_simulation import _conical_lidar
 
-__all__ = ["THEORY_VARS", "N_K1", "K1_RANGE", "RESOLUTION", "unit_theory", "theory_rows", "theory_attrs"]
+__all__ = ["THEORY_VARS", "K1_RANGE", "N_START", "TOL", "RESOLUTION", "CONVERGENCE", "unit_theory", "theory_rows",
+           "theory_attrs"]
 
 #: The theory's variables: per scan length (``scan=True``) or per unit.
 THEORY_VARS = {
@@ -63,12 +72,17 @@ THEORY_VARS = {
     "lidar_std_theory": (True, "m s-1", "linear theory of the lidar {span} standard deviation (VAD u)"),
     "cup_std_theory": (False, "m s-1", "linear theory of the cup {span} standard deviation"),
 }
-#: Wavenumbers of the spectra, log-spaced [rad/m], and their number: against 24 (and 40) they move the ratios by
-#: at most 0.0008 (CS scene, 100 m, 8 m/s: 0.7654 / 0.7605 against 0.7647 / 0.7608 with 24).
-N_K1 = 12
+#: The adaptive k1 grid (:func:`cwlidar_sim.analysis.linear_theory.adaptive_spectra`): its span [rad/m], its
+#: starting log-spaced k1 and the relative tolerance of each variance (module notes: convergence).
 K1_RANGE = (1e-4, 1.0)
-#: The plane quadrature's ``resolution``: 10, 20 and 40 give the same ratios to 1e-4 there.
+N_START = 9
+TOL = 1e-3
+#: The plane quadrature's ``resolution`` (module notes: convergence).
 RESOLUTION = 20.0
+#: What refining each numerical choice moves the std ratios by, CS scene at 8 m/s, 600 s
+#: (benchmarks/bench_linear_theory.py): per height and choice, the largest move over the 1- and 3-revolution scans.
+CONVERGENCE = {}
+
 
 def _merge_sub_dwells(vad, nsub: int):
     """The VAD's u output with each estimate's ``nsub`` looks merged into one (module notes)."""
@@ -81,11 +95,6 @@ def _merge_sub_dwells(vad, nsub: int):
     w = vad.weight_olc[:1].reshape(1, n_e, nsub, 3).sum(axis=2)
     merged = lt.Looks(p, n_unit, t, looks.probe_l[0])
     return lt.LinearFunctional(merged, w, ["u"])
-
-
-def _mean_of_n(x, n: int):
-    """``|sum_{m<n} exp(i m x)|^2 / n^2`` [-]: the mean of n samples x apart in phase."""
-    return np.abs(np.exp(1j * np.outer(x, np.arange(n))).sum(axis=1)) ** 2 / n**2
 
 
 def _comb_ok(lidar, z, U, n_rev, one) -> bool:
@@ -122,33 +131,36 @@ def unit_theory(lidar, height: float, mean_speed: float, duration: float, params
         ``cup_std`` [m/s] and ``scans``: per n, ``lidar_std`` [m/s] and ``std_ratio``; ``wall_s``.
     """
     key = (repr(lidar), float(height), float(mean_speed), float(duration), repr(params), tuple(scan_revs), repr(cup),
-           N_K1, K1_RANGE, RESOLUTION)
+           N_START, TOL, K1_RANGE, RESOLUTION)
     return th.cached(key, lambda: _unit_theory(lidar, height, mean_speed, duration, params, scan_revs, cup))
 
 
-def _unit_theory(lidar, height, mean_speed, duration, params, scan_revs, cup) -> dict:
+def _unit_theory(lidar, height, mean_speed, duration, params, scan_revs, cup, merge: bool = True) -> dict:
     t0 = time.perf_counter()
     z, U, T = float(height), float(mean_speed), float(duration)
     vad, cupf = th.conical_functionals(lidar, z, U, revolutions=1, cup=cup)
-    one = _merge_sub_dwells(vad, lidar.sub_dwells)
-    k1 = np.geomspace(*K1_RANGE, N_K1)
-    s = lt.functional_spectra(k1, params, [one, cupf], U, resolution=RESOLUTION)
+    if merge:
+        one = _merge_sub_dwells(vad, lidar.sub_dwells)
+    else:
+        one = lt.LinearFunctional(vad.looks, vad.weight_olc[:1], ["u"])
     dt_c = 1.0 / cup.rate
     n_c = int(round(T / dt_c))
-    var_c = lt.period_variance(k1, s.spectrum(1), U, T, sample_interval=dt_c)["within"] * n_c / (n_c - 1)
-    out = {"cup_std": math.sqrt(var_c), "scans": {}}
+    stats = [lt.PeriodStatistic("1.u", T, dt_c)]
     for n in scan_revs:
-        dt = n * lidar.revolution_time
         if not _comb_ok(lidar, z, U, n, vad):
             raise ValueError(f"scan_revs {n}: the lidar's azimuths do not repeat each revolution; the theory "
                              f"takes an n-revolution fit as the mean of n one-revolution fits")
-        # the comb's nulls are not log-log smooth: the one-revolution spectrum interpolated on a dense grid first
-        kd = np.geomspace(K1_RANGE[0], 100.0, 16001)
-        comb = _mean_of_n(kd * U * lidar.revolution_time, n)
-        comb[-2:] = 1.0 / n  # its mean, where it oscillates faster than the grid: a smooth power-law tail
-        F = lt._loglog(k1, s.spectrum(0), kd) * comb
-        n_s = int(T // dt)
-        var = lt.period_variance(kd, F, U, n_s * dt, sample_interval=dt)["within"] * n_s / (n_s - 1)
+        dt = n * lidar.revolution_time
+        stats.append(lt.PeriodStatistic("0.u", int(T // dt) * dt, dt,
+                                        repeat=(n, lidar.revolution_time) if n > 1 else None))
+    r = lt.adaptive_spectra(params, [one, cupf], U, stats, k1_range=K1_RANGE, n_start=N_START, tol=TOL,
+                            resolution=RESOLUTION)
+    var_c = r.within[0] * n_c / (n_c - 1)
+    out = {"cup_std": math.sqrt(var_c), "scans": {}, "n_k1": int(r.spectra.k1_k.size),
+           "grid_error": max(r.error), "converged": r.converged}
+    for n, st, w in zip(scan_revs, stats[1:], r.within[1:]):
+        n_s = int(round(st.period / st.sample_interval))
+        var = w * n_s / (n_s - 1)
         out["scans"][n] = {"lidar_std": math.sqrt(var), "std_ratio": math.sqrt(var / var_c)}
     out["wall_s"] = time.perf_counter() - t0
     return out
@@ -161,8 +173,10 @@ def theory_attrs(lidar, params) -> dict:
             "theory_box": "continuum (no box)",
             "theory_weighting": str(lidar.weighting),
             "theory_tensor": json.dumps(params.as_dict()),
-            "theory_numerics": json.dumps({"k1": [K1_RANGE[0], K1_RANGE[1], N_K1], "resolution": RESOLUTION,
-                                           "accuracy_ratio": 0.002})}
+            "theory_numerics": json.dumps({"k1": "adaptive (analysis.linear_theory.adaptive_spectra)",
+                                           "k1_range": list(K1_RANGE), "n_start": N_START, "tol": TOL,
+                                           "resolution": RESOLUTION, "sub_dwells": "merged",
+                                           "convergence": CONVERGENCE})}
 
 
 def scene_lidar(scene, index: int, spacing: float):

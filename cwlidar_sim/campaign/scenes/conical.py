@@ -140,10 +140,10 @@ class ScanSpec(Spec):
         per height, each in [1, 10000]: height i runs that many periods,
         cycling through the ``[[period]]`` tables (module notes); dwell mode
         only.
-    theory : {None, 'continuum', 'only'}
+    theory : {None, 'none', 'continuum', 'only'}
         The linear theory of the std ratios
         (:mod:`cwlidar_sim.campaign.periods.conical_theory`): None (default)
-        none; ``"continuum"``: beside the simulation (``*_theory``
+        or ``"none"``: none; ``"continuum"``: beside the simulation (``*_theory``
         variables); ``"only"``: instead of it, for a tier ``los`` scene
         without processing variants (dwell mode, a generated field).
     """
@@ -212,8 +212,8 @@ class ScanSpec(Spec):
                              "height in each period); allowed: cycle = false, or no periods_per_height")
         set_field(self, "periods_per_height", plan)
         if self.theory is not None:
-            check_choice("scan.theory", self.theory, ("continuum", "only"))
-            if self.cycle:
+            check_choice("scan.theory", self.theory, ("none", "continuum", "only"))
+            if self.cycle and self.theory != "none":
                 raise ValueError(f"scan.theory = {self.theory!r} needs scan.cycle = false (the theory takes one "
                                  f"height's scans evenly spaced over the period); allowed: cycle = false")
 

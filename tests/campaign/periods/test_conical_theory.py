@@ -68,3 +68,15 @@ def test_theory_only_refuses_what_it_cannot_answer():
         _scene("only", variants=({"name": "raise10", "threshold_raise_percent": 10.0},))
     with pytest.raises(ValueError, match=r"scan.theory"):
         _scene("lattice")
+
+
+def test_theory_none_is_spelled_and_needs_no_dwell():
+    """``theory = "none"`` (a TOML file cannot write None) is the default's behaviour: accepted in cycle mode, where
+    the theory is refused."""
+    from cwlidar_sim.campaign.scenes.conical import ScanSpec
+
+    assert ScanSpec(heights=(40.0, 60.0), cycle=True, revs_per_height=3, theory="none").theory == "none"
+    with pytest.raises(ValueError, match=r"scan.theory = 'continuum' needs scan.cycle = false"):
+        ScanSpec(heights=(40.0, 60.0), cycle=True, revs_per_height=3, theory="continuum")
+    with pytest.raises(ValueError, match=r"scan.theory"):
+        ScanSpec(theory="off")

@@ -27,10 +27,10 @@ turbulence intensity, from the Mann tensor of the unit
 
 The spectra are computed on an adaptive k1 grid
 (:func:`cwlidar_sim.analysis.linear_theory.adaptive_spectra`: from
-:data:`N_START` log-spaced k1 over :data:`K1_RANGE`, bisected where the
+``N_START`` log-spaced k1 over ``K1_RANGE``, bisected where the
 spline interpolation would move the cup's or a scan's period variance by
-more than its share of :data:`TOL`), the plane quadrature at
-:data:`RESOLUTION`.
+more than its share of ``TOL``), the plane quadrature at
+``RESOLUTION``.
 
 The ratio is ``sqrt(E[s_lidar^2] / E[s_cup^2])``; the simulation averages
 per-period ratios ``s_lidar / s_cup`` over periods (a second-order

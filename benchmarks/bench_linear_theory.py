@@ -1,6 +1,6 @@
 """Cost and convergence of the conical linear theory (campaign.periods.conical_theory) for one CS height.
 
-    python benchmarks/bench_linear_theory.py [--quick] [--heights 40 100] [--json PATH]
+    python benchmarks/bench_linear_theory.py [--quick] [--heights 40 100] [--unmerged] [--json PATH]
 
 Times (this interpreter, after a warm-up at one k1) the production path of a
 conical scene's theory at each height of the bundled CS scene (U = 8 m/s, a
@@ -12,7 +12,7 @@ same run, the baseline: CS's 1-D filter model at that height
 (``cs_model.model_ratios``, spectrum "mann").  Prints the ratio of the two
 times and the std ratios; without ``--quick`` also the theory refined, one
 choice at a time (the grid's tolerance divided by 4, twice the starting k1,
-twice the plane quadrature's resolution, the 400 sub-dwell looks unmerged),
+twice the plane quadrature's resolution; ``--unmerged``: the 400 sub-dwell looks unmerged),
 and how far each moves the ratios (the convergence stated in
 ``conical_theory``'s module notes).  Runs in one fresh interpreter under the
 shared protocol of ``benchmarks/_protocol.py``.
@@ -35,12 +35,13 @@ def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--heights", type=float, nargs="+", default=[100.0])
+    ap.add_argument("--unmerged", action="store_true", help="also the 400 sub-dwell looks unmerged (8x the cost)")
     ap.add_argument("--json")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.child:
         child_main({"default": _child}, a.child)
-    r = _protocol.spawn(__file__, {"quick": a.quick, "heights": a.heights})
+    r = _protocol.spawn(__file__, {"quick": a.quick, "heights": a.heights, "unmerged": a.unmerged})
     if "error" in r:
         print(r["error"], file=sys.stderr)
         return 1
@@ -75,7 +76,9 @@ def _child(task):
             out = ct._unit_theory(lidar, z, U, period, p, revs, cup, merge=merge)
             return out, time.perf_counter() - t0
 
+        c0 = time.process_time()
         prod, dt = theory()
+        cpu = time.process_time() - c0
         t0 = time.perf_counter()
         cs_model._mann_coarse.cache_clear()
         base = cs_model.model_ratios(z, U, 1, spectrum="mann", params=p)
@@ -86,13 +89,17 @@ def _child(task):
                 f"{ct.TOL:g}): {dt:.2f} s; std ratio 1 / 3 rev {ratios[0]:.5f} / {ratios[1]:.5f}",
                 f"{z:g} m: baseline cs_model.model_ratios (1-D filter model, Mann spectra): {db:.2f} s "
                 f"(ratio of times {dt / db:.1f}); CS model std ratio {base['std_ratio']:.5f}"]
-        row = {"case": "cs_height", "height": z, "k1": prod["n_k1"], "wall_s": dt, "baseline_wall_s": db,
+        log.append(f"{z:g} m: CPU {cpu:.1f} s (this process, all threads), 1-min load {os.getloadavg()[0]:.1f}")
+        row = {"case": "cs_height", "height": z, "k1": prod["n_k1"], "wall_s": dt, "cpu_s": cpu,
+               "loadavg_1min": os.getloadavg()[0], "baseline_wall_s": db,
                "ratio_to_baseline": dt / db, "std_ratio_1rev": ratios[0], "std_ratio_3rev": ratios[1],
                "grid_error": prod["grid_error"], "std_ratio_cs_model": base["std_ratio"], "moves": {}}
         if not a.quick:
             saved = (ct.TOL, ct.N_START, ct.RESOLUTION)
             variants = {"tol / 4": ({"TOL": ct.TOL / 4}, True), "n_start x 2": ({"N_START": 2 * ct.N_START - 1}, True),
-                        "resolution x 2": ({"RESOLUTION": 2 * ct.RESOLUTION}, True), "sub_dwells unmerged": ({}, False)}
+                        "resolution x 2": ({"RESOLUTION": 2 * ct.RESOLUTION}, True)}
+            if a.unmerged:
+                variants["sub_dwells unmerged"] = ({}, False)
             for name, (consts, merge) in variants.items():
                 for k, v in consts.items():
                     setattr(ct, k, v)

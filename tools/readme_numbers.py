@@ -13,6 +13,8 @@ The sources (all committed):
 * ``docs/cs_reproduce.json``: ``python studies/cs_reproduce.py --out DIR --json docs/cs_reproduce.json``;
 * ``docs/cs_attribution.json``: ``python studies/cs_attribution.py --json docs/cs_attribution.json`` (the CS
   ratio walked from CS's filter model to the simulation by the linear theory);
+* ``docs/cs_theory.json``: ``python studies/cs_theory.py --json docs/cs_theory.json`` (the linear theory of the
+  CS table, the bundled scene with ``scan.theory = "only"``);
 * ``docs/nacelle_coherence.json``: ``python studies/nacelle_coherence.py --json docs/nacelle_coherence.json``;
 * ``docs/readme_timings.json``: the wall time of the README's commands, cold (numba compiling into
   an empty cache) and warm (``--measure`` runs them here and writes it).
@@ -44,6 +46,7 @@ DOCS = os.path.join(ROOT, "docs")
 A2012_JSON = os.path.join(DOCS, "a2012_reproduce.json")
 CS_JSON = os.path.join(DOCS, "cs_reproduce.json")
 CS_ATTRIBUTION_JSON = os.path.join(DOCS, "cs_attribution.json")
+CS_THEORY_JSON = os.path.join(DOCS, "cs_theory.json")
 NACELLE_JSON = os.path.join(DOCS, "nacelle_coherence.json")
 TIMINGS_JSON = os.path.join(DOCS, "readme_timings.json")
 
@@ -116,7 +119,18 @@ def _own_scene(timings) -> str:
             f"({_about(run['cold_s'])} before numba has compiled).\n")
 
 
-def _reproductions(a2012, cs, nacelle) -> str:
+def _cs_cells(cs, theory) -> str:
+    """Per height, the simulated 1 s / 3 s ratios ± s.e. and the linear theory beside them."""
+    cells = []
+    for z in sorted(cs["heights"], key=float):
+        h, t = cs["heights"][z], theory["heights"][z]
+        cells.append(f"{z} m {h['std_ratio_1s']:.3f} ± {h['std_ratio_1s_se']:.3f} / {h['std_ratio_3s']:.3f} ± "
+                     f"{h['std_ratio_3s_se']:.3f} (theory {t['std_ratio_1s_theory']:.3f} / "
+                     f"{t['std_ratio_3s_theory']:.3f})")
+    return "; ".join(cells)
+
+
+def _reproductions(a2012, cs, nacelle, theory) -> str:
     lo, hi = a2012["low_k"]["min"], a2012["low_k"]["max"]
     heights = sorted(cs["heights"], key=float)
     h0, h1 = cs["heights"][heights[0]], cs["heights"][heights[-1]]
@@ -137,10 +151,10 @@ def _reproductions(a2012, cs, nacelle) -> str:
         f"volume's filter exp(−2 k zR), zR = {a2012['rayleigh_length_m']:.2f} m, is close to 1 |",
         f"| [CS](docs/reproductions/cs.md): `reproduce cs` | conically scanning ZephIR against a cup at "
         f"{heights[0]}–{heights[-1]} m, {cs['units']} ten-minute periods (about "
-        f"{round(cs['run']['wall_s'] / 60)} minutes on {cs['machine']['cpu_count']} cores) | lidar/cup σ ratio (1 s scans) {h0['std_ratio_1s']:.3f} ± "
-        f"{h0['std_ratio_1s_se']:.3f} at {heights[0]} m to {h1['std_ratio_1s']:.3f} ± {h1['std_ratio_1s_se']:.3f} at "
-        f"{heights[-1]} m; CS's filter model {h0['std_ratio_1s_model_kaimal']:.3f} to "
-        f"{h1['std_ratio_1s_model_kaimal']:.3f} |",
+        f"{round(cs['run']['wall_s'] / 60)} minutes on {cs['machine']['cpu_count']} cores) | lidar/cup σ ratio, 1 s / 3 s scans, simulated ± s.e. "
+        f"and the linear theory beside it (continuum, tier los's answer, `studies/cs_theory.py`): "
+        f"{_cs_cells(cs, theory)}; CS's filter model (1 s) "
+        f"{h0['std_ratio_1s_model_kaimal']:.3f} to {h1['std_ratio_1s_model_kaimal']:.3f} |",
         f"| [nacelle](docs/reproductions/nacelle.md): `reproduce nacelle` | forward-looking scanning lidar, "
         f"rotor-effective wind speed preview at {', '.join(focuses)} m | wavenumber of coherence 0.5 at "
         f"{NACELLE_FOCUS} m ({nacelle['periods']} frozen periods, `studies/nacelle_coherence.py`): {fo['k_half_simulated']:.4f} [{k_lo:.4f}, {k_hi:.4f}] rad/m simulated, "
@@ -189,10 +203,11 @@ def _cs_residual(attribution, cs) -> str:
 
 def blocks() -> dict:
     """Every generated block's text, by name, from the committed results files."""
-    a2012, cs, nacelle, timings, attribution = (_load(p) for p in (A2012_JSON, CS_JSON, NACELLE_JSON, TIMINGS_JSON,
-                                                                    CS_ATTRIBUTION_JSON))
+    a2012, cs, nacelle, timings, attribution, theory = (_load(p) for p in (A2012_JSON, CS_JSON, NACELLE_JSON,
+                                                                            TIMINGS_JSON, CS_ATTRIBUTION_JSON,
+                                                                            CS_THEORY_JSON))
     return {"first-result": _first_result(a2012, timings), "own-scene": _own_scene(timings),
-            "reproductions": _reproductions(a2012, cs, nacelle), "cs-residual": _cs_residual(attribution, cs)}
+            "reproductions": _reproductions(a2012, cs, nacelle, theory), "cs-residual": _cs_residual(attribution, cs)}
 
 
 def render(text: str, made: dict) -> str:

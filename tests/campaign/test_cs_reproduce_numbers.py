@@ -13,30 +13,35 @@ import re
 from cwlidar_sim.campaign import bundled_scene
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-CELL = r"\**([\d.]+) ± ([\d.]+)\** \(([\d.]+) / ([\d.]+)\)"
+CELL = r"\**([\d.]+) ± ([\d.]+)\** \(([\d.]+) / ([\d.]+); theory ([\d.]+)\)"
 ROW = re.compile(rf"^\| (\d+) m \| (\d+) \| {CELL} \| {CELL} \| ([\d.]+) ± ([\d.]+) \|$", re.M)
 
 
 def _load():
     with open(os.path.join(ROOT, "docs", "cs_reproduce.json")) as f:
         res = json.load(f)
+    with open(os.path.join(ROOT, "docs", "cs_theory.json")) as f:
+        res["theory"] = json.load(f)
     with open(os.path.join(ROOT, "docs", "reproductions", "cs.md"), encoding="utf-8") as f:
         page = f.read()
     return res, page
 
 
 def test_page_table_is_the_run():
-    """Every number of the CS page's table (3 decimals) is the JSON's, and every height is there."""
+    """Every number of the CS page's table (3 decimals) is the JSON's (the simulation's, and the linear theory's of
+    docs/cs_theory.json over the same periods), and every height is there."""
     res, page = _load()
     rows = {m.group(1): m.groups()[1:] for m in ROW.finditer(page)}
     assert sorted(rows, key=float) == sorted(res["heights"], key=float) == ["40", "60", "80", "100"]
     for z, cells in rows.items():
         h = res["heights"][z]
         assert int(cells[0]) == h["periods"] == h["n_periods"] == res["plan"][z], z
+        t = res["theory"]["heights"][z]
+        assert t["periods"] == h["periods"], z
         want = []
         for s in ("1s", "3s"):
             want += [h[f"std_ratio_{s}"], h[f"std_ratio_{s}_se"], h[f"std_ratio_{s}_model_kaimal"],
-                     h[f"std_ratio_{s}_model_mann"]]
+                     h[f"std_ratio_{s}_model_mann"], t[f"std_ratio_{s}_theory"]]
         want += [h["radial_variance_ratio_1s"], h["radial_variance_ratio_1s_se"]]
         assert [float(c) for c in cells[1:]] == [round(w, 3) for w in want], z
 

@@ -58,7 +58,7 @@ def test_adaptive_grid_converges_to_a_dense_grid():
 def test_adaptive_grid_refines_at_the_sharp_dips():
     """The pair's dips (k1 = pi / D, 3 pi / D, ...) draw the points: in ln k1 the refined grid is over eight
     times denser over [0.5, 4] pi / D than the starting grid and twice the smooth decades below 1e-2 rad/m; the
-    statistic needs them (the starting grid misses its variance by more than 1e-2)."""
+    statistic needs them (the starting grid misses its variance by more than twice tol)."""
     r = lt.adaptive_spectra(P, _pair(), U, STATS[:1], tol=1e-3, quadrature="x_only")
     k = r.spectra.k1_k
     start = 8 / math.log(1e4)  # the starting grid's k1 per unit of ln k1
@@ -67,7 +67,7 @@ def test_adaptive_grid_refines_at_the_sharp_dips():
     assert near > 8.0 * start and near > 2.0 * smooth, np.round(np.log10(k), 2)
     coarse = np.geomspace(1e-4, 1.0, 9)
     s = lt.functional_spectra(coarse, P, _pair(), U, quadrature="x_only")
-    assert abs(STATS[0].variance(coarse, s.spectrum(0), U) / _dense(STATS[0]) - 1.0) > 1e-2
+    assert abs(STATS[0].variance(coarse, s.spectrum(0), U) / _dense(STATS[0]) - 1.0) > 2e-3
 
 
 def test_repeat_is_the_comb_of_the_copies():

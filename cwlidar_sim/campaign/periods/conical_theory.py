@@ -91,7 +91,7 @@ RESOLUTION = 20.0
 #: 3-revolution scans (all < 0.001).
 CONVERGENCE = {
     "40": {"tol / 4": 5e-6, "n_start x 2": 3.3e-5, "resolution x 2": 1e-6, "sub_dwells unmerged": 3.5e-4},
-    "100": {"tol / 4": 8.7e-5, "n_start x 2": 1.3e-4, "resolution x 2": 1e-6, "sub_dwells unmerged": None},
+    "100": {"tol / 4": 8.7e-5, "n_start x 2": 1.3e-4, "resolution x 2": 1e-6, "sub_dwells unmerged": 2.8e-4},
 }
 
 

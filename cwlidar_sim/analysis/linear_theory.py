@@ -104,7 +104,7 @@ from ._linear_functionals import (
     lorentzian_probe,
     point_functional,
 )
-from ._linear_lattice import interpolated_lines
+from ._linear_lattice import lattice_lines
 from .rews_theory import _GL_W, _GL_X, _panels
 
 __all__ = [
@@ -458,8 +458,11 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
     from, cell corrections and gains included), returned as a density
     (divided by ``dk1``) comparable with the continuum's ``F(k1_n)``; its
     sum over the rows times ``dk1`` is the box's variance of the output.  The
-    k2, k3 of the modes are numpy's fftfreq order (the Nyquist at the
-    negative wavenumber), the generator's.
+    modes are the generator's (numpy's fftfreq order); a Nyquist index of an
+    even axis, which the generator draws at ``-pi / d`` and shares with its
+    Hermitian partner, stands for both ``+-pi / d`` at half weight each, the
+    symmetric lines of its linear interpolant (:mod:`._linear_lattice`), so
+    the sum does not depend on that sign.
 
     Parameters
     ----------
@@ -542,26 +545,15 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
     q2 = 2.0 * math.pi * np.fft.fftfreq(shape[1], spacing[1])
     q3 = 2.0 * math.pi * np.fft.fftfreq(shape[2], spacing[2])
     g2, g3 = (a.ravel() for a in np.meshgrid(q2, q3, indexing="ij"))
-    k1 = df.k1_of_rows(rows).astype(float)
     n_a = sum(f.n_outputs for f in fs)
-    out = np.zeros((rows.size, n_a, n_a), dtype=complex)
     probes = _fast_probes(fs)
     plan = _plan(fs, probes, _FUSED)
-    ones = np.ones(g2.size)
-    if interp != ("none",) * 3:
-        def acc(q1, k2, k3, w, phi, out):
-            _accumulate(fs, q1, k2, k3, w, phi, U, out, probes, plan)
-        k_lines, out = interpolated_lines(df, rows, k1, g2, g3, spacing, interp, aliases, n_a, acc)
-        return FunctionalSpectra(k_lines, names, out)
-    for j, r in enumerate(rows):
-        p6 = df.phi_rows(np.array([r]))[0].reshape(-1, 6)
-        phi = np.empty((g2.size, 3, 3))
-        for c, (a, b) in enumerate(((0, 0), (1, 1), (2, 2), (0, 2), (0, 1), (1, 2))):
-            phi[:, a, b] = phi[:, b, a] = p6[:, c]
-        _accumulate(fs, float(k1[j]), g2, g3, ones, phi, U, out[j], probes, plan)
-        if 2 * r == n1:
-            out[j] *= 0.5
-    return FunctionalSpectra(np.abs(k1), names, out / df.dk1)
+
+    def acc(q1, k2, k3, w, phi, out):
+        _accumulate(fs, q1, k2, k3, w, phi, U, out, probes, plan)
+
+    k_lines, out = lattice_lines(df, rows, g2, g3, spacing, interp, aliases, n_a, acc)
+    return FunctionalSpectra(k_lines, names, out)
 
 
 def per_hertz(spectrum_k, mean_speed: float):

@@ -1,10 +1,27 @@
 """The lattice theory's lines (:func:`cwlidar_sim.analysis.linear_theory.lattice_spectra`).
 
 Each box mode k reaches the looks at its own wavenumber or, through the
-sampler's linear interpolation, as the wavenumbers ``k + 2 pi m / d`` with
-amplitudes ``L(q) = sinc^2(q d / 2)`` per interpolated axis
-(``lattice_spectra``'s notes): the aliases m1 along x are lines of their own,
-those across (y, z) are summed in power.
+sampler's linear interpolation, as the wavenumbers ``k + 2 pi m / d``.
+Linear interpolation along an axis of spacing d turns a mode's node values
+``exp(i k x_j)`` into the piecewise-linear function ::
+
+    sum_m L(k + 2 pi m / d) exp(i (k + 2 pi m / d) x),   L(q) = sinc^2(q d / 2)
+
+(the Fourier series of the tent-function interpolant; its value at ``x =
+x_j + f d`` is ``((1 - f) + f exp(i k d)) exp(i k x_j)``, the sampler's).
+Trilinear interpolation is the product over the axes, so each box mode k
+reaches the functionals as the continuum's wavenumbers ``k + 2 pi m / d``
+with amplitudes ``L_x L_y L_z``.  Along x the advected box sweeps the looks
+across the nodes, so the aliases m1 are lines of their own at ``k1 + 2 pi
+m1 / dx`` (exact, each on the box's line grid, conjugated where negative).
+Across (y, z) each look's reading depends on where it sits in its cell: the
+aliases (m2, m3) interfere through ``exp(2 pi i m.p / d)``.  They are summed
+in power, ``sum_m L^2 g^H Phi_d g`` at ``k + 2 pi m / d``: exact in
+expectation over the box's lateral offset against the instrument (uniform
+over a cell: the cross terms of two aliases carry ``exp(2 pi i (m - m').
+offset / d)`` and average to zero); a scan whose looks sweep across many
+cells averages them the same way, a point on a node does not (leave its
+axes ``"none"``).
 
 Nyquist indices (index ``N / 2`` of an even axis).  The generator draws such a
 mode at ``-pi / d`` (numpy's fftfreq sign) and writes its Hermitian partner,

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from cwlidar_sim.campaign.execution.reproduce import bundled_scene
+from cwlidar_sim.campaign.figures.conical import plot_std_ratio
 from cwlidar_sim.campaign.periods import conical, conical_theory as ct, lattice_theory as lat
 from cwlidar_sim.sensors import Cup
 
@@ -69,6 +70,8 @@ def test_results_carry_the_lattice_beside_the_continuum(monkeypatch):
     assert float(s.cup_std_theory_lattice[0]) == pytest.approx(direct["cup_std"], rel=1e-12)
     box_effect = s.std_ratio_theory_lattice.values - s.std_ratio_theory.values
     assert np.all(np.abs(box_effect) < 0.03) and np.all(np.abs(box_effect) > 1e-4)
+    labels = [t.get_text() for t in plot_std_ratio(s).axes[0].get_legend().get_texts()]
+    assert sum("linear theory (lattice)" in t for t in labels) == s.sizes["scan_s"]  # the figure draws it
 
 
 def test_no_lattice_for_a_conditioned_box():

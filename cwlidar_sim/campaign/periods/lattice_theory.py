@@ -74,7 +74,7 @@ ROW_RATIO = 1.1
 
 
 def sparse_rows(n_rows: int, dense: int | None = None, ratio: float | None = None) -> np.ndarray:
-    """Rows ``1 .. dense`` and then rows about ``ratio`` apart up to ``n_rows`` (its last included), increasing.
+    """Every row from 1 to ``dense``, then rows about ``ratio`` apart up to ``n_rows`` (included), increasing.
 
     Defaults: :data:`DENSE_ROWS` and :data:`ROW_RATIO`.
     """

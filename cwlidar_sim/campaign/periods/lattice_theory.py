@@ -33,11 +33,13 @@ computed on every row up to ``DENSE_ROWS`` and on rows a factor
 ``ROW_RATIO`` apart above (each rounded to the box's own row), the rest
 interpolated log-log between them (the lidar's spectrum is smooth in k1 on
 that scale: its features lie ~45 rows apart at the CS scene's 100 m); against
-every row this moves the CS scene's ratios by 8e-5 (100 m, 600-s periods:
-58 rows of 562; 1e-5 at 40 m, 60-s periods: tests/campaign/periods/test_lattice_theory.py),
-stated as 1e-4.  One height of the CS scene's 600-s periods costs about 20 s
-on 2 loaded cores (100 m: 22 s against 247 s for every row; 40 m: 19 s),
-the continuum's about as much.  The fused kernel runs for the focused beam's
+every row this moves the CS scene's ratios by 9e-5 and the lidar's sigma by
+1.2e-4 (600-s periods: 40 m, 66 rows of 1250; 100 m, 58 of 562; 1e-5 for a
+60-s box at 40 m: tests/campaign/periods/test_lattice_theory.py), stated as
+1e-4.  One height of the CS scene's 600-s periods costs about 20 s on 2
+loaded cores (100 m: 22 s against 247 s for every row; 40 m: 19 s against
+664 s).  The box's effect there (lattice minus continuum, 1-s / 3-s scans):
++0.0009 / +0.0022 at 40 m, +0.0059 / +0.0065 at 100 m.  The fused kernel runs for the focused beam's
 exact weighting (its table is checked where the box's wavenumbers reach).  Not for a box read from a file
 or conditioned on records (no ensemble of Mann boxes): the variables are then
 NaN and their attributes say why.

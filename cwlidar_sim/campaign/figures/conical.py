@@ -68,6 +68,9 @@ def plot_std_ratio(ds, var="std_ratio", ylabel=None):
             _profile(ax, ds[f"{var}_theory"][:, j], z, ls="-.", marker="^", color=c, mfc="none",
                      label=f"linear theory ({ds[f'{var}_theory'].attrs.get('theory_box', 'continuum')[:9]}), "
                            f"{_scan_label(ds, j)}")
+        if f"{var}_theory_lattice" in ds:  # the same over the units' own boxes (campaign.periods.lattice_theory)
+            _profile(ax, ds[f"{var}_theory_lattice"][:, j], z, ls=(0, (1, 1)), marker="v", color=c, mfc="none",
+                     label=f"linear theory (lattice), {_scan_label(ds, j)}")
     ax.set_xlabel(ylabel)
     ax.set_ylabel("height [m]")
     ax.grid(alpha=0.3)

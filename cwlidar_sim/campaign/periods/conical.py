@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from ..._version import __version__
-from . import conical_simulation, conical_theory, in_situ
+from . import conical_simulation, conical_theory, in_situ, lattice_theory
 from .conical_simulation import cycle_reference_height
 from .._labels import WIND_DIRECTION_CONVENTION, duration_phrase, periods_phrase, wind_from_toward
 from ..scenes.conical import ConicalScene, default_spacing
@@ -181,6 +181,8 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
         rows = [conical_simulation.simulate_conical_period(z, scene.unit_seed(index), lidar_overrides=lidar, **kw)]
     if s.theory == "continuum":
         conical_theory.add_theory(rows, scene, index, tensor, spacing)
+        lattice_theory.add_lattice_theory(rows, scene, index, tensor, spacing, box_options=box_options,
+                                          condition=condition)
     wall = time.perf_counter() - t0
     for r in rows:
         r["sigma_u_target"], r["u_star"] = su, ustar
@@ -234,6 +236,7 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
             vals = [[r["theory"]["scans"][n][name] for n in revs] if per_scan else r["theory"][name] for r in rows]
             dv[key] = ((("period", "scan_s") if per_scan else ("period",)), np.array(vals, dtype=float),
                        {"units": units, "long_name": long.format(span=span), **t_attrs})
+    dv.update(lattice_theory.unit_variables(rows, revs, span))  # the same over the unit's box, beside it
     dv["mean_speed"] = (("period",), np.array([float(p.mean_speed)] * len(rows)), {"units": "m s-1"})
     dv["u_star"] = (("period",), np.array([np.nan if r.get("u_star") is None else float(r["u_star"]) for r in rows]),
                     {"units": "m s-1", "long_name": "friction velocity of the surface layer"})
@@ -344,7 +347,7 @@ def summarise(ds):
             out[f"{var}_sigma"] = (HS, err, {"units": attrs.get("units", "1"), "long_name": f"standard error of {var}"})
         if var == "std_ratio":
             out["n_selected"] = (HS, n.astype(np.int64), {"units": "1", "long_name": "periods passing CS's selection"})
-    for var, (per_scan, _, _) in conical_theory.THEORY_VARS.items():
+    for var, (per_scan, _, _) in {**conical_theory.THEORY_VARS, **lattice_theory.LATTICE_VARS}.items():
         if var in ds:  # the theory of the same periods the simulation's means take (selected, per scan)
             mean, _, _ = by_height(var, per_scan)
             how = "selected periods" if per_scan else "periods"

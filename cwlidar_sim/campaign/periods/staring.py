@@ -332,15 +332,15 @@ def _linear_theory_variables(scene, r, params, PK, pk):
     la, sa = _readings()
     th = staring_transfer_theory(lidar, plan.sonic_position, params, period.mean_speed, r["tf"].k_edges,
                                  segment_duration=a.segment_duration, sample_rate=10.0, lidar_average=la,
-                                 sonic_average=sa, field_length=plan.shape[0] * plan.spacing[0], window=a.window)
+                                 sonic_average=sa, window=a.window)
     how = (f"general linear theory (cwlidar_sim.analysis.linear_theory): frozen Mann continuum of the period's field "
-           f"tensor, its lines along x (the field's length) and the continuum across; weighting: the simulated range cells of the '{scene.lidar.weighting}' weighting (span "
+           f"tensor; weighting: the simulated range cells of the '{scene.lidar.weighting}' weighting (span "
            f"{scene.lidar.span:g} zR, tail '{scene.lidar.tail}'), cut at the sub-points' Nyquist; the beam at the "
            f"period's misalignment, the sonic at its position; the lidar's 50 Hz looks block-averaged and the "
            f"sonic's A2012 Eqs. 5-7 taps; the periodogram's expectation (the '{a.window}' window's kernel) "
            f"averaged over each bin; numerics: {STARING_PER_DECADE} k1 per decade, polar quadrature resolution "
            f"{STARING_RESOLUTION:g}; not included: aliasing, the mean's removal (lowest bins), the estimator (tier los's statistic)")
-    box = "lattice along x (the field's lines 2 pi j / its length), continuum across the wind"
+    box = "continuum (the field's own lines along x move it < 1e-4; its k2 cut-off: see the staring study)"
     return {
         "transfer_ratio_theory": (PK, pk(th["transfer_ratio_k"]), {
             "units": "1", "long_name": "method 1 (F_vr / F_vs), linear theory of the period's geometry",

@@ -213,12 +213,12 @@ def staring_period_c():
     period, params = sc.periods[0], sc.turbulence.params()
     plan = st.plan_field(sc, 0, params)
     lid = st._lidar(sc, plan, params, period)
-    long = lid.replace(instrument=lid.instrument.replace(telescope_radius=lid.instrument.telescope_radius / math.sqrt(2)))
+    inst = lid.instrument
+    long = lid.replace(instrument=inst.replace(telescope_radius=inst.telescope_radius / math.sqrt(2)))
     la, sa = st._readings()
     x2 = th.staring_transfer_theory(long, plan.sonic_position, params, period.mean_speed, ds.k_lower.values.tolist()
                                     + [float(ds.k_upper.values[-1])], segment_duration=STARING_DURATION,
-                                    sample_rate=10.0, lidar_average=la, sonic_average=sa,
-                                    field_length=plan.shape[0] * plan.spacing[0])
+                                    sample_rate=10.0, lidar_average=la, sonic_average=sa, window=sc.analysis.window)
     return {"F": np.array(F), "lo": ds.k_lower.values, "hi": ds.k_upper.values,
             "theory": {"general": (ds.transfer_ratio_theory.values[0], ds.transfer_cross_theory.values[0]),
                        "Eqs. 12-14 (Lorentzian)": (ds.transfer_theory_ratio.values[0], ds.transfer_theory_cross.values[0]),

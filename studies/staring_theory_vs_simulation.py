@@ -6,8 +6,9 @@ formed from the pooled means, with a jackknife standard error over the periods; 
 ``transfer_ratio_theory`` / ``transfer_cross_theory`` of the results (the period's geometry, range cells, readings'
 filters, window kernel and the field's lines along x).  Prints one row per k bin and the z-scores of broad bands.
 
-Run (reduced, ~5 min on 2 loaded cores): ``python studies/staring_theory_vs_simulation.py 40 600``;
-full size: ``python studies/staring_theory_vs_simulation.py 200 600``.
+Run (reduced, ~5 min on 2 loaded cores): ``python studies/staring_theory_vs_simulation.py 24 600``; a finer plane
+across the wind (dy = 0.25 m): ``... 24 600 0.25``; full size: ``python studies/staring_theory_vs_simulation.py
+200 600``.
 """
 
 import math
@@ -22,18 +23,18 @@ from cwlidar_sim.campaign.periods import staring as st
 BANDS = ((0.005, 0.02), (0.02, 0.05), (0.05, 0.1), (0.1, 0.2), (0.2, 0.4))
 
 
-def period_c(duration):
-    """The bundled A2012 scene's period C alone at tier ``los``, no variants, no fit, ``duration`` s."""
+def period_c(duration, dy=0.5):
+    """The bundled A2012 scene's period C alone at tier ``los``, no variants, no fit, ``duration`` s, the plane's dy."""
     sc = bundled_scene("a2012").with_values({"lidar.tier": "los", "lidar.variants": [], "analysis.fit": False,
-                                             "duration": float(duration)})
+                                             "duration": float(duration), "field.dy": float(dy)})
     return sc.replace(periods=(sc.periods[2],))
 
 
-def run(n, duration, seed0=33000):
+def run(n, duration, dy=0.5, seed0=33000):
     """``n`` seeded periods: per period the bins' F_r, F_s, Re chi, and the theory (the same for all)."""
     rows = []
     for i in range(n):
-        sc = period_c(duration).replace(seed=seed0 + i)
+        sc = period_c(duration, dy).replace(seed=seed0 + i)
         ds = st.run_unit(sc, 0)
         rows.append((ds.spectrum_lidar.values[0], ds.spectrum_sonic.values[0], ds.cross_spectrum_real.values[0]))
     F = np.array(rows)  # (period, 3, k)
@@ -69,10 +70,10 @@ def band_theory(res, band, which):
     return float((np.sum(np.sqrt(res["theory2"][sel]) * s) / np.sum(s)) ** 2)
 
 
-def main(n=40, duration=600.0):
-    res = run(n, duration)
+def main(n=40, duration=600.0, dy=0.5):
+    res = run(n, duration, dy)
     t1, s1, t2, s2 = pooled(res["F"])
-    print(f"{n} periods of {duration:g} s, A2012 period C, tier los")
+    print(f"{n} periods of {duration:g} s, A2012 period C, tier los, plane dy = {dy:g} m")
     print("   k      sim1     se1    th1     z1 |  sim2     se2    th2     z2 | old1   old2")
     for j, kk in enumerate(res["k"]):
         if np.isfinite(t1[j]) and res["theory1"][j] > 1e-3:
@@ -90,4 +91,4 @@ def main(n=40, duration=600.0):
 
 if __name__ == "__main__":
     args = [float(a) for a in sys.argv[1:]]
-    main(int(args[0]) if args else 40, args[1] if len(args) > 1 else 600.0)
+    main(int(args[0]) if args else 40, args[1] if len(args) > 1 else 600.0, args[2] if len(args) > 2 else 0.5)

@@ -340,7 +340,8 @@ def _linear_theory_variables(scene, r, params, PK, pk):
            f"sonic's A2012 Eqs. 5-7 taps; the periodogram's expectation (the '{a.window}' window's kernel) "
            f"averaged over each bin; numerics: {STARING_PER_DECADE} k1 per decade, polar quadrature resolution "
            f"{STARING_RESOLUTION:g}; not included: aliasing, the mean's removal (lowest bins), the estimator (tier los's statistic)")
-    box = "continuum (the field's own lines along x move it < 1e-4; its k2 cut-off: see the staring study)"
+    box = ("continuum (the field's own lines along x move it < 1e-4; a plane's k2 cut-off at pi / dy lowers the "
+           "simulated method 1 above ~0.2 rad/m: studies/staring_theory_vs_simulation.py)")
     return {
         "transfer_ratio_theory": (PK, pk(th["transfer_ratio_k"]), {
             "units": "1", "long_name": "method 1 (F_vr / F_vs), linear theory of the period's geometry",

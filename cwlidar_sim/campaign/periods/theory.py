@@ -230,18 +230,42 @@ class _Average:
         return np.exp(1j * np.multiply.outer(np.asarray(omega, dtype=float), self.t_j)) @ self.a_j
 
 
-class _BandLimited:
-    """A probe's ``phi_hat`` up to ``|q| <= q_max`` [rad/m] and 0 beyond (:func:`staring_functionals`)."""
+class _BandLimitedCells(_CellsProbe):
+    """:class:`_CellsProbe` tabulated up to ``q_max`` [rad/m] only, 0 beyond it (:func:`staring_functionals`).
 
-    def __init__(self, probe, q_max):
-        self.probe, self.q_max = probe, float(q_max)
+    The same table steps (its values equal ``cells_probe``'s there), a
+    quarter of its length at the sub-points' Nyquist.
+    """
+
+    def __init__(self, cells, q_max):
+        self.w_j = cells.fraction_j * np.repeat(cells.weight_s, np.diff(cells.ptr_s))
+        self.s_j = np.asarray(cells.sub_j, dtype=float)
+        length = max(float(np.ptp(cells.edges)), float(cells.cell_length))
+        self.dq = 2.0 * np.pi / (128.0 * length)
+        q = np.arange(int(np.ceil(q_max / self.dq)) + 2) * self.dq
+        self.q_max = float(q_max)
+        v = np.concatenate([self._exact(q[i:i + 4096]) for i in range(0, q.size, 4096)])
+        self.re, self.im = v.real.copy(), v.imag.copy()
 
     def __call__(self, q):
         q = np.asarray(q, dtype=float)
         out = np.zeros(q.shape, dtype=complex)
         inside = np.abs(q) <= self.q_max
-        out[inside] = self.probe(q[inside])
+        out[inside] = super().__call__(q[inside])
         return out
+
+
+def _staring_cells_probe(lidar, instrument):
+    """The lidar's range cells band-limited at their sub-points' Nyquist, once per cells in a process (:func:`cached`)."""
+    key = ("staring_cells_probe", repr(instrument), lidar.weighting, lidar.span, lidar.cell_length, lidar.cell_growth,
+           lidar.tail)
+
+    def make():
+        cells = lidar.probe_cells(instrument)
+        sub = np.unique(np.asarray(cells.sub_j, dtype=float))
+        return _BandLimitedCells(cells, np.pi / float(np.min(np.diff(sub))) if sub.size > 1 else 1e3)
+
+    return cached(key, make)
 
 
 def staring_functionals(lidar, sonic_position, *, probe: str = "continuous", lidar_average=None,
@@ -276,11 +300,7 @@ def staring_functionals(lidar, sonic_position, *, probe: str = "continuous", lid
     inst = lidar.instrument
     n = np.asarray(lidar.direction, dtype=float)
     focus = np.asarray(lidar.position, dtype=float) + inst.focus * n
-    phi = _look_probe(lidar, inst, probe)
-    if probe == "cells":
-        sub = np.unique(np.asarray(lidar.probe_cells(inst).sub_j, dtype=float))
-        if sub.size > 1:
-            phi = _BandLimited(phi, np.pi / float(np.min(np.diff(sub))))
+    phi = _staring_cells_probe(lidar, inst) if check_choice("probe", probe, PROBES) == "cells" else _probe(lidar, inst)
     h_l = None if lidar_average is None else _Average(*lidar_average)
     h_s = None if sonic_average is None else _Average(*sonic_average)
     beam = lt.lidar_functional(lt.Looks([focus], [n], None, phi, h_l), [1.0], ["lidar"])

@@ -163,6 +163,9 @@ def plot_methods(ds, i=None):
     _theory(ax, ds, i)
     if _misaligned(ds, i):
         ax.loglog(k, ds.transfer_theory_ratio[i], "-.", color="0.4", lw=1, label="Eqs. 12, 13 (misaligned)")
+    if "transfer_ratio_theory" in ds:  # the general linear theory of the period's own geometry and cells
+        ax.loglog(k, ds.transfer_ratio_theory[i], "-", color="C3", lw=1, label="linear theory, method 1")
+        ax.loglog(k, ds.transfer_cross_theory[i], "--", color="C3", lw=1, label="linear theory, method 2")
     _estimator_theory(ax, ds, ds.attrs.get("lidar_estimator", ""), color="C1", lw=1.5, ls="--")
     ax.set_xscale("log")
     ax.set_yscale("log")

@@ -35,6 +35,7 @@ from ...signal.processing import usable_fraction, usable_speeds
 from ...turbulence.limits import check_frozen_turbulence
 from .._labels import HOMODYNE, TOWARD_LIDAR, duration_phrase
 from . import in_situ
+from .theory import STARING_PER_DECADE, STARING_RESOLUTION, cached, staring_transfer_theory
 from .staring_field import generate_field, period_params, plan_field, theory_params
 from ..scenes.staring import Scene
 from ..scenes.spec import RESULTS_VERSION, entry_label
@@ -299,6 +300,58 @@ def _flag_counts(flags):
     return {f.name: int(np.count_nonzero(flags & np.uint8(f.value))) for f in Flag}
 
 
+def _readings():
+    """The 10 Hz readings as weighted samples about their times: ``(lidar_average, sonic_average)`` ``(t_j [s], a_j)``.
+
+    The lidar's: the :data:`LIDAR_BLOCK` 50 Hz looks of its block; the
+    sonic's: A2012 Eqs. 5-7's weights on the 32 Hz samples (from
+    :data:`SONIC_DELAY`) about each output's 10 Hz time, averaged over the
+    five outputs of a 16-sample partition (their own filters differ by a
+    few ms of delay: below 1e-3 of the spectra under 2 Hz).
+    """
+    from ...sensors import resample_a2012
+
+    t_l = (np.arange(LIDAR_BLOCK) + 0.5) / 50.0 - 0.5 / 10.0
+    w_os = resample_a2012(np.eye(16))
+    dt_os = (SONIC_DELAY + np.arange(16) / 32.0)[None, :] - (0.05 + 0.1 * np.arange(w_os.shape[0]))[:, None]
+    m = w_os != 0.0
+    return (t_l, np.full(LIDAR_BLOCK, 1.0 / LIDAR_BLOCK)), (dt_os[m], w_os[m] / w_os.shape[0])
+
+
+def _linear_theory_variables(scene, r, params, PK, pk):
+    """``transfer_ratio_theory``, ``transfer_cross_theory``: the general linear theory of the period's own geometry.
+
+    :func:`cwlidar_sim.campaign.periods.theory.staring_transfer_theory` of
+    the period's lidar (its beam at the period's misalignment, range cells,
+    weighting), the sonic's position, both readings' 10 Hz filters
+    (:func:`_readings`) and the period's field tensor ``params``, binned on
+    the results' k grid as the simulated transfer functions are.
+    """
+    period, plan, a = scene.periods[r["index"]], r["plan"], scene.analysis
+    lidar = _lidar(scene, plan, params, period)
+    la, sa = _readings()
+    th = staring_transfer_theory(lidar, plan.sonic_position, params, period.mean_speed, r["tf"].k_edges,
+                                 segment_duration=a.segment_duration, sample_rate=10.0, lidar_average=la,
+                                 sonic_average=sa, window=a.window)
+    how = (f"general linear theory (cwlidar_sim.analysis.linear_theory): frozen Mann continuum of the period's field "
+           f"tensor; weighting: the simulated range cells of the '{scene.lidar.weighting}' weighting (span "
+           f"{scene.lidar.span:g} zR, tail '{scene.lidar.tail}'), cut at the sub-points' Nyquist; the beam at the "
+           f"period's misalignment, the sonic at its position; the lidar's 50 Hz looks block-averaged and the "
+           f"sonic's A2012 Eqs. 5-7 taps; the periodogram's expectation (the '{a.window}' window's kernel) "
+           f"averaged over each bin; numerics: {STARING_PER_DECADE} k1 per decade, polar quadrature resolution "
+           f"{STARING_RESOLUTION:g}; not included: aliasing, the mean's removal (lowest bins), the estimator (tier los's statistic)")
+    box = ("continuum (the field's own lines along x move it < 1e-4; a plane's k2 cut-off at pi / dy lowers the "
+           "simulated method 1 above ~0.2 rad/m: studies/staring_theory_vs_simulation.py)")
+    return {
+        "transfer_ratio_theory": (PK, pk(th["transfer_ratio_k"]), {
+            "units": "1", "long_name": "method 1 (F_vr / F_vs), linear theory of the period's geometry",
+            "theory": how, "weighting": scene.lidar.weighting, "box": box}),
+        "transfer_cross_theory": (PK, pk(th["transfer_cross_k"]), {
+            "units": "1", "long_name": "method 2 (Re(chi)^2 / F_vs^2), linear theory of the period's geometry",
+            "theory": how, "weighting": scene.lidar.weighting, "box": box}),
+    }
+
+
 def period_dataset(scene: Scene, params, r: dict):
     """One period's results as an xarray.Dataset (see the variables' ``long_name`` and ``units``).
 
@@ -371,6 +424,7 @@ def period_dataset(scene: Scene, params, r: dict):
                                   {"units": "1", "long_name": "F_vr / F_vs at the period's misalignment (A2012 Eqs. 12-13)"}),
         "transfer_theory_cross": (PK, pk(chi**2 / F_vs**2),
                                   {"units": "1", "long_name": "chi^2 / F_vs^2 at the period's misalignment (A2012 Eqs. 12, 14)"}),
+        **_linear_theory_variables(scene, r, own, PK, pk),
         "spectrum_sonic": (PK, pk(tf.F_s_k),
                            {"units": spec_units, "long_name": "one-sided wavenumber spectrum of the sonic's radial speed"}),
         "spectrum_lidar": (PK, pk(tf.F_r_k),
@@ -501,14 +555,12 @@ def period_dataset(scene: Scene, params, r: dict):
     return xr.Dataset(data_vars=dv, coords=coords, attrs=attrs)
 
 
-_THEORY_CACHE: dict = {}
-
-
 def estimator_theory(scene: Scene, params):
     """The estimator-aware theory of a scene (:func:`cwlidar_sim.analysis.estimator_transfer`), or None.
 
-    Computed once per scene and process (cached on the scene's lidar, field
-    spacing, analysis grid and turbulence), for tiers 'spectral' and
+    Computed once per scene and process
+    (:func:`~cwlidar_sim.campaign.periods.theory.cached` on the scene's
+    lidar, field spacing, analysis grid and turbulence), for tiers 'spectral' and
     'signal' with ``analysis.estimator_theory_lines > 0``: the scene's
     instrument, CNR, weighting, span and cells, the scene's Mann parameters,
     at the mean of the periods' mean speeds, on the analysis's k grid, with
@@ -523,17 +575,13 @@ def estimator_theory(scene: Scene, params):
     U = float(np.mean([p.mean_speed for p in scene.periods]))
     key = json.dumps([spec.as_dict(), scene.field.dx, a.k_min, a.k_max, a.per_decade, a.estimator_theory_lines,
                       params.as_dict(), U], sort_keys=True, default=str)
-    if key not in _THEORY_CACHE:
-        if len(_THEORY_CACHE) > 16:
-            _THEORY_CACHE.clear()
-        _THEORY_CACHE[key] = estimator_transfer(
-            spec.build_instrument(), params, U, estimators=THEORY_ESTIMATORS, k_edges=log_bins(a.k_min, a.k_max,
-                                                                                              a.per_decade),
-            cnr_db=spec.cnr_db, weighting=spec.weighting, span=spec.span, dx=scene.field.dx,
-            cell_length=spec.cell_length or scene.field.dx, cell_growth=spec.cell_growth, tail=spec.tail,
-            transverse_speed=spec.transverse_speed, subcell_spread=_subcell_spread(scene, params),
-            n_lines=a.estimator_theory_lines, n_points=4096)
-    return _THEORY_CACHE[key]
+    return cached(("staring_estimator_theory", key), lambda: estimator_transfer(
+        spec.build_instrument(), params, U, estimators=THEORY_ESTIMATORS, k_edges=log_bins(a.k_min, a.k_max,
+                                                                                          a.per_decade),
+        cnr_db=spec.cnr_db, weighting=spec.weighting, span=spec.span, dx=scene.field.dx,
+        cell_length=spec.cell_length or scene.field.dx, cell_growth=spec.cell_growth, tail=spec.tail,
+        transverse_speed=spec.transverse_speed, subcell_spread=_subcell_spread(scene, params),
+        n_lines=a.estimator_theory_lines, n_points=4096))
 
 
 def _cells(scene):

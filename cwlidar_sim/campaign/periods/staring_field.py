@@ -24,6 +24,7 @@ from ...analysis.fitting import fit_quality
 from ...analysis.record_files import file_digest
 from ...analysis.records import RecordSpec, fit_mann_to_record, read_record
 from ..scenes.staring import Scene
+from .theory import cached
 
 __all__ = ["FieldPlan", "choose_field", "plan_field", "generate_field", "scene_params", "period_params",
            "theory_params", "MEAN_SPEED_TOLERANCE"]
@@ -109,11 +110,7 @@ def scene_params(scene: Scene):
     digest = file_digest(path, "turbulence.fit_to")
     key = (os.path.abspath(path), digest, json.dumps(scene.analysis.as_dict(), sort_keys=True),
            json.dumps(t.fit_to_options, sort_keys=True))
-    if key not in _FIT_CACHE:
-        if len(_FIT_CACHE) > 16:
-            _FIT_CACHE.clear()
-        _FIT_CACHE[key] = _fit_record(path, scene)
-    params, info = _FIT_CACHE[key]
+    params, info = cached(("staring_fit_to",) + key, lambda: _fit_record(path, scene))
     U = info["mean_speed"]
     if not scene.turbulence.condition_on:
         for per in scene.periods:
@@ -126,9 +123,6 @@ def scene_params(scene: Scene):
         warnings.warn(f"turbulence.fit_to: the fit to {path!r} is suspect: {'; '.join(info['quality_reasons'])}; "
                       f"the results carry quality = 'suspect' in their turbulence_fit attribute", stacklevel=2)
     return params, copy.deepcopy(info)
-
-
-_FIT_CACHE: dict = {}
 
 
 def period_params(scene: Scene, index: int, params=None):

@@ -8,7 +8,8 @@ writes the :class:`~cwlidar_sim.analysis.linear_theory.LinearFunctional` of
 what a period compares:
 
 * :func:`staring_functionals`: a staring lidar's probe-volume weighted
-  line-of-sight speed and a sonic's wind along the same beam (A2012);
+  line-of-sight speed and a sonic's wind along the same beam (A2012), and
+  :func:`staring_transfer_theory` their transfer functions binned as measured;
 * :func:`conical_functionals`: a conical lidar's VAD fit of one block of
   revolutions at one height (every sub-dwell look at its own azimuth and
   time, the estimates' mid-azimuths in the fit, as
@@ -215,7 +216,60 @@ def node_interpolated_variance(k1_k, line_variance_k, mean_speed: float, times_t
     return total
 
 
-def staring_functionals(lidar, sonic_position, *, probe: str = "continuous"):
+class _Average:
+    """``H(omega) = sum_j a_j exp(i omega t_j)``: a look's value averaged over samples at ``t + t_j`` [-]."""
+
+    def __init__(self, times_j, weights_j):
+        self.t_j = np.asarray(times_j, dtype=float).ravel()
+        self.a_j = np.asarray(weights_j, dtype=float).ravel()
+        if self.t_j.size < 1 or self.t_j.shape != self.a_j.shape or not np.all(np.isfinite(self.t_j)) \
+                or not np.all(np.isfinite(self.a_j)):
+            raise ValueError("an average must be (times_j [s], weights_j [-]): finite, one weight per time")
+
+    def __call__(self, omega):
+        return np.exp(1j * np.multiply.outer(np.asarray(omega, dtype=float), self.t_j)) @ self.a_j
+
+
+class _BandLimitedCells(_CellsProbe):
+    """:class:`_CellsProbe` tabulated up to ``q_max`` [rad/m] only, 0 beyond it (:func:`staring_functionals`).
+
+    The same table steps (its values equal ``cells_probe``'s there), a
+    quarter of its length at the sub-points' Nyquist.
+    """
+
+    def __init__(self, cells, q_max):
+        self.w_j = cells.fraction_j * np.repeat(cells.weight_s, np.diff(cells.ptr_s))
+        self.s_j = np.asarray(cells.sub_j, dtype=float)
+        length = max(float(np.ptp(cells.edges)), float(cells.cell_length))
+        self.dq = 2.0 * np.pi / (128.0 * length)
+        q = np.arange(int(np.ceil(q_max / self.dq)) + 2) * self.dq
+        self.q_max = float(q_max)
+        v = np.concatenate([self._exact(q[i:i + 4096]) for i in range(0, q.size, 4096)])
+        self.re, self.im = v.real.copy(), v.imag.copy()
+
+    def __call__(self, q):
+        q = np.asarray(q, dtype=float)
+        out = np.zeros(q.shape, dtype=complex)
+        inside = np.abs(q) <= self.q_max
+        out[inside] = super().__call__(q[inside])
+        return out
+
+
+def _staring_cells_probe(lidar, instrument):
+    """The lidar's range cells band-limited at their sub-points' Nyquist, once per cells in a process (:func:`cached`)."""
+    key = ("staring_cells_probe", repr(instrument), lidar.weighting, lidar.span, lidar.cell_length, lidar.cell_growth,
+           lidar.tail)
+
+    def make():
+        cells = lidar.probe_cells(instrument)
+        sub = np.unique(np.asarray(cells.sub_j, dtype=float))
+        return _BandLimitedCells(cells, np.pi / float(np.min(np.diff(sub))) if sub.size > 1 else 1e3)
+
+    return cached(key, make)
+
+
+def staring_functionals(lidar, sonic_position, *, probe: str = "continuous", lidar_average=None,
+                        sonic_average=None):
     """A staring lidar's line-of-sight speed and a sonic's wind along the same beam, as linear functionals.
 
     Parameters
@@ -226,6 +280,15 @@ def staring_functionals(lidar, sonic_position, *, probe: str = "continuous"):
         The sonic's position [m].
     probe : {"continuous", "cells"}
         The beam's weighting or the simulation's range cells (module notes).
+        The cells' sum over sub-points ``d`` apart is periodic in q (its
+        grating lobes return to ``|phi_hat| = 1`` at ``2 pi / d``), which a
+        field resolved at ``d`` never shows the lidar: it is kept up to the
+        sub-points' Nyquist ``pi / d`` and set to 0 beyond.
+    lidar_average, sonic_average : (times_j, weights_j), optional
+        A reading that is the weighted sum of samples at ``t + t_j`` [s]
+        (the staring period's 50 Hz looks block-averaged to 10 Hz, the
+        sonic's 32 Hz samples resampled by A2012 Eqs. 5-7): the look's time
+        filter ``H(omega) = sum_j a_j exp(i omega t_j)``; None: one sample.
 
     Returns
     -------
@@ -237,10 +300,145 @@ def staring_functionals(lidar, sonic_position, *, probe: str = "continuous"):
     inst = lidar.instrument
     n = np.asarray(lidar.direction, dtype=float)
     focus = np.asarray(lidar.position, dtype=float) + inst.focus * n
-    beam = lt.lidar_functional(lt.Looks([focus], [n], None, _look_probe(lidar, inst, probe)), [1.0], ["lidar"])
-    sonic = lt.LinearFunctional(lt.Looks(np.asarray(sonic_position, dtype=float).reshape(1, 3), [n]),
+    phi = _staring_cells_probe(lidar, inst) if check_choice("probe", probe, PROBES) == "cells" else _probe(lidar, inst)
+    h_l = None if lidar_average is None else _Average(*lidar_average)
+    h_s = None if sonic_average is None else _Average(*sonic_average)
+    beam = lt.lidar_functional(lt.Looks([focus], [n], None, phi, h_l), [1.0], ["lidar"])
+    sonic = lt.LinearFunctional(lt.Looks(np.asarray(sonic_position, dtype=float).reshape(1, 3), [n], None, None, h_s),
                                 n.reshape(1, 1, 3), ["sonic"])
     return beam, sonic
+
+
+#: The staring transfer theory's numerics: k1 per decade of its grid, the polar quadrature's resolution
+#: (:func:`~cwlidar_sim.analysis.linear_theory.functional_spectra`).  A2012 period C, bins below 0.5 rad/m: 24 per
+#: decade are within 2.6e-4 of 48 (12: 1.3e-3, 8: 3.7e-3); resolutions 8, 15 and 30 agree within 2e-6.
+STARING_PER_DECADE = 24
+STARING_RESOLUTION = 8.0
+
+
+def staring_transfer_theory(lidar, sonic_position, params, mean_speed: float, k_edges, *, segment_duration: float,
+                            sample_rate: float, lidar_average=None, sonic_average=None, probe: str = "cells",
+                            window: str = "hann", per_decade: int = STARING_PER_DECADE,
+                            resolution: float = STARING_RESOLUTION) -> dict:
+    """The expected A2012 transfer functions (methods 1 and 2) of a staring lidar against a sonic, binned as measured.
+
+    The spectra of :func:`staring_functionals` (continuum, frozen Taylor
+    field, the beam's direction and probe, the sonic's position, both
+    readings' time filters) on a log grid of ``per_decade`` k1 per decade;
+    each periodogram value's expectation at its own wavenumber ``k_n = 2 pi
+    n / (U T_seg)`` (the spectra smoothed by the segment window's kernel:
+    its leakage and the probe's reach beyond the segment's ends), up to
+    the Nyquist of ``sample_rate``, averaged over each bin of ``k_edges``
+    as :func:`cwlidar_sim.analysis.transfer_functions` averages the raw
+    values; then ``F_vr / F_vs`` (A2012 Eq. 8) and ``Re(chi)^2 / F_vs^2``
+    (Eq. 11) of the bin means.  The spectra are interpolated log-log (the
+    sonic's and the lidar's over it) and linearly in ln k1 (the
+    cross-spectrum over the sonic's), held flat below the grid.  The
+    field's own lines along x (a generated field's length instead of the
+    continuum in k1) move these bins by < 1e-4 with a Hann window (A2012
+    period C), so the continuum is kept.
+    Not included: the sampling's aliasing, the mean's (or a line's)
+    removal before the window (the lowest bins), the estimator (tier
+    ``los``'s statistic).  Computed once per geometry, tensor, U and grid in a
+    process (:func:`cached`; the lidar moved to the origin with the sonic).
+
+    Parameters
+    ----------
+    lidar : StaringLidar
+    sonic_position : (x, y, z)
+        [m], in the lidar's frame.
+    params : MannParameters
+    mean_speed : float
+        U [m/s], > 0.
+    k_edges : array_like
+        Bin edges [rad/m], increasing.
+    segment_duration, sample_rate : float
+        The spectra's segment [s] and the series' rate [Hz].
+    lidar_average, sonic_average, probe
+        As :func:`staring_functionals`.
+    window : {"hann", "none"}
+        The segments' window (``analysis.window``): the kernel is its
+        ``|W|^2``, normalised as :func:`cwlidar_sim.analysis.segment_spectra`
+        normalises (Hann's sidelobes fall as the sixth power: almost no
+        leakage; none: the Fejer kernel's second power).
+    per_decade : int
+        The theory's k1 per decade (>= 4).
+    resolution : float
+        The polar quadrature's inner disc (:func:`~cwlidar_sim.analysis.linear_theory.functional_spectra`).
+
+    Returns
+    -------
+    dict
+        ``F_r_k``, ``F_s_k`` [m^3 s^-2], ``chi_k`` (complex), ``transfer_ratio_k``,
+        ``transfer_cross_k`` [-] per bin (NaN where it holds no wavenumber).
+    """
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    T = check_real("segment_duration", segment_duration, lo=0.0, lo_open=True)
+    fs = check_real("sample_rate", sample_rate, lo=0.0, lo_open=True)
+    nd = check_int("per_decade", per_decade, lo=4, hi=1000)
+    e = np.asarray(k_edges, dtype=float).ravel()
+    if e.size < 2 or not np.all(np.isfinite(e) & (e > 0)) or np.any(np.diff(e) <= 0):
+        raise ValueError("k_edges must be >= 2 increasing wavenumbers > 0 [rad/m]")
+    pos = np.asarray(lidar.position, dtype=float)
+    rel = tuple(float(x) for x in np.asarray(sonic_position, dtype=float) - pos)
+    at0 = lidar.replace(position=(0.0, 0.0, 0.0))
+    avg = tuple(None if a is None else tuple(tuple(float(x) for x in np.ravel(b)) for b in a)
+                for a in (lidar_average, sonic_average))
+    window = check_choice("window", window, ("hann", "none"))
+    key = ("staring_transfer", repr(at0), rel, repr(params), U, tuple(e), T, fs, avg, probe, window, nd,
+           float(resolution))
+    return cached(key, lambda: _staring_transfer(at0, rel, params, U, e, T, fs, lidar_average, sonic_average, probe,
+                                                 window, nd, resolution))
+
+
+def _window_kernel(x, window):
+    """``|W(x)|^2 / integral |W|^2`` of the segment's window at ``x = (k - k_n) / dk`` [-] (unit integral in x)."""
+    if window == "none":
+        return np.sinc(x) ** 2
+    return (0.5 * np.sinc(x) + 0.25 * np.sinc(x - 1.0) + 0.25 * np.sinc(x + 1.0)) ** 2 / 0.375
+
+
+def _staring_transfer(lidar, sonic_position, params, U, e, T, fs, lidar_average, sonic_average, probe, window, nd,
+                      resolution):
+    from scipy.signal import fftconvolve
+
+    from ...analysis.spectra import bin_average
+
+    n_per = int(round(T * fs))
+    k_nyq = np.pi * fs / U
+    dk = 2.0 * np.pi / (U * n_per / fs)  # the periodogram's spacing in k1
+    k_n = np.arange(1, n_per // 2 + 1) * dk
+    k_n = k_n[(k_n >= e[0]) & (k_n < e[-1])]
+    nan = np.full(e.size - 1, np.nan)
+    if k_n.size == 0:
+        return {"F_r_k": nan, "F_s_k": nan, "chi_k": nan + 0j, "transfer_ratio_k": nan, "transfer_cross_k": nan}
+    lo, hi = np.log10(0.25 * dk), np.log10(k_nyq)
+    k = np.logspace(lo, hi, max(int(np.ceil((hi - lo) * nd)) + 1, 2))
+    beam, sonic = staring_functionals(lidar, sonic_position, probe=probe, lidar_average=lidar_average,
+                                      sonic_average=sonic_average)
+    s = lt.functional_spectra(k, params, [beam, sonic], U, resolution=resolution)
+    F_s, F_r, chi = s.spectrum("1.sonic"), s.spectrum("0.lidar"), s.cross("0.lidar", "1.sonic")
+    lk = np.log(k)
+
+    def on(kk):  # (F_r, F_s, Re chi, Im chi) at |kk|, Hermitian in the sign of kk, held flat below the grid
+        lg = np.log(np.maximum(np.abs(kk), k[0]))
+        f_s = np.exp(np.interp(lg, lk, np.log(F_s)))
+        return np.stack([f_s * np.exp(np.interp(lg, lk, np.log(F_r / F_s))), f_s, f_s * np.interp(lg, lk, chi.real / F_s),
+                         np.sign(kk) * f_s * np.interp(lg, lk, chi.imag / F_s)])
+
+    # each periodogram value's expectation: the spectra through the window's kernel (1 / dk) K((q - k_n) / dk)
+    # (the continuum on a grid of dk / 8 over (-k_nyq, k_nyq): a convolution)
+    h = dk / 8.0
+    m = int(np.floor(k_nyq / h))
+    rows = on(np.arange(-m, m + 1) * h)
+    kern = (h / dk) * _window_kernel(np.arange(-2 * m, 2 * m + 1) * h / dk, window)  # unit sum
+    smooth = np.stack([fftconvolve(r, kern)[2 * m:4 * m + 1] for r in rows])
+    sm = smooth[:, m + np.rint(k_n / h).astype(np.int64)]
+    raw = np.stack([sm[0], sm[1], sm[2] + 1j * sm[3]])
+    mean_ck, _ = bin_average(k_n, raw, e)
+    Fr, Fs, c = mean_ck[0].real, mean_ck[1].real, mean_ck[2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return {"F_r_k": Fr, "F_s_k": Fs, "chi_k": c, "transfer_ratio_k": Fr / Fs, "transfer_cross_k": c.real ** 2 / Fs ** 2}
 
 
 def conical_functionals(lidar, height: float, mean_speed: float, *, revolutions: int = 1, cup=None,

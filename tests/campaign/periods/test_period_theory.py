@@ -118,3 +118,53 @@ def test_nacelle_scan_is_rews_theory():
     scale = np.sqrt(s.spectrum(0) * s.spectrum(1))
     assert np.all(np.abs(s.cross(0, 1) - 2.0 * ref.cross_k) < 1e-3 * scale)
     assert lidar.revolution_time > 0 and np.ptp(est.looks.time_l) > 0.5  # the delays matter here
+
+
+def _staring(theta_deg):
+    """A staring lidar at the origin looking upwind, misaligned by ``theta_deg``, the sonic at its focus."""
+    from cwlidar_sim.sensors import StaringLidar
+
+    lidar = StaringLidar(azimuth_deg=180.0 + theta_deg, weighting="lorentzian", cell_length=0.5)
+    return lidar, lidar.instrument.focus * np.asarray(lidar.direction)
+
+
+A2012_PARAMS = bundled_scene("a2012").turbulence.params()
+
+
+def test_staring_aligned_is_eq_9(whole_line_lorentzian):
+    """A beam along the wind with the Lorentzian over the whole line (A2012 Eq. 4) and the sonic at its focus:
+    methods 1 and 2 of the general theory are exp(-2 k zR) (Eq. 9) exactly (the probe depends on k1 alone), here
+    within 2e-4 of the spectra's quadrature; the same with zR doubled is rejected (off by > 10 %)."""
+    lidar, sonic = _staring(0.0)
+    zR = lidar.instrument.rayleigh_length
+    beam, son = th.staring_functionals(lidar, sonic)
+    k1 = np.geomspace(1e-3, 0.5, 6)
+    s = lt.functional_spectra(k1, A2012_PARAMS, [beam, son], 8.0, resolution=30.0)
+    t1 = s.spectrum("0.lidar") / s.spectrum("1.sonic")
+    t2 = s.cross("0.lidar", "1.sonic").real ** 2 / s.spectrum("1.sonic") ** 2
+    for t in (t1, t2):
+        np.testing.assert_allclose(t, np.exp(-2.0 * k1 * zR), rtol=2e-4)
+        assert np.max(np.abs(t / np.exp(-4.0 * k1 * zR) - 1.0)) > 0.1  # the broken zR x 2
+
+
+def test_staring_misaligned_is_eqs_12_to_14_and_rejects_a_flipped_probe(whole_line_lorentzian):
+    """At 30 deg of misalignment the general theory's F_vs, F_vr and chi are misaligned_spectra's (Eqs. 12-14),
+    within 1e-3 (measured 1e-4); the probe laid along the beam mirrored in the wind (misalignment -30 deg, the
+    projection kept at +30 deg) is rejected: Phi_12's sign makes Eqs. 13-14 depend on that sign (> 1 %).  The
+    misalignment's sign as a whole is a symmetry (y -> -y): no test can reject it."""
+    lidar, sonic = _staring(30.0)
+    zR = lidar.instrument.rayleigh_length
+    beam, son = th.staring_functionals(lidar, sonic)
+    k1 = np.geomspace(3e-3, 0.3, 4)
+    f_vs, f_vr, chi = misaligned_spectra(k1, A2012_PARAMS, 30.0, zR)
+    mirrored = lt.lidar_functional(lt.Looks(beam.looks.point_lc, _staring(-30.0)[0].direction, None,
+                                            beam.looks.probe_l), [1.0], ["lidar"])
+    mirrored = lt.LinearFunctional(mirrored.looks, beam.weight_olc, ["lidar"])  # n . u along +30 deg
+    s = lt.functional_spectra(k1, A2012_PARAMS, [beam, son, mirrored], 8.0, resolution=30.0)
+    np.testing.assert_allclose(s.spectrum("1.sonic"), f_vs, rtol=1e-3)
+    np.testing.assert_allclose(s.spectrum("0.lidar"), f_vr, rtol=1e-3)
+    np.testing.assert_allclose(s.cross("0.lidar", "1.sonic").real, chi, rtol=1e-3)
+    assert np.max(np.abs(s.spectrum("2.lidar") / f_vr - 1.0)) > 0.01
+    assert np.max(np.abs(s.cross("2.lidar", "1.sonic").real / chi - 1.0)) > 0.01
+    f_vs2, f_vr2, chi2 = misaligned_spectra(k1, A2012_PARAMS, -30.0, zR)
+    np.testing.assert_allclose(f_vr2, f_vr, rtol=1e-6)  # the symmetry

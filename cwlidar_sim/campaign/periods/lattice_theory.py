@@ -55,7 +55,7 @@ import numpy as np
 
 from ...analysis import linear_theory as lt
 from . import theory as th
-from .conical_theory import _mean_of_n, _merge_sub_dwells
+from .conical_theory import _merge_sub_dwells
 
 __all__ = ["LATTICE_VARS", "DENSE_ROWS", "ROW_RATIO", "sparse_rows", "unit_lattice_theory", "add_lattice_theory",
            "unit_variables"]
@@ -156,8 +156,9 @@ def _unit_lattice_theory(lidar, height, mean_speed, duration, params, scan_revs,
     for n in scan_revs:
         dt = n * lidar.revolution_time
         n_s = int(T // dt)
-        Fn = F * _mean_of_n(k_all * U * lidar.revolution_time, n)
-        var = lt.period_variance(k_all, Fn, U, n_s * dt, sample_interval=dt, lines=True)["within"] * n_s / (n_s - 1)
+        # each scan the mean of n one-revolution fits: the comb |sum_m exp(i m k1 U T_rev)|^2 / n^2, exact on lines
+        var = lt.period_variance(k_all, F, U, n_s * dt, sample_interval=dt, lines=True,
+                                 repeat=(n, lidar.revolution_time))["within"] * n_s / (n_s - 1)
         out["scans"][n] = {"lidar_std": math.sqrt(var), "std_ratio": math.sqrt(var / var_c)}
     out["wall_s"] = time.perf_counter() - t0
     return out

@@ -87,6 +87,9 @@ COST_S_PER_SIM_HOUR = {"los": 10.0, "spectral": 80.0, "signal": 50000.0}
 #: Wall time [s] of the analytic coherence per focus distance, beam squared and wavenumber of its grid
 #: (bundled scene: 8 beams, 12 bins, 8-12 s per focus distance on the shared machine).
 THEORY_S_PER_BEAM2_BIN = 0.012
+#: Wall time [s] on one core of the general theory's std ratio and correlation per focus of a frozen period
+#: (:mod:`cwlidar_sim.campaign.periods.nacelle_theory`; bundled scene, 100 m, 600 s: 71 s of CPU); once per geometry.
+THEORY_STD_S_PER_FOCUS = 70.0
 
 
 def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
@@ -104,7 +107,8 @@ def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
     nf = len(s.focus_distances)
     seconds = (3 * points * 30e-9 * planes * (3 if planes > 1 else 1)
                + dur / 3600.0 * nf * COST_S_PER_SIM_HOUR[scene.lidar.tier] * (1 + 0.2 * len(scene.lidar.variants))
-               + nf * THEORY_S_PER_BEAM2_BIN * s.theory_beams**2 * theory_wavenumbers(scene, p).size)
+               + nf * THEORY_S_PER_BEAM2_BIN * s.theory_beams**2 * theory_wavenumbers(scene, p).size
+               + (nf * THEORY_STD_S_PER_FOCUS if p.lifetime is None else 0.0))
     return {"seconds": seconds, "memory_bytes": 3 * 4 * points * (planes + 1) + 100e6}
 
 

@@ -11,12 +11,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from cwlidar_sim.analysis import linear_theory as lt
 from cwlidar_sim.analysis import rews_theory as rt
 from cwlidar_sim.campaign.execution.reproduce import bundled_scene
 from cwlidar_sim.campaign.periods import nacelle_theory as nt
+from cwlidar_sim.campaign.periods import theory as th
 from cwlidar_sim.campaign.periods.scanner_theory import rotor_disc_nodes
+from cwlidar_sim.sensors import NacelleLidar
 
 
 def _general_scan(beams, U, shift, probe):
@@ -75,3 +78,19 @@ def test_paired_statistics_are_the_series_own():
     ok = np.isfinite(x_gap)
     np.testing.assert_allclose([sx, sr, c], [np.std(x[ok]), np.std(r[ok]), np.corrcoef(r[ok], x[ok])[0, 1]])
     assert all(math.isnan(v) for v in nt.paired_statistics([1.0, np.nan], [np.nan, 2.0]))
+
+
+def test_nacelle_phase_turns_the_scan_and_is_refused_where_it_cannot_be():
+    """phase j: the revolution of estimates j .. j + epr - 1 (its looks' azimuths turned by j dwells against their
+    ages); with n_beams, or crossing a refocus, a ValueError names it."""
+    lid = NacelleLidar(focus_distances=(80.0,), half_angle_deg=15.0, estimates_per_rev=10, sub_dwells=1)
+    rotor = ([0.0], [0.0], [1.0])
+    f0 = th.nacelle_functionals(lid, 80.0, 10.0, rotor, n_beams=None, phase=0)[1]
+    f3 = th.nacelle_functionals(lid, 80.0, 10.0, rotor, n_beams=None, phase=3)[1]
+    np.testing.assert_allclose(f3.looks.time_l, f0.looks.time_l, atol=1e-12)  # the same ages ...
+    np.testing.assert_allclose(f3.looks.direction_lc, np.roll(f0.looks.direction_lc, -3, axis=0), atol=1e-12)  # ... turned
+    with pytest.raises(ValueError, match="phase"):
+        th.nacelle_functionals(lid, 80.0, 10.0, rotor, n_beams=8, phase=1)
+    two = NacelleLidar(focus_distances=(80.0, 120.0), half_angle_deg=15.0, estimates_per_rev=10, sub_dwells=1)
+    with pytest.raises(ValueError, match="crosses a refocus"):
+        th.nacelle_functionals(two, 80.0, 10.0, rotor, n_beams=None, phase=1)

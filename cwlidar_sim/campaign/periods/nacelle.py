@@ -44,6 +44,14 @@ Per period (:mod:`cwlidar_sim.campaign.scenes.nacelle`):
    truncation (the tail sees the mean wind), 50 estimates swept over their
    dwells instead of N point beams; in the bundled scene they move k at
    0.5 by less than the sampling error (the same benchmark).
+7. Std ratio and correlation: per focus and estimate kind, the paired
+   series' within-period stds (the lidar's ``lidar_std``, the rotor's
+   ``rotor_std``, 1/N about the span's mean, over the samples finite in
+   the lidar's), their ratio and correlation coefficient; beside them the
+   general linear theory's (``*_theory``,
+   :mod:`cwlidar_sim.campaign.periods.nacelle_theory`: frozen Mann
+   continuum, the simulation's looks and range cells at tier ``los``, the
+   same span and delay; NaN for evolving turbulence or a moving platform).
 
 Results: dims ``period``, ``focus`` [m], ``estimate`` (tier1, main,
 variants), ``k`` [rad/m], ``time_preview`` [s]; units on every variable.
@@ -68,6 +76,7 @@ from ..._version import __version__
 from ...signal.processing import usable_mask
 from ..scenes.nacelle import NacelleScene
 from ..scenes.spec import RESULTS_VERSION
+from .nacelle_theory import paired_statistics, period_theory
 
 __all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "period_records", "summary", "statistics",
            "write_preview", "preview_table", "COST_S_PER_SIM_HOUR"]
@@ -78,6 +87,9 @@ COST_S_PER_SIM_HOUR = {"los": 10.0, "spectral": 80.0, "signal": 50000.0}
 #: Wall time [s] of the analytic coherence per focus distance, beam squared and wavenumber of its grid
 #: (bundled scene: 8 beams, 12 bins, 8-12 s per focus distance on the shared machine).
 THEORY_S_PER_BEAM2_BIN = 0.012
+#: Wall time [s] on one core of the general theory's std ratio and correlation per focus of a frozen period
+#: (:mod:`cwlidar_sim.campaign.periods.nacelle_theory`; bundled scene, 100 m, 600 s: 71 s of CPU); once per geometry.
+THEORY_STD_S_PER_FOCUS = 70.0
 
 
 def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
@@ -95,7 +107,8 @@ def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
     nf = len(s.focus_distances)
     seconds = (3 * points * 30e-9 * planes * (3 if planes > 1 else 1)
                + dur / 3600.0 * nf * COST_S_PER_SIM_HOUR[scene.lidar.tier] * (1 + 0.2 * len(scene.lidar.variants))
-               + nf * THEORY_S_PER_BEAM2_BIN * s.theory_beams**2 * theory_wavenumbers(scene, p).size)
+               + nf * THEORY_S_PER_BEAM2_BIN * s.theory_beams**2 * theory_wavenumbers(scene, p).size
+               + (nf * THEORY_STD_S_PER_FOCUS if p.lifetime is None else 0.0))
     return {"seconds": seconds, "memory_bytes": 3 * 4 * points * (planes + 1) + 100e6}
 
 
@@ -262,6 +275,11 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
     preview, avail = np.empty(nf), np.empty((nf, ne))
     series_ft, delay = np.full((nf, time_t.size), np.nan), np.empty(nf)  # the preview signal: the main estimate
     n_blocked = np.zeros(nf, dtype=np.int64)
+    l_std, ratio, corr = (np.full((nf, ne), np.nan) for _ in range(3))
+    r_std = np.full(nf, np.nan)
+    th_names = ("lidar_std", "rotor_std", "std_ratio", "correlation")
+    th_std = {k: np.full(nf, np.nan) for k in th_names}
+    t_std_theory = 0.0
     t0 = time.perf_counter()
     for i, r in enumerate(s.focus_distances):
         rec = recs[r]
@@ -278,6 +296,9 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
             rot_seg, lid_seg, _ = align_preview(rews[ok], lid_t[ok], dt, shift)
             if kind == "main":
                 series_ft[i], delay[i] = lid_t, dt * round(shift / dt)  # align_preview's whole samples
+            l_std[i, j], _, corr[i, j] = paired_statistics(rot_seg, lid_seg)
+            r_std[i] = paired_statistics(rot_seg, rot_seg)[0]
+            ratio[i, j] = l_std[i, j] / r_std[i]
             est = coherence_estimate(rot_seg, lid_seg, fs=1.0 / dt, U=U, segment_duration=s.segment_duration,
                                      f_edges=U * edges / (2 * math.pi), window="hann")
             at = np.searchsorted(edges, est.k_f) - 1  # the bins that held frequencies
@@ -287,11 +308,27 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
             good = np.isfinite(coh[i, j])
             if good.sum() >= 2:
                 k50[i, j] = coherence_bandwidth(kc[good], coh[i, j, good])
+        t1 = time.perf_counter()
+        m = round(shift / dt)  # the pairing's delay in samples; the span: the trailing means less the delay
+        th = period_theory(scene, p, r, (time_t.size - lid.estimates_per_rev + 1 - m) * dt, m * dt)
+        for k in th_names:
+            th_std[k][i] = th[k]
+        t_std_theory += time.perf_counter() - t1
         theory[i] = _theory(scene, p, r, edges)
         fin = np.isfinite(theory[i])
         if fin.sum() >= 2:
             k50_th[i] = coherence_bandwidth(kc[fin], theory[i, fin])
     info["cost_s"]["coherence_and_theory"] = time.perf_counter() - t0
+    info["cost_s"]["std_theory"] = t_std_theory
+    how = ("general linear theory (cwlidar_sim.campaign.periods.nacelle_theory): frozen Mann continuum (box = "
+           "continuum), the simulation's looks (one per dwell at its mid-azimuth) and range cells at tier los ('"
+           + scene.sensor(p).weighting + "' weighting cut to the span, the mean-wind tail without fluctuation), "
+           "u = los / m_x averaged over the revolution, two scan phases averaged, shifted by the pairing's delay; the "
+           "rotor's disc on 8 x 24 polar nodes; within-period variances of the paired span sampled every dwell "
+           "(period_variance, 1/N), polar resolution 20; NaN for evolving turbulence (its theory: coherence_theory) "
+           "or a moving platform")
+    sim_how = ("the paired series of the coherence (the lidar's trailing revolution mean, the REWS the whole-sample "
+               "delay later), 1/N about the span's mean, over the samples finite in the lidar's")
     P = ("period",)
     dv = {
         "coherence": (P + ("focus", "estimate", "k"), coh[None],
@@ -317,6 +354,25 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
                                                          "moving platform"}),
         "k_half_theory": (P + ("focus",), k50_th[None], {"units": "rad m-1",
                                                          "long_name": "analytic wavenumber at coherence 0.5"}),
+        "lidar_std": (P + ("focus", "estimate"), l_std[None],
+                      {"units": "m s-1", "long_name": "std of the lidar's REWS estimate over the paired span",
+                       "statistic": sim_how}),
+        "rotor_std": (P + ("focus",), r_std[None],
+                      {"units": "m s-1", "long_name": "std of the REWS over the focus's paired span",
+                       "statistic": sim_how}),
+        "std_ratio": (P + ("focus", "estimate"), ratio[None],
+                      {"units": "1", "long_name": "lidar_std / rotor_std", "statistic": sim_how}),
+        "correlation": (P + ("focus", "estimate"), corr[None],
+                        {"units": "1", "long_name": "correlation coefficient of the lidar's estimate and the REWS "
+                                                    "it previews", "statistic": sim_how}),
+        "lidar_std_theory": (P + ("focus",), th_std["lidar_std"][None],
+                             {"units": "m s-1", "long_name": "lidar_std, linear theory", "theory": how}),
+        "rotor_std_theory": (P + ("focus",), th_std["rotor_std"][None],
+                             {"units": "m s-1", "long_name": "rotor_std, linear theory", "theory": how}),
+        "std_ratio_theory": (P + ("focus",), th_std["std_ratio"][None],
+                             {"units": "1", "long_name": "std_ratio, linear theory", "theory": how}),
+        "correlation_theory": (P + ("focus",), th_std["correlation"][None],
+                               {"units": "1", "long_name": "correlation, linear theory", "theory": how}),
         "preview_time": (P + ("focus",), preview[None], {"units": "s", "long_name": "preview time r cos(a) / U"}),
         "availability": (P + ("focus", "estimate"), avail[None],
                          {"units": "1", "long_name": "fraction of usable estimates: finite, with no failure, "
@@ -385,6 +441,9 @@ def statistics(ds) -> dict:
     """The tidy table's variables (:meth:`cwlidar_sim.campaign.registry.SceneKind.statistics`) and their instrument."""
     names = {"mean_speed": "scene", "yaw_misalignment": "scene", "lifetime": "scene", "rews_std": "rotor",
              "preview_rews": "rotor", "k_half_theory": "theory", "k_half": "lidar", "availability": "lidar",
+             "lidar_std": "lidar", "rotor_std": "rotor", "std_ratio": "lidar", "correlation": "lidar",
+             "lidar_std_theory": "theory", "rotor_std_theory": "theory", "std_ratio_theory": "theory",
+             "correlation_theory": "theory",
              "preview_time": "lidar", "preview_delay": "lidar", "n_blocked": "lidar", "preview_estimate": "lidar"}
     return {k: v for k, v in names.items() if k in ds.data_vars}
 

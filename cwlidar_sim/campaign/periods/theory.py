@@ -40,6 +40,8 @@ change with time: no stationary spectrum describes it).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ...analysis import linear_theory as lt
@@ -524,7 +526,7 @@ def _nacelle_frame(lidar):
 
 
 def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, n_beams: int | None = 8,
-                        preview_shift: float | None = None, probe: str = "continuous"):
+                        preview_shift: float | None = None, probe: str = "continuous", phase: int = 0):
     """A nacelle lidar's REWS estimate over one revolution and a rotor of weighted nodes, as linear functionals.
 
     With ``n_beams`` N: the scan as :func:`cwlidar_sim.analysis.rews_theory.scan_beams`
@@ -539,7 +541,13 @@ def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, 
     estimates of ``sub_dwells`` looks each at their azimuths and times, each
     estimate's mean line-of-sight speed over the x component of its looks'
     mean known direction, averaged over the revolution (the period's
-    trailing revolution mean), formed at the last estimate's time.  Either
+    trailing revolution mean), formed at the last estimate's time; with
+    ``phase`` j, the revolution of estimates j .. j + estimates_per_rev - 1
+    (the scan's azimuths turned by j dwells against the looks' ages).  The
+    trailing mean at full rate is cyclostationary: its period statistics
+    are the average over the ``estimates_per_rev`` phases' spectra (on the
+    bundled scene at 100 m one phase's variance differs from that average
+    by up to 3 %; studies/theory_vs_simulation.py).  Either
     way the beams are turned by the yaw misalignment (and a fixed platform
     attitude: module notes) in the field, the known directions (``m``) are
     the nacelle frame's, and the estimate is shifted by the preview
@@ -563,6 +571,9 @@ def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, 
         The shift of the estimate [s].
     probe : {"continuous", "cells"}
         The beams' weighting or the simulation's range cells (module notes).
+    phase : int
+        The first estimate of the revolution (``n_beams=None`` only), >= 0;
+        the revolution must not cross a refocus.
 
     Returns
     -------
@@ -577,6 +588,9 @@ def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, 
     y_n, z_n, w_n = (np.asarray(a, dtype=float).ravel() for a in rotor_nodes)
     if not (y_n.size == z_n.size == w_n.size) or abs(w_n.sum() - 1.0) > 1e-9:
         raise ValueError("rotor_nodes must be (y_n, z_n, w_n) of one length with weights summing to 1")
+    j0 = check_int("phase", phase, lo=0, hi=10**6)
+    if n is not None and j0 != 0:
+        raise ValueError(f"phase={phase!r} needs n_beams=None (the simulation's looks); allowed: 0 with n_beams")
     shift = lidar.preview_distance(r) / U if preview_shift is None else check_real("preview_shift", preview_shift)
     inst = lidar.instrument_at(r)
     origin, rot, known = _nacelle_frame(lidar)
@@ -589,8 +603,12 @@ def nacelle_functionals(lidar, focus: float, mean_speed: float, rotor_nodes, *, 
         i = tuple(lidar.focus_distances).index(r)
         nf, epr, nsub = len(lidar.focus_distances), lidar.estimates_per_rev, lidar.sub_dwells
         cycle = nf * (lidar.revs_per_focus * lidar.revolution_time + (lidar.refocus_time if nf > 1 else 0.0))
-        time_e, az_e, fidx_e, _ = lidar.schedule(cycle)
-        idx = np.flatnonzero(fidx_e == i)[:epr]
+        time_e, az_e, fidx_e, _ = lidar.schedule(cycle * (1 + math.ceil(j0 / (lidar.revs_per_focus * epr))))
+        idx = np.flatnonzero(fidx_e == i)[j0:j0 + epr]
+        if idx.size != epr or np.any(np.diff(idx) != 1):
+            raise ValueError(f"phase={phase!r}: the revolution of estimates {j0} .. {j0 + epr - 1} at focus {r:g} m "
+                             f"crosses a refocus (revs_per_focus = {lidar.revs_per_focus} of {nf} focus distances); "
+                             f"allowed: 0 .. {lidar.revs_per_focus * epr - epr if nf > 1 else 'any'}")
         off = (np.arange(nsub) + 0.5) / nsub - 0.5  # as NacelleLidar.plan_record: the looks within a dwell
         dang = 360.0 / epr if lidar.circle else 0.0
         t_el = time_e[idx, None] + off[None, :] * lidar.dwell_time

@@ -69,6 +69,17 @@ def test_small_run_writes_units_and_physics(tmp_path):
     for v in ("coherence", "k_half", "preview_time", "coherence_theory", "wiener_gain", "rews_psd"):
         assert "units" in back[v].attrs, v
     np.testing.assert_allclose(back.preview_time.values[0], np.array([40.0, 80.0]) * math.cos(math.radians(15)) / 10)
+    # the std ratio and correlation of the paired series, and the general linear theory's beside them
+    for v in ("lidar_std", "rotor_std", "std_ratio", "correlation", "lidar_std_theory", "rotor_std_theory",
+              "std_ratio_theory", "correlation_theory"):
+        assert "units" in back[v].attrs, v
+    assert "continuum" in back.std_ratio_theory.attrs["theory"] and "cells" in back.std_ratio_theory.attrs["theory"]
+    np.testing.assert_allclose(ds.std_ratio_theory.values, ds.lidar_std_theory.values / ds.rotor_std_theory.values)
+    np.testing.assert_array_equal(ds.std_ratio.values[0, :, 0], ds.std_ratio.values[0, :, 1])
+    th_r, sim_r = ds.std_ratio_theory.values[0], ds.std_ratio.values[0, :, 0]
+    th_c, sim_c = ds.correlation_theory.values[0], ds.correlation.values[0, :, 0]
+    # one 60-s period: the ratio scatters by ~0.1, the correlation less; the smaller scan circle (40 m) sees more
+    assert np.all(np.abs(sim_r / th_r - 1.0) < 0.3) and np.all(np.abs(sim_c - th_c) < 0.15) and th_r[0] > th_r[1]
     # tier 1 and the 'main' estimate are one thing at tier 'los'
     np.testing.assert_array_equal(ds.coherence.values[0, :, 0], ds.coherence.values[0, :, 1])
     coh = ds.coherence.values[0, :, 0]

@@ -29,7 +29,9 @@ The field's frame: the mean wind U along +x.  A look's probe is, with
 ``probe="cells"``, what the simulation samples at tier ``los``: the lidar's
 range cells (:meth:`cwlidar_sim.sensors.base.LidarBase.probe_cells`: its
 span, cell length, growth and tail rule), the sub-points' weights summed
-(:func:`cells_probe`; the mean-wind tail carries no fluctuation).
+(:func:`cells_probe`; the mean-wind tail carries no fluctuation), kept up to
+the sub-points' Nyquist ``pi / d`` and 0 beyond it: their sum's grating lobes
+return at ``2 pi / d``, where no field resolved at ``d`` shows the lidar anything.
 
 The nacelle lidar's yaw misalignment turns its beams in the field
 (:meth:`cwlidar_sim.sensors.NacelleLidar.yaw_matrix`); a platform motion is
@@ -84,7 +86,7 @@ def _probe(lidar, instrument):
 def _look_probe(lidar, instrument, probe):
     """``phi_hat`` of a look: the continuous weighting or the simulation's range cells (``probe``)."""
     if check_choice("probe", probe, PROBES) == "cells":
-        return cells_probe(lidar.probe_cells(instrument))
+        return _band_limited_cells_probe(lidar, instrument)
     return _probe(lidar, instrument)
 
 
@@ -233,7 +235,7 @@ class _Average:
 
 
 class _BandLimitedCells(_CellsProbe):
-    """:class:`_CellsProbe` tabulated up to ``q_max`` [rad/m] only, 0 beyond it (:func:`staring_functionals`).
+    """:class:`_CellsProbe` tabulated up to ``q_max`` [rad/m] only, 0 beyond it (every look's ``probe="cells"``).
 
     The same table steps (its values equal ``cells_probe``'s there), a
     quarter of its length at the sub-points' Nyquist.
@@ -257,9 +259,15 @@ class _BandLimitedCells(_CellsProbe):
         return out
 
 
-def _staring_cells_probe(lidar, instrument):
-    """The lidar's range cells band-limited at their sub-points' Nyquist, once per cells in a process (:func:`cached`)."""
-    key = ("staring_cells_probe", repr(instrument), lidar.weighting, lidar.span, lidar.cell_length, lidar.cell_growth,
+def _band_limited_cells_probe(lidar, instrument):
+    """The lidar's range cells band-limited at their sub-points' Nyquist, once per cells in a process (:func:`cached`).
+
+    A plain table the fused kernel of :mod:`cwlidar_sim.analysis.linear_theory`
+    takes (the unlimited sum's grating lobes fail its table check and send
+    the whole theory to the numpy path: a nacelle period's theory 71 s of
+    CPU per focus).
+    """
+    key = ("cells_probe", repr(instrument), lidar.weighting, lidar.span, lidar.cell_length, lidar.cell_growth,
            lidar.tail)
 
     def make():
@@ -302,7 +310,7 @@ def staring_functionals(lidar, sonic_position, *, probe: str = "continuous", lid
     inst = lidar.instrument
     n = np.asarray(lidar.direction, dtype=float)
     focus = np.asarray(lidar.position, dtype=float) + inst.focus * n
-    phi = _staring_cells_probe(lidar, inst) if check_choice("probe", probe, PROBES) == "cells" else _probe(lidar, inst)
+    phi = _look_probe(lidar, inst, probe)
     h_l = None if lidar_average is None else _Average(*lidar_average)
     h_s = None if sonic_average is None else _Average(*sonic_average)
     beam = lt.lidar_functional(lt.Looks([focus], [n], None, phi, h_l), [1.0], ["lidar"])

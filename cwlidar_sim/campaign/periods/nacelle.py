@@ -88,7 +88,8 @@ COST_S_PER_SIM_HOUR = {"los": 10.0, "spectral": 80.0, "signal": 50000.0}
 #: (bundled scene: 8 beams, 12 bins, 8-12 s per focus distance on the shared machine).
 THEORY_S_PER_BEAM2_BIN = 0.012
 #: Wall time [s] on one core of the general theory's std ratio and correlation per focus of a frozen period
-#: (:mod:`cwlidar_sim.campaign.periods.nacelle_theory`; bundled scene, 100 m, 600 s: 10 s of CPU with the range cells band-limited, 55 s without); once per geometry.
+#: (:mod:`cwlidar_sim.campaign.periods.nacelle_theory`; bundled scene, 100 m, 600 s: 10 s of CPU with the range
+#: cells band-limited, 55 s without); once per geometry.
 THEORY_STD_S_PER_FOCUS = 10.0
 
 

@@ -35,9 +35,9 @@ tolerance divided by 4, twice the starting k1, twice the resolution and the
 400 sub-dwell looks unmerged each move the 1- and 3-revolution std ratios by
 less than 0.001 at 40 and 100 m (at most 3.5e-4, the unmerged looks at
 40 m); at 100 m a fixed grid of 129 k1 gives 0.76533 / 0.76174 against the
-adaptive grid's 0.76543 / 0.76180 from 31 k1.  Cost: 39 k1 at 40 m (3 s of
-CPU), 31 at 100 m (13 s of CPU; about 9 s of wall on 2 idle cores at the
-0.3 s per k1 measured there).
+adaptive grid's 0.76543 / 0.76180 from 31 k1.  Cost: 39 k1 at 40 m (2.9 s
+of CPU), 31 at 100 m (2.4 s of CPU, 4.0 s of wall at load 3.6 on 2 cores:
+benchmarks/bench_linear_theory.py).
 
 The ratio is ``sqrt(E[s_lidar^2] / E[s_cup^2])``; the simulation averages
 per-period ratios ``s_lidar / s_cup`` over periods (a second-order

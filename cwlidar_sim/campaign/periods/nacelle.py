@@ -276,8 +276,7 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
     preview, avail = np.empty(nf), np.empty((nf, ne))
     series_ft, delay = np.full((nf, time_t.size), np.nan), np.empty(nf)  # the preview signal: the main estimate
     n_blocked = np.zeros(nf, dtype=np.int64)
-    l_std, ratio, corr = (np.full((nf, ne), np.nan) for _ in range(3))
-    r_std = np.full(nf, np.nan)
+    l_std, r_std, ratio, corr = (np.full((nf, ne), np.nan) for _ in range(4))
     th_names = ("lidar_std", "rotor_std", "std_ratio", "correlation")
     th_std = {k: np.full(nf, np.nan) for k in th_names}
     t_std_theory = 0.0
@@ -298,8 +297,8 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
             if kind == "main":
                 series_ft[i], delay[i] = lid_t, dt * round(shift / dt)  # align_preview's whole samples
             l_std[i, j], _, corr[i, j] = paired_statistics(rot_seg, lid_seg)
-            r_std[i] = paired_statistics(rot_seg, rot_seg)[0]
-            ratio[i, j] = l_std[i, j] / r_std[i]
+            r_std[i, j] = paired_statistics(rot_seg, rot_seg)[0]  # over the samples this estimate kind pairs
+            ratio[i, j] = l_std[i, j] / r_std[i, j]
             est = coherence_estimate(rot_seg, lid_seg, fs=1.0 / dt, U=U, segment_duration=s.segment_duration,
                                      f_edges=U * edges / (2 * math.pi), window="hann")
             at = np.searchsorted(edges, est.k_f) - 1  # the bins that held frequencies
@@ -358,8 +357,8 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
         "lidar_std": (P + ("focus", "estimate"), l_std[None],
                       {"units": "m s-1", "long_name": "std of the lidar's REWS estimate over the paired span",
                        "statistic": sim_how}),
-        "rotor_std": (P + ("focus",), r_std[None],
-                      {"units": "m s-1", "long_name": "std of the REWS over the focus's paired span",
+        "rotor_std": (P + ("focus", "estimate"), r_std[None],
+                      {"units": "m s-1", "long_name": "std of the REWS over the samples paired with the estimate",
                        "statistic": sim_how}),
         "std_ratio": (P + ("focus", "estimate"), ratio[None],
                       {"units": "1", "long_name": "lidar_std / rotor_std", "statistic": sim_how}),

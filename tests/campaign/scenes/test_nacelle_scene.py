@@ -76,6 +76,9 @@ def test_small_run_writes_units_and_physics(tmp_path):
     assert "continuum" in back.std_ratio_theory.attrs["theory"] and "cells" in back.std_ratio_theory.attrs["theory"]
     np.testing.assert_allclose(ds.std_ratio_theory.values, ds.lidar_std_theory.values / ds.rotor_std_theory.values)
     np.testing.assert_array_equal(ds.std_ratio.values[0, :, 0], ds.std_ratio.values[0, :, 1])
+    # each estimate kind's ratio and the rotor std it stores come from the same paired samples
+    assert ds.rotor_std.dims == ds.std_ratio.dims == ("period", "focus", "estimate")
+    np.testing.assert_array_equal(ds.std_ratio.values, ds.lidar_std.values / ds.rotor_std.values)
     th_r, sim_r = ds.std_ratio_theory.values[0], ds.std_ratio.values[0, :, 0]
     th_c, sim_c = ds.correlation_theory.values[0], ds.correlation.values[0, :, 0]
     # one 60-s period: the ratio scatters by ~0.1, the correlation less; the smaller scan circle (40 m) sees more

@@ -80,6 +80,7 @@ import numpy as np
 from cwlidar_sim.analysis import linear_theory as lt
 from cwlidar_sim.analysis.rews import RotorDisc, rews_from_box, rotor_node_weights
 from cwlidar_sim.campaign.execution.reproduce import bundled_scene
+from cwlidar_sim.campaign.periods import scanner_theory as st
 from cwlidar_sim.campaign.periods import theory as th
 from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
 from cwlidar_sim.campaign.scenes.conical import default_spacing
@@ -257,6 +258,117 @@ def nacelle_case(n_periods, duration, *, focus=100.0, seed0=2000, break_=None, s
                  theory=th_corr, z=(corr - th_corr) / se_corr, sd_one=se_corr * math.sqrt(n_periods))]
 
 
+# --------------------------------------------------------------------------
+# WindScanner: the three beams' reconstructed (u, v, w) against the sonic at the common focus
+# --------------------------------------------------------------------------
+def windscanner_scene(duration, *, spacing=None):
+    """The bundled WindScanner scene (published layout, 4-m box, tier los), its first period (8 m/s) lasting ``duration``."""
+    sc = bundled_scene("windscanner")
+    values = {"duration": float(duration), "scanner.segment_duration": float(duration) / 3.0, "lidar.tier": "los"}
+    if spacing is not None:
+        values["scanner.spacing"] = float(spacing)
+    return sc.replace(periods=(sc.periods[0],)).with_values(values)
+
+
+def windscanner_simulate(n_periods, duration, *, seed0=5000, spacing=None):
+    """``n_periods`` paired periods (box, the three units and the sonic from seed ``seed0 + i``): within-period
+    variances (1/N) of the reconstructed and the sonic's (u, v, w), and the box's grid."""
+    from cwlidar_sim.analysis.reconstruction import reconstruct_uvw
+    from cwlidar_sim.campaign.periods.windscanner import period_record
+    from cwlidar_sim.sensors.windscanner import record_steps
+
+    sc = windscanner_scene(duration, spacing=spacing)
+    var_l, var_s = [], []
+    t0 = time.perf_counter()
+    for i in range(n_periods):
+        box, rec, sonic_kc, time_k, _ = period_record(sc.replace(seed=seed0 + i), 0)
+        steps = record_steps(rec)
+        uvw = reconstruct_uvw(steps["direction_kic"], steps["vlos_ki"]).uvw_kc  # tier 1: the signed ideal speeds
+        var_l.append(uvw.var(axis=0)), var_s.append(sonic_kc.var(axis=0))
+        if i == 0:
+            grid = {"shape": tuple(int(n) for n in box.attrs["generated_shape"]),
+                    "spacing": tuple(float(box[c][1] - box[c][0]) for c in "xyz"),
+                    "origin": tuple(float(box[c][0]) for c in "xyz"), "n_t": int(time_k.size)}
+        del box
+    return {"scene": sc, "var_l": np.array(var_l), "var_s": np.array(var_s), "t_sim": time.perf_counter() - t0,
+            "n": n_periods, "duration": duration, **grid}
+
+
+def windscanner_theory(sim, *, probe="cells", sonic="nodes", aliases=0):
+    """The lattice theory of ``windscanner_simulate``'s box (``scanner_theory.windscanner_lattice_variances``: the
+    range cells read trilinearly, the sonic between the box's nodes) and the continuum's beside it: within-period
+    variances of the reconstructed and the sonic's (u, v, w)."""
+    sc = sim["scene"]
+    ws, p = sc.sensor(), sc.periods[0]
+    params, U = sc.period_params(p), p.mean_speed
+    dt = 1.0 / ws.instrument.estimate_rate
+    t0 = time.perf_counter()
+    lat = st.windscanner_lattice_variances(ws, params, U, sim["shape"], sim["spacing"], sim["origin"], sim["n_t"],
+                                           probe=probe, sonic=sonic, aliases=aliases)
+    t_lat = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    stats = [lt.PeriodStatistic(f"{j}.{c}", sim["n_t"] * dt, dt) for j in range(2) for c in "uvw"]
+    a = lt.adaptive_spectra(params, list(st.windscanner_functionals(ws, probe=probe)), U, stats, k1_range=(1e-4, 2.0),
+                            resolution=20.0)
+    cont = np.array(a.within)
+    return {**lat, "continuum_lidar": cont[:3], "continuum_sonic": cont[3:], "t_lattice": t_lat,
+            "t_continuum": time.perf_counter() - t0}
+
+
+def windscanner_case(n_periods, duration, *, seed0=5000, spacing=None, aliases=0):
+    """Simulated and theoretical std ratios reconstructed/sonic of u, v, w (pooled, jackknife SE): three rows."""
+    sim = windscanner_simulate(n_periods, duration, seed0=seed0, spacing=spacing)
+    t = windscanner_theory(sim, aliases=aliases)
+    out = []
+    for c, name in enumerate("uvw"):
+        r, se = jackknife(sim["var_l"][:, c], sim["var_s"][:, c])
+        theory = math.sqrt(t["lidar"][c] / t["sonic"][c])
+        out.append({"scene": f"windscanner {sim['spacing'][0]:g} m", "stat": f"std ratio {name} recon/sonic",
+                    "sim": r, "se": se, "theory": theory, "z": (r - theory) / se, "sd_one": se * math.sqrt(n_periods),
+                    "continuum": math.sqrt(t["continuum_lidar"][c] / t["continuum_sonic"][c]), "n": n_periods,
+                    "duration": duration, "box": sim["shape"], "t_sim": sim["t_sim"],
+                    "t_theory": t["t_lattice"] + t["t_continuum"],
+                    "variances": {"sim lidar": float(sim["var_l"][:, c].mean()),
+                                  "+/-": float(sim["var_l"][:, c].std(ddof=1) / math.sqrt(n_periods)),
+                                  "sim sonic": float(sim["var_s"][:, c].mean()),
+                                  "+/- ": float(sim["var_s"][:, c].std(ddof=1) / math.sqrt(n_periods)),
+                                  "lattice lidar": t["lidar"][c],
+                                  "lattice sonic": t["sonic"][c], "continuum lidar": t["continuum_lidar"][c],
+                                  "continuum sonic": t["continuum_sonic"][c]}})
+    return out
+
+
+def windscanner_w_box(duration, spacings=(4.0, 2.0)):
+    """The WindScanner's variances over each box against the continuum (module notes, "the w finding"): printed rows
+    of lattice / continuum for the reconstruction (the box's modes alone, then read trilinearly) and the sonic."""
+    from cwlidar_sim.turbulence.cover import plan_box
+
+    for sp in spacings:
+        sc = windscanner_scene(duration, spacing=sp)
+        ws, p = sc.sensor(), sc.periods[0]
+        params, U = sc.period_params(p), p.mean_speed
+        dt = 1.0 / ws.instrument.estimate_rate
+        n_t = int(round(duration / dt))
+        plan = plan_box(ws.box_region(sp), U, duration, sp, min_extent=2.0 * params.length_scale)
+        shape, d = (plan.shape[0], 2 * plan.shape[1], plan.shape[2]), (sp,) * 3  # generated: laterally doubled
+        stats = [lt.PeriodStatistic(f"{j}.{c}", n_t * dt, dt) for j in range(2) for c in "uvw"]
+        cont = {pr: np.array(lt.adaptive_spectra(params, list(st.windscanner_functionals(ws, probe=pr)), U, stats,
+                                                 k1_range=(1e-4, 2.0), resolution=20.0).within)
+                for pr in ("continuous", "cells")}
+        recon, _ = st.windscanner_functionals(ws, probe="cells")
+        nodes = lt.lattice_spectra(params, recon, U, shape, d)
+        v_nodes = np.array([_within(nodes, c, U, n_t * dt, dt) for c in "uvw"])
+        lat = st.windscanner_lattice_variances(ws, params, U, shape, d, tuple(plan.origin), n_t)
+        c = cont["cells"]
+        print(f"box {sp:g} m {shape}, {duration:g}-s periods, (u, v, w):\n"
+              f"  continuum: reconstruction, continuous weighting {np.round(cont['continuous'][:3], 5)}, range cells "
+              f"{np.round(c[:3], 5)}; sonic {np.round(c[3:], 5)}\n"
+              f"  lattice / continuum (cells): reconstruction, the box's modes {np.round(v_nodes / c[:3], 4)}, read "
+              f"trilinearly {np.round(lat['lidar'] / c[:3], 4)}; sonic between the nodes {np.round(lat['sonic'] / c[3:], 4)}"
+              f"\n  variance ratio reconstruction / sonic: continuum {np.round(c[:3] / c[3:], 4)}, lattice "
+              f"{np.round(lat['lidar'] / lat['sonic'], 4)}")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--periods", type=int, default=6)
@@ -266,17 +378,33 @@ def main(argv=None):
     ap.add_argument("--interpolation", choices=("none", "linear"), default="linear")
     ap.add_argument("--aliases", type=int, default=0)
     ap.add_argument("--no-nacelle", action="store_true")
+    ap.add_argument("--kind", choices=("conical", "nacelle", "windscanner"), nargs="*", default=["conical", "nacelle"],
+                    help="the scenes compared (default conical and nacelle)")
+    ap.add_argument("--spacing", type=float, default=None, help="the WindScanner's box spacing [m] (default the scene's)")
+    ap.add_argument("--seed0", type=int, default=5000, help="the WindScanner's first seed")
+    ap.add_argument("--w-box", type=float, nargs="*", default=None, metavar="SPACING",
+                    help="print the WindScanner's lattice / continuum variances for these box spacings [m] and stop")
     args = ap.parse_args(argv)
+    if args.w_box is not None:
+        return windscanner_w_box(args.duration, tuple(args.w_box) or (4.0, 2.0))
     kw = {"interpolation": args.interpolation, "aliases": args.aliases}
-    out = [r for z in args.heights for r in conical_case(z, args.periods, args.duration, sub_dwells=args.sub_dwells,
-                                                         **kw)]
-    if not args.no_nacelle:
+    out = []
+    if "conical" in args.kind:
+        out += [r for z in args.heights for r in conical_case(z, args.periods, args.duration,
+                                                              sub_dwells=args.sub_dwells, **kw)]
+    if "nacelle" in args.kind and not args.no_nacelle:
         out += nacelle_case(args.periods, args.duration, **kw)
+    if "windscanner" in args.kind:
+        out += windscanner_case(args.periods, args.duration, seed0=args.seed0, spacing=args.spacing,
+                                aliases=args.aliases)
     for r in out:
         need = math.ceil((r["sd_one"] / 0.005) ** 2)
+        extra = f" continuum {r['continuum']:.4f}" if "continuum" in r else ""
         print(f"{r['scene']:16s} {r['stat']:26s} sim {r['sim']:.4f} +/- {r['se']:.4f}  theory {r['theory']:.4f}  "
-              f"z {r['z']:+.2f}  (N={r['n']}, T={r['duration']:g} s, box {r['box']}, sim {r['t_sim']:.0f} s, "
+              f"z {r['z']:+.2f}{extra}  (N={r['n']}, T={r['duration']:g} s, box {r['box']}, sim {r['t_sim']:.0f} s, "
               f"theory {r['t_theory']:.0f} s; SE 0.005 needs N ~ {need} of these)")
+        if "variances" in r:
+            print("    variances [m^2 s^-2]: " + ", ".join(f"{k} {v:.5f}" for k, v in r["variances"].items()))
 
 
 if __name__ == "__main__":

@@ -66,9 +66,10 @@ from ...analysis import linear_theory as lt
 from ...analysis.disc_fit import disc_design
 from ...analysis.spectra import bin_average, segment_spectra
 from ..._validation import check_int, check_real
-from .theory import _probe, cached
+from .theory import _band_limited_cells_probe, _probe, cached, node_interpolated_variance
 
-__all__ = ["windscanner_functionals", "windscanner_theory", "spinner_functionals", "spinner_theory",
+__all__ = ["windscanner_functionals", "windscanner_theory", "windscanner_lattice_variances", "node_sonic",
+           "spinner_functionals", "spinner_theory",
            "rotor_disc_nodes", "windscanner_variables", "spinner_variables", "spinner_k_edges"]
 
 #: Wavenumbers of each coarse tail of the w-variance ratio's spectra, below and above the asked k1 (log-spaced from 1e-4
@@ -89,7 +90,7 @@ _SPINNER_STRIDE, _SPINNER_ROTOR = 4, (12, 32)
 # --------------------------------------------------------------------------
 # WindScanner
 # --------------------------------------------------------------------------
-def windscanner_functionals(scanner, *, probe: bool = True):
+def windscanner_functionals(scanner, *, probe: bool | str = True):
     """The WindScanner's reconstructed wind and a sonic at its target, as linear functionals (module notes).
 
     Held point (``pattern = 'point'``): unit i looks along ``n_i`` at the
@@ -104,14 +105,19 @@ def windscanner_functionals(scanner, *, probe: bool = True):
     ----------
     scanner : WindScanner
         The scanner (:class:`cwlidar_sim.sensors.windscanner.WindScanner`), in the field's frame.
-    probe : bool
-        The beams' weighting (True) or points at the foci (False: ``z_R -> 0``).
+    probe : bool or {"continuous", "cells"}
+        The beams' continuous weighting (True, ``"continuous"``), the
+        simulation's range cells at tier ``los`` (``"cells"``, band-limited
+        at their sub-points' Nyquist as :mod:`~cwlidar_sim.campaign.periods.theory`
+        takes them) or points at the foci (False: ``z_R -> 0``).
 
     Returns
     -------
     (LinearFunctional, LinearFunctional)
         The reconstruction's and the sonic's outputs ``"u"``, ``"v"``, ``"w"``.
     """
+    if probe not in (True, False, "continuous", "cells"):
+        raise ValueError(f"probe must be True, False, 'continuous' or 'cells', got {probe!r}")
     n_kic = scanner.directions()
     r_ki = scanner.ranges()
     focus_kc = scanner.focus_points()
@@ -129,10 +135,12 @@ def windscanner_functionals(scanner, *, probe: bool = True):
             if probe:
                 r = float(round(r_ki[k, i], 9))
                 if r not in probes:
-                    probes[r] = _probe(scanner, scanner.instrument_at(r))
+                    inst = scanner.instrument_at(r)
+                    probes[r] = (_band_limited_cells_probe(scanner, inst) if probe == "cells"
+                                 else _probe(scanner, inst))
                 prb.append(probes[r])
             coef_ol.append(coef[k, :, i])
-    looks = lt.Looks(np.array(pts), np.array(dirs), np.array(times), prb if probe else None)
+    looks = lt.Looks(np.array(pts), np.array(dirs), np.array(times), prb if probe is not False else None)
     recon = lt.lidar_functional(looks, np.array(coef_ol).T, ["u", "v", "w"])
     return recon, lt.point_functional(scanner.target, ("u", "v", "w"))
 
@@ -205,6 +213,107 @@ def windscanner_theory(scanner, params, mean_speed: float, k1, *, period: float 
         var = [lt.period_variance(s.k1_k, s.spectrum(n), U, T, sample_interval=dt)["within"] for n in ("0.w", "1.w")]
         out["w_variance_ratio"] = var[0] / var[1]
     return out
+
+
+def node_sonic(position, origin, spacing):
+    """A sonic as the box's sampler reads it across the wind: (u, v, w) bilinear between the four (y, z) nodes around it.
+
+    Along x the advection sweeps the nodes past the sensor
+    (:func:`~cwlidar_sim.campaign.periods.theory.node_interpolated_variance`);
+    across the wind the sonic stays at one offset from the nodes, so its
+    reading is the fixed bilinear mix of the four nodes' values, not a point's.
+
+    Parameters
+    ----------
+    position : (x, y, z)
+        The sonic [m].
+    origin : (x0, y0, z0)
+        A node of the box (its first) [m].
+    spacing : (dx, dy, dz)
+        The box's spacing [m], each > 0.
+
+    Returns
+    -------
+    LinearFunctional
+        Outputs ``"u"``, ``"v"``, ``"w"`` over four looks at ``x`` and the nodes' ``(y, z)``.
+    """
+    x, y, z = (check_real("position", c) for c in position)
+    d = [check_real("spacing", c, lo=0.0, lo_open=True) for c in spacing]
+    pts, wts = [], []
+    f = [(c - float(o)) / dd for c, o, dd in zip((y, z), tuple(origin)[1:], d[1:])]
+    j = [math.floor(a) for a in f]
+    for a, wa in ((j[0], 1.0 - (f[0] - j[0])), (j[0] + 1, f[0] - j[0])):
+        for b, wb in ((j[1], 1.0 - (f[1] - j[1])), (j[1] + 1, f[1] - j[1])):
+            pts.append((x, float(origin[1]) + a * d[1], float(origin[2]) + b * d[2]))
+            wts.append(wa * wb)
+    w = np.zeros((3, 4, 3))
+    for c in range(3):
+        w[c, :, c] = wts
+    return lt.LinearFunctional(lt.Looks(np.array(pts), np.tile([1.0, 0.0, 0.0], (4, 1))), w, ("u", "v", "w"))
+
+
+def windscanner_lattice_variances(scanner, params, mean_speed: float, shape, spacing, origin, n_samples: int, *,
+                                  probe="cells", sonic: str = "nodes", aliases: int = 0) -> dict:
+    """The within-period variances of the reconstructed and the sonic's (u, v, w) over a box, as simulated at tier ``los``.
+
+    The expectation over the boxes of one grid
+    (:func:`~cwlidar_sim.analysis.linear_theory.lattice_spectra`: the
+    generated shape, laterally doubled, its spacing, cell correction,
+    Nyquist modes) of what a held-point period samples every ``1 /
+    estimate_rate`` over ``n_samples`` steps, each series' variance about
+    its period mean (``1 / N``): the reconstruction
+    (:func:`windscanner_functionals`) read trilinearly
+    (``interpolation="linear"``, the sampler's gains ``sinc^2(k d / 2)`` per
+    axis, ``aliases`` kept), and the sonic as :func:`sample_sonic
+    <cwlidar_sim.sensors.sonic.sample_sonic>` reads it (``sonic="nodes"``:
+    :func:`node_sonic` across the wind, between the nodes along x on its
+    samples, :func:`~cwlidar_sim.campaign.periods.theory.node_interpolated_variance`;
+    ``"point"``: across the wind the box's modes at the target itself, as
+    on a node; along x still between the nodes).
+
+    Parameters
+    ----------
+    scanner : WindScanner
+        Pattern ``'point'``.
+    params : MannParameters
+    mean_speed : float
+        U [m/s], > 0.
+    shape, spacing : (N1, N2, N3), (dx, dy, dz)
+        The generated box's (before the lateral crop) [-], [m].
+    origin : (x0, y0, z0)
+        A node of the box [m] (the sonic's offset from the nodes).
+    n_samples : int
+        The period's steps (>= 2).
+    probe : bool or {"continuous", "cells"}
+        As :func:`windscanner_functionals` (the simulation's: ``"cells"``).
+    sonic : {"nodes", "point"}
+    aliases : int
+        :func:`~cwlidar_sim.analysis.linear_theory.lattice_spectra`'s.
+
+    Returns
+    -------
+    dict
+        ``lidar``, ``sonic``: arrays (u, v, w) [m^2 s^-2].
+    """
+    if scanner.pattern != "point":
+        raise ValueError(f"pattern={scanner.pattern!r}: the lattice variances are a held point's; allowed: 'point'")
+    if sonic not in ("nodes", "point"):
+        raise ValueError(f"sonic must be 'nodes' or 'point', got {sonic!r}")
+    U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    n = check_int("n_samples", n_samples, lo=2)
+    dt = 1.0 / scanner.instrument.estimate_rate
+    shape, spacing = tuple(int(a) for a in shape), tuple(float(a) for a in spacing)
+    recon, point = windscanner_functionals(scanner, probe=probe)
+    s = lt.lattice_spectra(params, recon, U, shape, spacing, interpolation="linear", aliases=aliases)
+    lidar = [lt.period_variance(s.k1_k, s.spectrum(c), U, n * dt, sample_interval=dt, lines=True)["within"]
+             for c in "uvw"]
+    f = node_sonic(scanner.target, origin, spacing) if sonic == "nodes" else point
+    s = lt.lattice_spectra(params, f, U, shape, spacing)
+    dk1 = 2.0 * math.pi / (shape[0] * spacing[0])
+    t = np.arange(n) * dt
+    son = [node_interpolated_variance(s.k1_k, s.spectrum(c) * dk1, U, t, spacing[0],
+                                      offset=float(scanner.target[0]) - float(origin[0])) for c in "uvw"]
+    return {"lidar": np.array(lidar), "sonic": np.array(son)}
 
 
 # --------------------------------------------------------------------------

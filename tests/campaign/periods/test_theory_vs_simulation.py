@@ -275,3 +275,84 @@ def test_staring_period_c_transfer_is_the_theory(staring_period_c, band, method)
 
     theory = {k: pooled(v[method - 1]) for k, v in c["theory"].items()}
     _check(f"staring period C {band} method {method}", sim, se, theory.pop("general"), theory)
+
+
+#: The bundled WindScanner scene's first period (8 m/s, the published layout, 4-m box) cut to 60-s periods: one
+#: period's std ratio scatters by ~0.07-0.11, so 150 give standard errors of 0.006-0.009 (full size, SE <= 0.005:
+#: studies/theory_vs_simulation.py --kind windscanner).
+N_WINDSCANNER, WINDSCANNER_DURATION = 150, 60.0
+
+
+@pytest.fixture(scope="module")
+def windscanner_60s():
+    """N seeded tier-los periods of the WindScanner (tier 1: the reconstruction of the ideal line-of-sight speeds)
+    and its sonic at the common focus; the lattice theory of their box and broken ones."""
+    from cwlidar_sim.analysis.reconstruction import reconstruct_uvw
+    from cwlidar_sim.campaign.periods import scanner_theory as st
+    from cwlidar_sim.campaign.periods.windscanner import period_record
+    from cwlidar_sim.sensors.windscanner import record_steps
+
+    sc = bundled_scene("windscanner")
+    sc = sc.replace(periods=(sc.periods[0],)).with_values({"duration": WINDSCANNER_DURATION, "lidar.tier": "los",
+                                                           "scanner.segment_duration": WINDSCANNER_DURATION / 3})
+    var_l, var_s = [], []
+    for i in range(N_WINDSCANNER):
+        box, rec, sonic_kc, time_k, _ = period_record(sc.replace(seed=7000 + i), 0)
+        steps = record_steps(rec)
+        var_l.append(reconstruct_uvw(steps["direction_kic"], steps["vlos_ki"]).uvw_kc.var(axis=0))
+        var_s.append(sonic_kc.var(axis=0))
+        if i == 0:
+            grid = (box.attrs["generated_shape"], tuple(float(box[c][1] - box[c][0]) for c in "xyz"),
+                    tuple(float(box[c][0]) for c in "xyz"), time_k.size)
+        del box
+    ws, p = sc.sensor(), sc.periods[0]
+    params, U = sc.period_params(p), p.mean_speed
+
+    def ratio(**kw):
+        v = st.windscanner_lattice_variances(ws, params, U, *grid, **kw)
+        return np.sqrt(v["lidar"] / v["sonic"])
+
+    theory = {"lattice": ratio(), "point probes": ratio(probe=False), "sonic on the target": ratio(sonic="point")}
+    real = np.linalg.inv
+    for name, inv in (("rows v, w swapped", lambda n: real(n)[..., [0, 2, 1], :]),
+                      ("rows u, v swapped", lambda n: real(n)[..., [1, 0, 2], :]),
+                      ("N^-1 transposed", lambda n: np.swapaxes(real(n), -1, -2))):
+        st.np.linalg.inv = inv
+        try:
+            theory[name] = ratio()
+        finally:
+            st.np.linalg.inv = real
+    # the continuum (no box): the reconstruction and a point sonic over all wavenumbers
+    dt = 1.0 / ws.instrument.estimate_rate
+    stats = [lt.PeriodStatistic(f"{j}.{c}", grid[3] * dt, dt) for j in range(2) for c in "uvw"]
+    within = np.array(lt.adaptive_spectra(params, list(st.windscanner_functionals(ws, probe="cells")), U, stats,
+                                          k1_range=(1e-4, 2.0), resolution=20.0).within)
+    theory["continuum"] = np.sqrt(within[:3] / within[3:])
+    return {"var_l": np.array(var_l), "var_s": np.array(var_s), "theory": theory}
+
+
+#: The broken theories each component's std ratio must reject (by more than 3 standard errors), where they move it
+#: by more than ~4.5 of its standard errors at this size: rows v and w swapped leave u alone, N^-1 transposed moves
+#: u by ~3 and v by ~0.6 of them, the sonic read on the target rather than between the nodes u and v by ~3, the
+#: continuum u by ~4.
+WINDSCANNER_BREAKS = {"u": ("point probes", "rows u, v swapped"),
+                      "v": ("point probes", "rows v, w swapped", "rows u, v swapped", "continuum"),
+                      "w": ("point probes", "rows v, w swapped", "N^-1 transposed", "sonic on the target", "continuum")}
+
+
+@pytest.mark.parametrize("component", ["u", "v", "w"])
+def test_windscanner_std_ratio_is_the_lattice_theory(windscanner_60s, component):
+    """The WindScanner's reconstructed component over the sonic's (pooled std ratio of the within-period variances,
+    jackknife standard error over 150 x 60 s) within 3 standard errors of the lattice theory of the box the
+    simulation draws (the units' range cells read trilinearly, N^-1 at the common focus, the sonic between the
+    nodes); point probes (z_R -> 0: the reconstruction is the sonic, ratio ~1), two rows of N^-1 swapped, N^-1
+    transposed, the sonic read on the target (not between the nodes) and the continuum (the box left out) are each
+    outside them where they move the component (WINDSCANNER_BREAKS)."""
+    c = windscanner_60s
+    j = "uvw".index(component)
+    sim, se = _jackknife(c["var_l"][:, j], c["var_s"][:, j])
+    t = c["theory"]
+    print(f"\nwindscanner {component}, every theory's z: "
+          + ", ".join(f"{k} {(sim - v[j]) / se:+.1f}" for k, v in t.items()))
+    _check(f"windscanner std ratio {component}", sim, se, float(t["lattice"][j]),
+           {k: float(t[k][j]) for k in WINDSCANNER_BREAKS[component]})

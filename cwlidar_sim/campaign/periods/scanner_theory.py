@@ -18,6 +18,11 @@ what its period compares:
   ``Re(F_rs)^2 / F_ss^2`` (:func:`cwlidar_sim.analysis.transfer_functions`'s
   definitions), and the ratio of the reconstructed w's variance within a
   period to the sonic's;
+* :func:`windscanner_lattice_variances`: the reconstructed and the sonic's
+  within-period variances over a box's lattice, read as the simulation
+  reads them (the range cells trilinearly, the sonic between its nodes,
+  :func:`node_sonic`): the std ratios' acceptance
+  (studies/theory_vs_simulation.py ``--kind windscanner``);
 * :func:`spinner_functionals`: the SpinnerLidar's REWS estimate of one
   rosette, the disc fit's ``u0`` (:func:`cwlidar_sim.analysis.disc_fit.fit_disc`,
   a linear least squares: its row of the pseudo-inverse of the design,
@@ -31,12 +36,12 @@ The field's frame: the mean wind U along +x; frozen turbulence (Taylor).  A
 look's probe is its beam's continuous weighting
 (:func:`cwlidar_sim.analysis.rews_theory.beam_transfer` of the lidar's
 ``weighting`` with the instrument's optics, as :mod:`cwlidar_sim.campaign.periods.theory` takes it),
-not the simulation's discrete range cells; the field is the continuum's
+not the simulation's discrete range cells (``probe="cells"``: those); the field is the continuum's
 (:func:`~cwlidar_sim.analysis.linear_theory.functional_spectra`) unless a
 box's lattice is asked for (:func:`~cwlidar_sim.analysis.linear_theory.lattice_spectra`).
 Not included: evolving turbulence, the platform's motion, the chain's noise
 and estimators (the theory is tier ``los``'s), the box's trilinear
-interpolation.
+interpolation (except :func:`windscanner_lattice_variances`).
 
 The periods' theory (:func:`windscanner_variables`, :func:`spinner_variables`)
 depends on the scene, not the realisation: it is computed once per geometry,
@@ -264,8 +269,8 @@ def windscanner_lattice_variances(scanner, params, mean_speed: float, shape, spa
     its period mean (``1 / N``): the reconstruction
     (:func:`windscanner_functionals`) read trilinearly
     (``interpolation="linear"``, the sampler's gains ``sinc^2(k d / 2)`` per
-    axis, ``aliases`` kept), and the sonic as :func:`sample_sonic
-    <cwlidar_sim.sensors.sonic.sample_sonic>` reads it (``sonic="nodes"``:
+    axis, ``aliases`` kept), and the sonic as
+    :func:`~cwlidar_sim.sensors.sample_sonic` reads it (``sonic="nodes"``:
     :func:`node_sonic` across the wind, between the nodes along x on its
     samples, :func:`~cwlidar_sim.campaign.periods.theory.node_interpolated_variance`;
     ``"point"``: across the wind the box's modes at the target itself, as

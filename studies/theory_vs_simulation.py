@@ -65,22 +65,26 @@ convention.  SE 0.005 needs ~1500 such periods.
 At 40 m the same theory gives 0.7830 (cells) against the 400 x 60 s above, 0.7833 +/- 0.0058 (z +0.05).
 
 WindScanner (issue 33's "one new instrument"; seeds 5000-5239, 240 x 160 s, SE <= 0.005, 403 s of simulation and
-74 s of theory on the loaded 2 cores): u 0.7292 +/- 0.0047 against the lattice's 0.7323 (z -0.66), v 0.6597 +/-
-0.0040 against 0.6613 (z -0.41), w 0.6202 +/- 0.0030 against 0.6193 (z +0.31); the continuum 0.6979 / 0.6146 /
-0.5338 is 7 / 11 / 29 standard errors away: the 4-m box lowers the sonic's variance (to 0.861 / 0.797 / 0.704 of
-the continuum's: its modes and the bilinear reading, as campaign.periods.in_situ's analytic sub-grid variance
-gives, 0.706 for w) far more than the reconstruction's (0.948 / 0.922 / 0.947), whose 4-m cells and ~19-m
-Rayleigh length average those scales away anyway.  Needs ~210 / 150 / 90 periods of 160 s for SE 0.005.
+19-74 s of theory on the loaded 2 cores; a rerun gives the same bits): u 0.7292 +/- 0.0047 against the lattice's
+0.7323 (z -0.66), v 0.6597 +/- 0.0040 against 0.6613 (z -0.41), w 0.6202 +/- 0.0030 against 0.6193 (z +0.31); the
+continuum 0.6979 / 0.6146 / 0.5338 is 7 / 11 / 29 standard errors away: the 4-m box lowers the sonic's variance (to
+0.861 / 0.797 / 0.704 of the continuum's: its modes and the bilinear reading, as campaign.periods.in_situ's analytic
+sub-grid variance gives, 0.706 for w) far more than the reconstruction's (0.948 / 0.922 / 0.947), whose 4-m cells
+and ~19-m Rayleigh length average those scales away anyway. Needs ~210 / 150 / 90 periods of 160 s for SE 0.005.
 
 The w finding (docs/windscanner.md said the reconstructed w was ~20 % below the continuum in both boxes): not a
 defect.  ``--w-box 4 2 --duration 160`` gives the reconstruction's w variance over the box against the continuum
 (range cells): the box's modes alone 0.984 (4 m) / 0.987 (2 m), read trilinearly 0.947 / 0.974 (the continuous
 weighting of the results' theory is another 2.4 % above the cells: 0.0878 against 0.0857 m^2/s^2); the 240 periods
-above simulate 0.0816 +/- 0.0008 against the lattice's 0.0812.  The "20 %" was one draw: the eight periods of
+above simulate 0.0816 +/- 0.0017 against the lattice's 0.0812.  The "20 %" was one draw: the eight periods of
 tests/campaign/periods/test_scanner_theory.py (seeds 100-107) read 0.0694 +/- 0.0046 (4 m) and 0.0715 +/- 0.0045
 (2 m), 2.5-2.8 standard errors below their lattices (their std ratios, paired with the sonic, are within 1.2), and
 the sonic's sub-grid share there quoted 37 % (4 m) is 29.4 % (lattice 29.6 %, the analytic in_situ 29.4 %).
-WINDSCANNER_2M
+A 2-m box (``--spacing 2 --seed0 6000``, 60 x 160 s, 336 s of simulation, 94 s of theory): u 0.7091 +/- 0.0124
+against 0.7130 (z -0.31), v 0.6314 +/- 0.0077 against 0.6360 (z -0.60), w 0.5838 +/- 0.0065 against 0.5821
+(z +0.26); the reconstructed w's variance 0.0833 +/- 0.0031 against the lattice's 0.0835 (continuum 0.0857).
+The eight seeds give nearly the same per-period w variance in both boxes (0.0877 / 0.0886 ... 0.0477 / 0.0504:
+a seed draws the same large scales at either spacing), so "both boxes low" was one draw seen twice.
 
 Run (reduced size, a few minutes; the 60-s periods cost ~0.4 s each, one height's theory ~25 s)::
 
@@ -290,7 +294,8 @@ def nacelle_case(n_periods, duration, *, focus=100.0, seed0=2000, break_=None, s
 # WindScanner: the three beams' reconstructed (u, v, w) against the sonic at the common focus
 # --------------------------------------------------------------------------
 def windscanner_scene(duration, *, spacing=None):
-    """The bundled WindScanner scene (published layout, 4-m box, tier los), its first period (8 m/s) lasting ``duration``."""
+    """The bundled WindScanner scene (published layout, 4-m box, tier los), its first period (8 m/s) lasting
+    ``duration``."""
     sc = bundled_scene("windscanner")
     values = {"duration": float(duration), "scanner.segment_duration": float(duration) / 3.0, "lidar.tier": "los"}
     if spacing is not None:
@@ -357,9 +362,9 @@ def windscanner_case(n_periods, duration, *, seed0=5000, spacing=None, aliases=0
                     "duration": duration, "box": sim["shape"], "t_sim": sim["t_sim"],
                     "t_theory": t["t_lattice"] + t["t_continuum"],
                     "variances": {"sim lidar": float(sim["var_l"][:, c].mean()),
-                                  "+/-": float(sim["var_l"][:, c].std(ddof=1) / math.sqrt(n_periods)),
+                                  "sim lidar se": float(sim["var_l"][:, c].std(ddof=1) / math.sqrt(n_periods)),
                                   "sim sonic": float(sim["var_s"][:, c].mean()),
-                                  "+/- ": float(sim["var_s"][:, c].std(ddof=1) / math.sqrt(n_periods)),
+                                  "sim sonic se": float(sim["var_s"][:, c].std(ddof=1) / math.sqrt(n_periods)),
                                   "lattice lidar": t["lidar"][c],
                                   "lattice sonic": t["sonic"][c], "continuum lidar": t["continuum_lidar"][c],
                                   "continuum sonic": t["continuum_sonic"][c]}})
@@ -392,7 +397,8 @@ def windscanner_w_box(duration, spacings=(4.0, 2.0)):
               f"  continuum: reconstruction, continuous weighting {np.round(cont['continuous'][:3], 5)}, range cells "
               f"{np.round(c[:3], 5)}; sonic {np.round(c[3:], 5)}\n"
               f"  lattice / continuum (cells): reconstruction, the box's modes {np.round(v_nodes / c[:3], 4)}, read "
-              f"trilinearly {np.round(lat['lidar'] / c[:3], 4)}; sonic between the nodes {np.round(lat['sonic'] / c[3:], 4)}"
+              f"trilinearly {np.round(lat['lidar'] / c[:3], 4)}; sonic between the nodes "
+              f"{np.round(lat['sonic'] / c[3:], 4)}"
               f"\n  variance ratio reconstruction / sonic: continuum {np.round(c[:3] / c[3:], 4)}, lattice "
               f"{np.round(lat['lidar'] / lat['sonic'], 4)}")
 
@@ -408,7 +414,8 @@ def main(argv=None):
     ap.add_argument("--no-nacelle", action="store_true")
     ap.add_argument("--kind", choices=("conical", "nacelle", "windscanner"), nargs="*", default=["conical", "nacelle"],
                     help="the scenes compared (default conical and nacelle)")
-    ap.add_argument("--spacing", type=float, default=None, help="the WindScanner's box spacing [m] (default the scene's)")
+    ap.add_argument("--spacing", type=float, default=None,
+                    help="the WindScanner's box spacing [m] (default the scene's)")
     ap.add_argument("--seed0", type=int, default=5000, help="the WindScanner's first seed")
     ap.add_argument("--w-box", type=float, nargs="*", default=None, metavar="SPACING",
                     help="print the WindScanner's lattice / continuum variances for these box spacings [m] and stop")
@@ -432,7 +439,10 @@ def main(argv=None):
               f"z {r['z']:+.2f}{extra}  (N={r['n']}, T={r['duration']:g} s, box {r['box']}, sim {r['t_sim']:.0f} s, "
               f"theory {r['t_theory']:.0f} s; SE 0.005 needs N ~ {need} of these)")
         if "variances" in r:
-            print("    variances [m^2 s^-2]: " + ", ".join(f"{k} {v:.5f}" for k, v in r["variances"].items()))
+            v = r["variances"]
+            print("    variances [m^2 s^-2]: " + ", ".join(
+                f"{k} {x:.5f}" + (f" +/- {v[k + ' se']:.5f}" if k + " se" in v else "")
+                for k, x in v.items() if not k.endswith(" se")))
 
 
 if __name__ == "__main__":

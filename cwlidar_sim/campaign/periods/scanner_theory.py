@@ -221,7 +221,7 @@ def windscanner_theory(scanner, params, mean_speed: float, k1, *, period: float 
 
 
 def node_sonic(position, origin, spacing):
-    """A sonic as the box's sampler reads it across the wind: (u, v, w) bilinear between the four (y, z) nodes around it.
+    """A sonic as the box's sampler reads it across the wind: (u, v, w) bilinear between its four (y, z) nodes.
 
     Along x the advection sweeps the nodes past the sensor
     (:func:`~cwlidar_sim.campaign.periods.theory.node_interpolated_variance`);
@@ -259,7 +259,7 @@ def node_sonic(position, origin, spacing):
 
 def windscanner_lattice_variances(scanner, params, mean_speed: float, shape, spacing, origin, n_samples: int, *,
                                   probe="cells", sonic: str = "nodes", aliases: int = 0) -> dict:
-    """The within-period variances of the reconstructed and the sonic's (u, v, w) over a box, as simulated at tier ``los``.
+    """Within-period variances of the reconstructed and the sonic's (u, v, w) over a box, as simulated at tier ``los``.
 
     The expectation over the boxes of one grid
     (:func:`~cwlidar_sim.analysis.linear_theory.lattice_spectra`: the

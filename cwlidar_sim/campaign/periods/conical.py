@@ -160,7 +160,7 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
     t0 = time.perf_counter()
     tensor, su, ustar = scene.turbulence.resolve(_tensor_height(scene, index), p.mean_speed)
     s = scene.scan
-    theory = s.theory_mode()
+    theory = scene.resolve_theory()[0]  # "auto" chosen here too where the runner's resolve did not run
     if theory == "only":  # the linear theory alone (conical_theory): no box, no lidar, no cup
         rows = conical_theory.theory_rows(scene, index, tensor, su, ustar)
         rows[0]["wall_s"] = time.perf_counter() - t0

@@ -179,3 +179,24 @@ def test_interpolation_in_u_moves_the_ratios_less_than_stated():
         for n in (1, 3):
             assert abs(got["scans"][n]["std_ratio"] - direct["scans"][n]["std_ratio"]) < bound, (U, n)
         assert got["cup_std"] == pytest.approx(direct["cup_std"], rel=1e-3)
+
+
+def test_auto_answers_a_tier_los_scene_by_the_theory_and_says_why(few_k1):
+    """``theory = "auto"``: a tier-los scene without variants is answered by the theory alone, the results saying
+    so (``answer``) and why (``auto_choice``); a scene asking for the estimator or variants is simulated with the
+    theory beside it; a cycling one has none."""
+    from cwlidar_sim.campaign import run_scene
+    from cwlidar_sim.campaign.scenes.conical import ScanSpec
+
+    ds = run_scene(_scene("auto"), None, progress=False)
+    assert "theory" in ds.attrs["answer"]
+    why = json.loads(ds.attrs["auto_choice"])["scan.theory"]
+    assert why.startswith("only: ") and "tier los" in why
+    assert np.all(np.isfinite(ds.std_ratio.values)) and np.all(ds.std_ratio.values == ds.std_ratio_theory.values)
+    choice, why = _scene("auto", tier="spectral").resolve_theory()
+    assert choice == "continuum" and "lidar.tier = 'spectral'" in why
+    choice, why = _scene("auto", variants=({"name": "raise10", "threshold_raise_percent": 10.0},)).resolve_theory()
+    assert choice == "continuum" and "lidar.variants" in why
+    cyc = _scene(None).replace(scan=ScanSpec(heights=(40.0, 60.0), cycle=True, revs_per_height=3, theory="auto"))
+    assert cyc.resolve_theory()[0] == "none"
+    assert _scene("continuum").resolve_theory() == ("continuum", "")

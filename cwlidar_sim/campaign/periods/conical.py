@@ -180,11 +180,15 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
                                                      refocus_time=refocus, lidar_overrides=lidar, **kw)
     else:
         rows = [conical_simulation.simulate_conical_period(z, scene.unit_seed(index), lidar_overrides=lidar, **kw)]
+    t_theory = time.perf_counter()
     if theory in ("continuum", "lattice"):
         conical_theory.add_theory(rows, scene, index, tensor, spacing)
     if theory == "lattice":
         lattice_theory.add_lattice_theory(rows, scene, index, tensor, spacing, box_options=box_options,
                                           condition=condition)
+    if theory != "none":  # the theory's wall time in this unit (0 where this process had it already)
+        for r in rows:
+            r["cost_s"]["theory"] = time.perf_counter() - t_theory
     wall = time.perf_counter() - t0
     for r in rows:
         r["sigma_u_target"], r["u_star"] = su, ustar

@@ -124,6 +124,7 @@ CONVERGENCE = {
 #: ``U_SPAN`` wide (max / min), used where a group (the scene's units sharing height, direction, duration and the
 #: tensor's L and Gamma) has more distinct speeds than nodes.
 U_NODES = 5
+#: The widest piece of a group's speeds one interpolant spans (max / min; module notes).
 U_SPAN = 4.0
 #: What the interpolant moves the std ratios by against the theory at each U (module notes; largest over the 1- and
 #: 3-revolution scans at off-node speeds, CS scene at 40 and 100 m, 600 s, U over [4, 16] m/s).
@@ -277,7 +278,7 @@ def speed_ranges(scene) -> dict:
     """Per unit index, the speed range ``(lo, hi)`` [m/s] of its group where it is interpolated in U, else None.
 
     A group: the scene's units of one height, wind direction and period duration whose tensors share L and Gamma
-    (:meth:`TurbulenceSpec.params <cwlidar_sim.campaign.scenes.turbulence_spec.TurbulenceSpec.params>`).  Its
+    (the scene's ``turbulence.params(height, speed)``).  Its
     speeds are cut into pieces equally wide in ln U, each at most :data:`U_SPAN` wide, and it is interpolated (each
     unit in its piece's range) where it has more distinct speeds than the pieces' :data:`U_NODES` nodes in all
     (fewer are cheaper computed each).

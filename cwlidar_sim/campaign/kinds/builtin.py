@@ -102,6 +102,13 @@ class ConicalKind(UnitModuleKind):
     #: reproduce --quick: the first templates kept, at every height.
     quick_periods = 2
 
+    def resolve(self, scene):
+        """``scan.theory = "auto"``: the theory alone where it answers the scene, else beside the simulation."""
+        if scene.scan.theory != "auto":
+            return scene, {}
+        choice, why = scene.resolve_theory()
+        return scene.replace(scan=dataclasses.replace(scene.scan, theory=choice)), {"scan.theory": f"{choice}: {why}"}
+
     def figures(self, ds, out_dir) -> list:
         return conical_figures.make_cs_figures(ds, out_dir)
 

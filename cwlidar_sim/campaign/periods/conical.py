@@ -160,7 +160,8 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
     t0 = time.perf_counter()
     tensor, su, ustar = scene.turbulence.resolve(_tensor_height(scene, index), p.mean_speed)
     s = scene.scan
-    if s.theory == "only":  # the linear theory alone (conical_theory): no box, no lidar, no cup
+    theory = scene.resolve_theory()[0]  # "auto" chosen here too where the runner's resolve did not run
+    if theory == "only":  # the linear theory alone (conical_theory): no box, no lidar, no cup
         rows = conical_theory.theory_rows(scene, index, tensor, su, ustar)
         rows[0]["wall_s"] = time.perf_counter() - t0
         return unit_dataset(scene, index, rows)
@@ -179,10 +180,15 @@ def run_unit(scene: ConicalScene, index: int, params=None, *, status=None, condi
                                                      refocus_time=refocus, lidar_overrides=lidar, **kw)
     else:
         rows = [conical_simulation.simulate_conical_period(z, scene.unit_seed(index), lidar_overrides=lidar, **kw)]
-    if s.theory == "continuum":
+    t_theory = time.perf_counter()
+    if theory in ("continuum", "lattice"):
         conical_theory.add_theory(rows, scene, index, tensor, spacing)
+    if theory == "lattice":
         lattice_theory.add_lattice_theory(rows, scene, index, tensor, spacing, box_options=box_options,
                                           condition=condition)
+    if theory != "none":  # the theory's wall time in this unit (0 where this process had it already)
+        for r in rows:
+            r["cost_s"]["theory"] = time.perf_counter() - t_theory
     wall = time.perf_counter() - t0
     for r in rows:
         r["sigma_u_target"], r["u_star"] = su, ustar
@@ -236,6 +242,10 @@ def unit_dataset(scene: ConicalScene, index: int, rows):
             vals = [[r["theory"]["scans"][n][name] for n in revs] if per_scan else r["theory"][name] for r in rows]
             dv[key] = ((("period", "scan_s") if per_scan else ("period",)), np.array(vals, dtype=float),
                        {"units": units, "long_name": long.format(span=span), **t_attrs})
+        dv["theory_u_nodes"] = (("period",), np.array([len(r["theory"].get("u_nodes", ())) for r in rows]),
+                                {"units": "1", "long_name": "nodes in U the unit's *_theory are interpolated "
+                                                            "between (0: computed at its own U)",
+                                 "theory_u": t_attrs["theory_u"]})
     dv.update(lattice_theory.unit_variables(rows, revs, span))  # the same over the unit's box, beside it
     dv["mean_speed"] = (("period",), np.array([float(p.mean_speed)] * len(rows)), {"units": "m s-1"})
     dv["u_star"] = (("period",), np.array([np.nan if r.get("u_star") is None else float(r["u_star"]) for r in rows]),

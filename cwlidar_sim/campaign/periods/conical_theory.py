@@ -1,7 +1,8 @@
 """The linear theory of a conical scene's lidar/cup standard-deviation ratio, beside its simulation or instead of it.
 
-A conical scene (:mod:`cwlidar_sim.campaign.scenes.conical`) with ``[scan]
-theory = "continuum"`` carries, in every unit and in its summary,
+A conical scene (:mod:`cwlidar_sim.campaign.scenes.conical`) carries by
+default (``[scan] theory`` unset, ``"continuum"`` or ``"lattice"``; not in
+cycle mode), in every unit and in its summary,
 ``std_ratio_theory``, ``lidar_std_theory`` and ``cup_std_theory``: the
 expected values of what the period measures, to first order in the
 turbulence intensity, from the Mann tensor of the unit
@@ -50,6 +51,32 @@ the scan and the period's duration, not on the seed: it is computed once per
 distinct set of these (cached within a process), the periods of one
 template sharing it.
 
+Interpolation in U: the std ratio depends on the tensor only through L and
+Gamma (the variances are proportional to ``alpha_eps``), and smoothly on U.
+Where a scene has many speeds, the units of one height, direction and
+duration whose tensors share L and Gamma (a group, :func:`speed_ranges`)
+share an interpolant instead of a computation each: :data:`U_NODES`
+Chebyshev-Lobatto nodes in ln U over the group's speeds (cut into pieces at
+most :data:`U_SPAN` wide), computed at ``alpha_eps = 1``; ln of each
+standard deviation is interpolated and scaled by ``sqrt(alpha_eps)``
+(:func:`interpolated_theory`).  It is used only where the group has more
+distinct speeds than nodes (the CS scene's four speeds per height and
+direction are computed each, as before).  Against the theory computed at
+off-node speeds (:data:`U_INTERPOLATION`; 4-16 m/s, 600 s, both scans) it
+moves the ratios by at most 1.5e-4 at 40 m (the adaptive grid's own jitter
+between speeds: 4 nodes give 1.4e-4, 7 give 6e-5) and 2.7e-6 at 100 m;
+stated as 2e-4 (tests/campaign/periods/test_conical_theory.py).  The unit's
+``theory_u_nodes`` says how many nodes its values came from (0: its own U)
+and the variables' ``theory_u`` attribute states the scheme and error.
+
+Cost: one computation takes 2.4-3 s of CPU (about 6 s of wall at load 6 on
+2 cores); it is cached per process, so the CS scene's 144 units need 24 (4
+heights x 6 period templates: their speeds and directions): 66 s of CPU in
+all, 4 % of the scene's simulation (tier spectral: 19, 12, 10 and 9 s of
+CPU per unit at 40, 60, 80 and 100 m, about 1650 s for the 144).  The
+lattice (``theory = "lattice"``) adds about 7 s of CPU per distinct unit at
+100 m and is not interpolated (the box's length follows U).
+
 ``theory = "only"`` answers a tier-``los`` scene by the theory alone
 (:func:`theory_rows`): the units hold the theory in the simulated variables'
 places (``std_ratio``, ``lidar_std``, ``cup_std``; ``cup_mean`` = U), the
@@ -60,6 +87,7 @@ speed's bias: not linear, or not in the theory) are NaN, and
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -70,7 +98,8 @@ from ...analysis import linear_theory as lt
 from . import theory as th
 from .conical_simulation import _conical_lidar
 
-__all__ = ["THEORY_VARS", "K1_RANGE", "N_START", "TOL", "RESOLUTION", "CONVERGENCE", "unit_theory", "theory_rows",
+__all__ = ["THEORY_VARS", "K1_RANGE", "N_START", "TOL", "RESOLUTION", "CONVERGENCE", "U_NODES", "U_SPAN", "U_INTERPOLATION",
+           "unit_theory", "u_nodes", "interpolated_theory", "speed_ranges", "scene_theory", "theory_rows",
            "theory_attrs"]
 
 #: The theory's variables: per scan length (``scan=True``) or per unit.
@@ -93,6 +122,22 @@ CONVERGENCE = {
     "40": {"tol / 4": 5e-6, "n_start x 2": 3.3e-5, "resolution x 2": 1e-6, "sub_dwells unmerged": 3.5e-4},
     "100": {"tol / 4": 8.7e-5, "n_start x 2": 1.3e-4, "resolution x 2": 1e-6, "sub_dwells unmerged": 2.8e-4},
 }
+
+#: The interpolant in U (module notes): Chebyshev-Lobatto nodes in ln U over a piece of a group's speeds at most
+#: ``U_SPAN`` wide (max / min), used where a group (the scene's units sharing height, direction, duration and the
+#: tensor's L and Gamma) has more distinct speeds than nodes.
+U_NODES = 5
+#: The widest piece of a group's speeds one interpolant spans (max / min; module notes).
+U_SPAN = 4.0
+#: What the interpolant moves the std ratios by against the theory at each U (module notes; largest over the 1- and
+#: 3-revolution scans at off-node speeds, CS scene at 40 and 100 m, 600 s, U over [4, 16] m/s).
+U_INTERPOLATION = {"nodes": U_NODES, "span": U_SPAN, "range_m_s": [4.0, 16.0], "max_error_std_ratio": 2e-4,
+                   "measured": {"40": 1.5e-4, "100": 2.7e-6}}
+
+#: This module's and the lattice's cache (:func:`~cwlidar_sim.campaign.periods.theory.cached` with ``store``): a few
+#: numbers per entry, room for every distinct unit and interpolation node of a large scene (the shared cache keeps 32).
+_CACHE: dict = {}
+_CACHE_SIZE = 4096
 
 
 def _merge_sub_dwells(vad, nsub: int):
@@ -143,7 +188,8 @@ def unit_theory(lidar, height: float, mean_speed: float, duration: float, params
     """
     key = (repr(lidar), float(height), float(mean_speed), float(duration), repr(params), tuple(scan_revs), repr(cup),
            N_START, TOL, K1_RANGE, RESOLUTION)
-    return th.cached(key, lambda: _unit_theory(lidar, height, mean_speed, duration, params, scan_revs, cup))
+    return th.cached(key, lambda: _unit_theory(lidar, height, mean_speed, duration, params, scan_revs, cup),
+                     store=_CACHE, size=_CACHE_SIZE)
 
 
 def _unit_theory(lidar, height, mean_speed, duration, params, scan_revs, cup, merge: bool = True) -> dict:
@@ -177,6 +223,109 @@ def _unit_theory(lidar, height, mean_speed, duration, params, scan_revs, cup, me
     return out
 
 
+def u_nodes(u_min: float, u_max: float, n: int | None = None) -> np.ndarray:
+    """``n`` (default :data:`U_NODES`) Chebyshev-Lobatto nodes in ln U over ``[u_min, u_max]`` [m/s], increasing."""
+    n = U_NODES if n is None else int(n)
+    a, b = math.log(float(u_min)), math.log(float(u_max))
+    x = -np.cos(np.pi * np.arange(n) / (n - 1))
+    return np.exp(0.5 * (a + b) + 0.5 * (b - a) * x)
+
+
+def _lobatto_interpolate(nodes, values, u: float) -> float:
+    """The polynomial in ln U through ``values`` at the Chebyshev-Lobatto ``nodes``, at ``u`` (barycentric form)."""
+    x = np.log(np.asarray(nodes, dtype=float))
+    xu = math.log(float(u))
+    d = xu - x
+    hit = np.flatnonzero(np.abs(d) <= 1e-14 * max(1.0, abs(xu)))
+    if hit.size:
+        return float(values[hit[0]])
+    w = (-1.0) ** np.arange(x.size)
+    w[0] *= 0.5
+    w[-1] *= 0.5
+    q = w / d
+    return float(np.dot(q, values) / q.sum())
+
+
+def interpolated_theory(lidar, height: float, mean_speed: float, duration: float, params, scan_revs, cup,
+                        u_range, n: int | None = None) -> dict:
+    """:func:`unit_theory` at ``mean_speed`` from its values at :func:`u_nodes` over ``u_range`` (module notes).
+
+    The nodes are computed at ``alpha_eps = 1`` (the variances are proportional to it; the ratios do not depend on
+    it) and cached, so every unit of a group shares them; ln of each standard deviation is interpolated in ln U
+    and scaled by ``sqrt(alpha_eps)``, the ratio taken from them.
+
+    Returns
+    -------
+    dict
+        As :func:`unit_theory`, with ``u_nodes`` [m/s].
+    """
+    nodes = u_nodes(u_range[0], u_range[1], n)
+    unit = dataclasses.replace(params, alpha_eps=1.0)
+    at = [unit_theory(lidar, height, float(u), duration, unit, scan_revs, cup) for u in nodes]
+    amp = math.sqrt(float(params.alpha_eps))
+
+    def interp(get):
+        return amp * math.exp(_lobatto_interpolate(nodes, np.log([get(t) for t in at]), mean_speed))
+
+    cup_std = interp(lambda t: t["cup_std"])
+    out = {"cup_std": cup_std, "scans": {}, "n_k1": max(t["n_k1"] for t in at),
+           "grid_error": max(t["grid_error"] for t in at), "converged": all(t["converged"] for t in at),
+           "u_nodes": [float(u) for u in nodes], "wall_s": sum(t["wall_s"] for t in at)}
+    for m in scan_revs:
+        lid = interp(lambda t: t["scans"][m]["lidar_std"])
+        out["scans"][m] = {"lidar_std": lid, "std_ratio": lid / cup_std}
+    return out
+
+
+def speed_ranges(scene) -> dict:
+    """Per unit index, the speed range ``(lo, hi)`` [m/s] of its group where it is interpolated in U, else None.
+
+    A group: the scene's units of one height, wind direction and period duration whose tensors share L and Gamma
+    (the scene's ``turbulence.params(height, speed)``).  Its
+    speeds are cut into pieces equally wide in ln U, each at most :data:`U_SPAN` wide, and it is interpolated (each
+    unit in its piece's range) where it has more distinct speeds than the pieces' :data:`U_NODES` nodes in all
+    (fewer are cheaper computed each).
+    """
+    key = ("u_groups", json.dumps(scene.as_dict(), sort_keys=True, default=str), U_NODES, U_SPAN)
+    return th.cached(key, lambda: _speed_ranges(scene), store=_CACHE, size=_CACHE_SIZE)
+
+
+def _speed_ranges(scene) -> dict:
+    tensors, groups, member = {}, {}, {}
+    for i, (p, z) in enumerate(scene.units()):
+        U = float(p.mean_speed)
+        if (z, U) not in tensors:
+            tensors[z, U] = scene.turbulence.params(z, U)
+        t = tensors[z, U]
+        if t is None:
+            continue
+        g = (float(z), float(p.toward_deg), float(scene.period_duration(p)), float(t.length_scale), float(t.gamma))
+        groups.setdefault(g, set()).add(U)
+        member[i] = g
+    out = {i: None for i in range(len(scene.units()))}
+    units = scene.units()
+    for i, g in member.items():
+        lo, hi = min(groups[g]), max(groups[g])
+        pieces = max(1, math.ceil(math.log(hi / lo) / math.log(U_SPAN) - 1e-9))
+        if len(groups[g]) <= U_NODES * pieces:
+            continue
+        edges = np.exp(np.linspace(math.log(lo), math.log(hi), pieces + 1))
+        edges[0], edges[-1] = lo, hi
+        j = min(pieces - 1, int(np.searchsorted(edges, float(units[i][0].mean_speed), side="right")) - 1)
+        out[i] = (float(edges[j]), float(edges[j + 1]))
+    return out
+
+
+def scene_theory(scene, index: int, tensor, lidar, height: float, cup) -> dict:
+    """The theory of unit ``index``: :func:`unit_theory` at its U, or :func:`interpolated_theory` in its group."""
+    p, _ = scene.units()[index]
+    U, T = float(p.mean_speed), scene.period_duration(p)
+    span = speed_ranges(scene)[index]
+    if span is None:
+        return unit_theory(lidar, height, U, T, tensor, scene.scan.scan_revs, cup)
+    return interpolated_theory(lidar, height, U, T, tensor, scene.scan.scan_revs, cup, span)
+
+
 def theory_attrs(lidar, params) -> dict:
     """The theory variables' attributes: what the theory is, its weighting, tensor, box and numerics."""
     return {"theory": "linear (first order in the turbulence intensity), frozen turbulence, tier los (no speckle, "
@@ -187,7 +336,11 @@ def theory_attrs(lidar, params) -> dict:
             "theory_numerics": json.dumps({"k1": "adaptive (analysis.linear_theory.adaptive_spectra)",
                                            "k1_range": list(K1_RANGE), "n_start": N_START, "tol": TOL,
                                            "resolution": RESOLUTION, "sub_dwells": "merged",
-                                           "convergence": CONVERGENCE})}
+                                           "convergence": CONVERGENCE}),
+            "theory_u": ("at each unit's own U, or, where theory_u_nodes > 0, interpolated in ln U between that many "
+                         "Chebyshev-Lobatto nodes over the speeds of the scene's units sharing its height, direction, "
+                         "duration, L and Gamma (campaign.periods.conical_theory.interpolated_theory): "
+                         + json.dumps(U_INTERPOLATION))}
 
 
 def scene_lidar(scene, index: int, spacing: float):
@@ -205,9 +358,9 @@ def theory_rows(scene, index: int, tensor, su, ustar) -> list:
 
     p, z = scene.units()[index]
     lidar, z = scene_lidar(scene, index, 1.0)
-    U, T = float(p.mean_speed), scene.period_duration(p)
+    U = float(p.mean_speed)
     cup = Cup(position=(0.0, 0.0, z))
-    t = unit_theory(lidar, z, U, T, tensor, scene.scan.scan_revs, cup)
+    t = scene_theory(scene, index, tensor, lidar, z, cup)
     nan = math.nan
     row = {"height": z, "params": tensor.as_dict(), "u_star": ustar, "sigma_u_target": su,
            "in_situ_position": (0.0, 0.0, z), "cup_mean": U, "cup_std": t["cup_std"], "sonic_std": nan,
@@ -225,10 +378,8 @@ def add_theory(rows, scene, index: int, tensor, lidar_fields_spacing: float) -> 
     """Put the theory of unit ``index`` (dwell mode) into its simulated ``rows`` (``theory = "continuum"``)."""
     from ...sensors import Cup
 
-    p, _ = scene.units()[index]
     lidar, z = scene_lidar(scene, index, lidar_fields_spacing)
     for r in rows:
         cup = Cup(position=(0.0, 0.0, z))
-        r["theory"] = unit_theory(lidar, z, float(p.mean_speed), scene.period_duration(p), tensor,
-                                  scene.scan.scan_revs, cup)
+        r["theory"] = scene_theory(scene, index, tensor, lidar, z, cup)
         r["theory_attrs"] = theory_attrs(lidar, tensor)

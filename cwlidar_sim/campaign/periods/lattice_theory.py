@@ -1,8 +1,8 @@
 """The lattice theory of a conical unit: its lidar/cup standard-deviation ratio as the unit's own box holds it.
 
 Beside the continuum theory (:mod:`cwlidar_sim.campaign.periods.conical_theory`,
-``std_ratio_theory`` ...), every conical unit that carries the theory also
-carries ``std_ratio_theory_lattice``, ``lidar_std_theory_lattice`` and
+``std_ratio_theory`` ...), every unit of a conical scene with ``[scan]
+theory = "lattice"`` also carries ``std_ratio_theory_lattice``, ``lidar_std_theory_lattice`` and
 ``cup_std_theory_lattice``: the same statistics, to first order in the
 turbulence intensity, over the boxes the simulation draws for that unit --
 the sum over the box's own modes
@@ -55,7 +55,7 @@ import numpy as np
 
 from ...analysis import linear_theory as lt
 from . import theory as th
-from .conical_theory import _merge_sub_dwells
+from .conical_theory import _CACHE, _CACHE_SIZE, _merge_sub_dwells
 
 __all__ = ["LATTICE_VARS", "DENSE_ROWS", "ROW_RATIO", "sparse_rows", "unit_lattice_theory", "add_lattice_theory",
            "unit_variables"]
@@ -129,7 +129,8 @@ def unit_lattice_theory(lidar, height: float, mean_speed: float, duration: float
            tuple(scan_revs), repr(cup), tuple(int(n) for n in shape), tuple(float(d) for d in spacing),
            bool(hf_compensation), bool(all_rows), str(probe), DENSE_ROWS, ROW_RATIO)
     return th.cached(key, lambda: _unit_lattice_theory(lidar, height, mean_speed, duration, params, scan_revs, cup,
-                                                       shape, spacing, hf_compensation, all_rows, probe))
+                                                       shape, spacing, hf_compensation, all_rows, probe),
+                     store=_CACHE, size=_CACHE_SIZE)
 
 
 def _unit_lattice_theory(lidar, height, mean_speed, duration, params, scan_revs, cup, shape, spacing,

@@ -64,17 +64,21 @@ _CACHE: dict = {}
 _CACHE_SIZE = 32
 
 
-def cached(key, compute):
+def cached(key, compute, *, store=None, size=None):
     """``compute()``, once per ``key`` in this process (the oldest of ``_CACHE_SIZE`` entries dropped).
 
     The periods' theory depends on the scene, not the realisation: every
     period that shares a geometry, tensor, U and duration reuses it.
+    ``store`` and ``size``: a module's own cache dict and its size (a
+    theory of small results, more entries than a scene's distinct units).
     """
-    if key not in _CACHE:
-        if len(_CACHE) >= _CACHE_SIZE:
-            _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = compute()
-    return _CACHE[key]
+    store = _CACHE if store is None else store
+    size = _CACHE_SIZE if size is None else int(size)
+    if key not in store:
+        if len(store) >= size:
+            store.pop(next(iter(store)))
+        store[key] = compute()
+    return store[key]
 
 
 def _probe(lidar, instrument):

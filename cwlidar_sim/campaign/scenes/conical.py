@@ -97,6 +97,8 @@ __all__ = ["ScanSpec", "SurfaceTurbulenceSpec", "ConicalPeriodSpec", "ConicalSce
 
 #: scan keys that only a cycling lidar uses.
 CYCLE_KEYS = ("revs_per_height", "refocus_time")
+#: ``[scan] theory``'s spellings (:class:`ScanSpec`).
+THEORY_CHOICES = ("none", "continuum", "lattice", "only", "auto")
 
 
 def default_spacing(height: float) -> float:
@@ -140,12 +142,24 @@ class ScanSpec(Spec):
         per height, each in [1, 10000]: height i runs that many periods,
         cycling through the ``[[period]]`` tables (module notes); dwell mode
         only.
-    theory : {None, 'none', 'continuum', 'only'}
+    theory : {None, 'none', 'continuum', 'lattice', 'only'}
         The linear theory of the std ratios
-        (:mod:`cwlidar_sim.campaign.periods.conical_theory`): None (default)
-        or ``"none"``: none; ``"continuum"``: beside the simulation (``*_theory``
-        variables); ``"only"``: instead of it, for a tier ``los`` scene
-        without processing variants (dwell mode, a generated field).
+        (:mod:`cwlidar_sim.campaign.periods.conical_theory`).  None (default):
+        ``"continuum"`` in dwell mode, ``"none"`` in cycle mode; ``"none"``:
+        none; ``"continuum"``: the continuum beside the simulation
+        (``*_theory`` variables; a few seconds per distinct height, speed and
+        direction, cached, or interpolated in U where a height has many
+        speeds); ``"lattice"``: the continuum and the theory over the unit's
+        own box beside it (``*_theory_lattice``,
+        :mod:`cwlidar_sim.campaign.periods.lattice_theory`: about 20 s more
+        per distinct unit); ``"only"``: the continuum instead of the
+        simulation, for a tier ``los`` scene without processing variants
+        (dwell mode, a generated field); ``"auto"``: ``"only"`` where the
+        scene allows it, else ``"continuum"`` (cycle mode: ``"none"``), the
+        choice and its reason in the results' ``auto_choice``
+        (:meth:`ConicalScene.resolve_theory`).  Until results version 9,
+        ``"continuum"`` also carried the lattice variables (now
+        ``"lattice"``) and the default was none.
     """
 
     heights: tuple = (40.0, 60.0, 80.0, 100.0)
@@ -212,10 +226,16 @@ class ScanSpec(Spec):
                              "height in each period); allowed: cycle = false, or no periods_per_height")
         set_field(self, "periods_per_height", plan)
         if self.theory is not None:
-            check_choice("scan.theory", self.theory, ("none", "continuum", "only"))
-            if self.cycle and self.theory != "none":
+            check_choice("scan.theory", self.theory, THEORY_CHOICES)
+            if self.cycle and self.theory not in ("none", "auto"):
                 raise ValueError(f"scan.theory = {self.theory!r} needs scan.cycle = false (the theory takes one "
                                  f"height's scans evenly spaced over the period); allowed: cycle = false")
+
+    def theory_mode(self) -> str:
+        """The theory this scan carries: ``theory``, or for None the default (``"continuum"``; cycle: ``"none"``)."""
+        if self.theory is not None:
+            return self.theory
+        return "none" if self.cycle else "continuum"
 
     def block_time(self) -> float:
         """Cycle mode: the time of one height's block, revolutions plus refocus [s]."""
@@ -409,7 +429,7 @@ class ConicalScene(SceneSpec):
                                      f"{nh} heights ({nh} x {block:g} s blocks); allowed: longer periods or fewer "
                                      f"revs_per_height")
 
-        if self.scan.theory == "only":
+        if self.scan.theory_mode() == "only":
             _check_theory_only(self)
         # the lidar's own checks (focus range, dwell, cells, clouds), named by field, at every height
         from ...sensors.conical import ConicalLidar
@@ -516,9 +536,28 @@ class ConicalScene(SceneSpec):
         """A path of the scene file, relative to the scene's folder."""
         return resolve_path(self.base_dir, path)
 
+    def resolve_theory(self) -> tuple:
+        """``scan.theory = "auto"`` chosen: ``(choice, reason)``; any other spelling: itself and ``""``.
 
-def _check_theory_only(scene) -> None:
-    """``scan.theory = "only"``: refused by name where the theory cannot answer what the scene asks."""
+        ``"only"`` (the theory alone, in seconds) where the scene asks only
+        for what it answers (tier ``los``, no processing variants, a
+        generated field, dwell mode); otherwise ``"continuum"`` beside the
+        simulation (``"none"`` in cycle mode, which the theory cannot take).
+        """
+        if self.scan.theory != "auto":
+            return self.scan.theory_mode(), ""
+        if self.scan.cycle:
+            return "none", "the lidar cycles through the heights (scan.cycle = true), which the theory cannot take"
+        why = _theory_only_blockers(self)
+        if why:
+            return "continuum", "simulated, the theory beside it: the scene asks for " + "; ".join(why)
+        return "only", ("the linear theory alone, no simulation: tier los, no processing variants and a generated "
+                        "field, whose lidar/cup std ratios are linear statistics the theory gives exactly to first "
+                        "order; set scan.theory = 'continuum' to simulate them")
+
+
+def _theory_only_blockers(scene) -> list:
+    """What a scene asks for that ``scan.theory = "only"`` cannot answer (empty: nothing)."""
     why = []
     if scene.lidar.tier != "los":
         why.append(f"lidar.tier = {scene.lidar.tier!r} (the theory is tier los's answer: no speckle, noise or "
@@ -529,6 +568,12 @@ def _check_theory_only(scene) -> None:
         why.append("turbulence.condition_on (records to condition a box on)")
     if scene.turbulence.file is not None:
         why.append("turbulence.file (a field, not a tensor)")
+    return why
+
+
+def _check_theory_only(scene) -> None:
+    """``scan.theory = "only"``: refused by name where the theory cannot answer what the scene asks."""
+    why = _theory_only_blockers(scene)
     if why:
         raise ValueError("scan.theory = 'only' answers the linear statistics (the lidar/cup std ratios) of a tier "
                          "los scene by the theory alone; this scene asks for " + "; ".join(why)

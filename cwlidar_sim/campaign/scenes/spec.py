@@ -42,8 +42,10 @@ __all__ = ["RESULTS_VERSION", "Spec", "SceneSpec", "set_path", "select_periods",
 #: misaligned-beam theory on the one-point quadrature's k3 nodes, its spectra moved by <= 3e-5; 7: one
 #: availability, the usable fraction, NEAR_ZERO / NEAR_NYQUIST estimates left out of it and of the averaged
 #: series: a conical period's ``availability`` drops by its zero-crossing loss; 8: a nacelle period keeps its
-#: preview series, ``preview_estimate``, ``preview_rews`` and ``preview_delay``, for the preview file).
-RESULTS_VERSION = 8
+#: preview series, ``preview_estimate``, ``preview_rews`` and ``preview_delay``, for the preview file; 9: a conical
+#: scene carries the continuum theory by default and ``scan.theory = "continuum"`` no longer the lattice (now
+#: ``"lattice"``): a period stored before would mix units with and without the theory's variables).
+RESULTS_VERSION = 9
 
 
 def set_field(obj, name: str, value) -> None:

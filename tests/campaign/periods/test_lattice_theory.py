@@ -14,7 +14,7 @@ from cwlidar_sim.sensors import Cup
 
 def _scene(duration=60.0):
     cs = bundled_scene("cs")
-    return cs.replace(scan=dataclasses.replace(cs.scan, heights=(40.0,), periods_per_height=(), theory="continuum"),
+    return cs.replace(scan=dataclasses.replace(cs.scan, heights=(40.0,), periods_per_height=(), theory="lattice"),
                       periods=cs.periods[:1], lidar=dataclasses.replace(cs.lidar, tier="los"), duration=duration)
 
 

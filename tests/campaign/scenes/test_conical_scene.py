@@ -134,3 +134,32 @@ def test_turbulence_the_wind_cannot_carry_is_refused():
     loads_scene(fixed.replace("mean_speed = 8.0", "mean_speed = 6.0"))  # 0.48
     with pytest.raises(ValueError, match=r"period\[0\] \('a'\): the tensor alpha_eps=0.5 .* sigma_u/U = 0.57"):
         loads_scene(fixed.replace("mean_speed = 8.0", "mean_speed = 5.0"))
+
+
+def test_a_run_stored_before_the_theory_default_is_computed_again(tmp_path, monkeypatch):
+    """Results version 8 stored a conical period without the theory (then off by default; and 'continuum' carried the
+    lattice): resuming such a run with this version must not reuse its periods beside new ones that carry the
+    theory (the combined file would mix units with and without *_theory); they are computed again, all alike."""
+    from cwlidar_sim.campaign.execution import store
+    from cwlidar_sim.campaign.periods import conical, conical_theory
+
+    monkeypatch.setattr(conical_theory, "N_START", 5)  # the theory's plumbing, not its convergence
+    monkeypatch.setattr(conical_theory, "TOL", 2e-2)
+    text = TEXT.replace("duration = 120.0", "duration = 60.0")
+    real = conical.run_unit
+
+    def as_version_8(*a, **k):  # a period as results version 8 wrote it: no theory variables
+        ds = real(*a, **k)
+        return ds.drop_vars([v for v in ds.data_vars if "theory" in v]).assign_attrs(results_version=8)
+
+    with monkeypatch.context() as m:
+        m.setattr(store, "RESULTS_VERSION", 8)
+        m.setattr(conical, "run_unit", as_version_8)
+        old = run_scene(loads_scene(text), tmp_path, progress=False)
+    assert "std_ratio_theory_unit" not in old
+    (tmp_path / "cone.periods" / "001_b_z40.nc").unlink()  # interrupted after its first period
+    calls = []
+    monkeypatch.setattr(conical, "run_unit", lambda *a, **k: calls.append(a[1]) or real(*a, **k))
+    ds = run_scene(loads_scene(text), tmp_path, progress=False)
+    assert calls == [0, 1] and json.loads(ds.attrs.get("periods_reused", "[]")) == []
+    assert np.all(np.isfinite(ds.std_ratio_theory_unit.values)) and ds.attrs["results_version"] != 8

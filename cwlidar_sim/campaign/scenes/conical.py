@@ -142,7 +142,7 @@ class ScanSpec(Spec):
         per height, each in [1, 10000]: height i runs that many periods,
         cycling through the ``[[period]]`` tables (module notes); dwell mode
         only.
-    theory : {None, 'none', 'continuum', 'lattice', 'only'}
+    theory : {None, 'none', 'continuum', 'lattice', 'only', 'auto'}
         The linear theory of the std ratios
         (:mod:`cwlidar_sim.campaign.periods.conical_theory`).  None (default):
         ``"continuum"`` in dwell mode, ``"none"`` in cycle mode; ``"none"``:

@@ -220,6 +220,20 @@ def _check_same_scene(datasets, attrs) -> None:
                                  f"{str(b)[:60]!r}); refusing to combine them")
 
 
+def _check_same_variables(datasets) -> None:
+    """Refuse periods whose variables differ: an outer join would fill the missing ones with NaN, unflagged."""
+    names = set(datasets[0].data_vars)
+    for d in datasets[1:]:
+        other = set(d.data_vars)
+        if other != names:
+            first = str(datasets[0].attrs.get("unit_name", datasets[0].period.values[0]))
+            this = str(d.attrs.get("unit_name", d.period.values[0]))
+            raise ValueError(f"periods {first!r} and {this!r} hold different variables (only in {first!r}: "
+                             f"{sorted(names - other)}; only in {this!r}: {sorted(other - names)}): stored by "
+                             f"two versions or settings of the scene, never mixed; allowed: one run's periods "
+                             f"(remove the stored periods to recompute them)")
+
+
 def combine_periods(datasets, *, fill=None):
     """One Dataset from one-period Datasets, concatenated along ``period`` in index order.
 
@@ -228,8 +242,8 @@ def combine_periods(datasets, *, fill=None):
     integers with 0, or ``fill[name]``).  Per-period attributes become JSON
     maps keyed by period name (``field_reasons``, ``timing``; a unit of
     several rows, a cycling conical period, by its ``unit_name``).  Every
-    other attribute must be the same in all periods (ValueError otherwise:
-    periods of two runs are never mixed).
+    other attribute, and the set of variables, must be the same in all
+    periods (ValueError otherwise: periods of two runs are never mixed).
     """
     import numpy as np
     import xarray as xr
@@ -240,6 +254,7 @@ def combine_periods(datasets, *, fill=None):
         for name, var in d.variables.items():
             if var.dtype.kind in "US":
                 d[name] = var.astype(object)
+    _check_same_variables(datasets)
     fill = dict(fill or {})
     for name, var in datasets[0].data_vars.items():
         if "period" in var.dims and name not in fill and var.dtype != object:

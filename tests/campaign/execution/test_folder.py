@@ -243,6 +243,16 @@ def test_combine_refuses_periods_of_two_runs(tmp_path):
     store.combine_periods([pa, qa])  # the same run's periods combine
 
 
+def test_combine_refuses_periods_with_different_variables(tmp_path):
+    # a period stored before a variable was added must not be NaN-filled beside one that has it
+    run_scene(scene(), tmp_path / "a", progress=False)
+    pa = read_results(tmp_path / "a" / "one.periods" / "000_P.nc")
+    qa = read_results(tmp_path / "a" / "one.periods" / "001_Q.nc")
+    name = next(n for n, v in qa.data_vars.items() if "period" in v.dims)
+    with pytest.raises(ValueError, match=rf"'P' and 'Q' hold different variables \(only in 'P': \['{name}'\]"):
+        store.combine_periods([pa, qa.drop_vars(name)])
+
+
 def test_save_checks_the_key_read_back(tmp_path, monkeypatch):
     run_scene(scene(), tmp_path / "r", progress=False)
     ds = read_results(tmp_path / "r" / "one.periods" / "000_P.nc")

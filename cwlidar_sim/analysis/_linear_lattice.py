@@ -227,12 +227,15 @@ def plane_arguments(fs, shape, spacing, rows, correction, hf_compensation, inter
         raise ValueError(f"rows must be row indices in 1 .. {n1 // 2} (N1 // 2)")
     exact = origin is not None and interp[1] == "linear"
     heights = np.concatenate([f.looks.point_lc[np.any(f.weight_olc != 0.0, axis=(0, 2)), 2] for f in fs])
+    if np.ptp(heights) > 1e-9:
+        raise ValueError(f"functionals: a plane holds looks at one height, got heights "
+                         f"{np.unique(heights).tolist()} m")
     for i, f in enumerate(fs):
         used = np.nonzero(np.any(f.weight_olc != 0.0, axis=(0, 2)))[0]
         n = f.looks.direction_lc[used]
-        if np.ptp(heights) > 1e-9 or np.any(np.abs(n[:, 2]) > 1e-12):
-            raise ValueError(f"functionals[{i}]: a plane holds looks at one height with horizontal directions "
-                             f"(heights {np.unique(heights).tolist()} m, largest |n_z| {np.max(np.abs(n[:, 2])):g})")
+        if np.any(np.abs(n[:, 2]) > 1e-12):
+            raise ValueError(f"functionals[{i}]: a plane holds looks with horizontal directions (n_z = 0), got "
+                             f"|n_z| up to {np.max(np.abs(n[:, 2])):g}")
         if exact and any(f.looks.probe_l[j] is not None and abs(n[m, 1]) > 1e-12 for m, j in enumerate(used)):
             raise ValueError(f"functionals[{i}]: with origin given, a look read across y must be a point or along x "
                              f"(n_y = 0); expand a slanted beam's probe into point looks")

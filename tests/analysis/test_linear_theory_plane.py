@@ -113,8 +113,8 @@ def _line_z(plane_rows, spec):
 def test_plane_lattice_is_the_generators_bilinear_reading(plane_rows):
     """Two outputs of points read bilinearly across y between the plane's nodes (fractions 0.5 and 0.2 of a cell),
     the generator's power in each k1 row over 1200 seeds: the lattice with the plane's placement (origin) within
-    4 standard errors at every line; the aliases summed in power (the mean over placements) and the modes read at
-    the points (no interpolation) are rejected."""
+    4 standard errors at every line; the aliases summed in power (the mean over placements), the modes read at
+    the points (no interpolation) and the plane placed a fifth of a cell off are rejected."""
     a = lt.LinearFunctional(lt.Looks([[0.0, Y_A, 0.0], [0.0, Y_B, 0.0]], [[1.0, 0.0, 0.0]] * 2, None, None),
                             np.array([[[1.0, 0.0, 0.0], [0.0, 0.5, 0.0]]]), ["a"])
     b = lt.point_functional((0.0, Y_B, 0.0), ("u",))
@@ -123,5 +123,6 @@ def test_plane_lattice_is_the_generators_bilinear_reading(plane_rows):
     z = _line_z(plane_rows, exact)
     assert np.all(np.abs(z) < 4.0), np.round(z, 1)
     for other in (lt.lattice_spectra(P, [a, b], U, SHAPE, SPACING, aliases=4, **kw),
-                  lt.lattice_spectra(P, [a, b], U, SHAPE, SPACING)):
-        assert np.max(np.abs(_line_z(plane_rows, other))) > 8.0
+                  lt.lattice_spectra(P, [a, b], U, SHAPE, SPACING),
+                  lt.lattice_spectra(P, [a, b], U, SHAPE, SPACING, origin=(0.0, 0.4), **kw)):
+        assert np.max(np.abs(_line_z(plane_rows, other))) > 6.0  # measured 8.3, 26, 9.2

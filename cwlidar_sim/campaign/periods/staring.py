@@ -375,6 +375,9 @@ def _lattice_theory(scene, r, params, lidar, th):
                     f"move it < 1e-4)")
     if plan.kind != "plane":
         return nan, "NaN: the lattice theory of a staring box is not built (a plane or a line is)"
+    if plan.spacing[0] > r["U"] / 10.0:
+        return nan, (f"NaN: the plane's dx = {plan.spacing[0]:g} m exceeds U / (10 Hz) = {r['U'] / 10.0:.4g} m: the "
+                     f"aliases of its reading along x fall inside the 10-Hz series' band (not built)")
     la, sa = _readings()
     lat = staring_transfer_theory(lidar, plan.sonic_position, params, r["U"], r["tf"].k_edges,
                                   segment_duration=a.segment_duration, sample_rate=10.0, lidar_average=la,

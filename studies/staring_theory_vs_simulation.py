@@ -4,7 +4,9 @@ Paired seeds: each seeded period is its own plane field flown through by the lid
 means (``spectrum_lidar``, ``spectrum_sonic``, ``cross_spectrum_real``) are pooled over the periods and the ratios
 formed from the pooled means, with a jackknife standard error over the periods; the theory is
 ``transfer_ratio_theory`` / ``transfer_cross_theory`` of the results (the period's geometry, range cells, readings'
-filters, window kernel and the field's lines along x).  Prints one row per k bin and the z-scores of broad bands.
+filters, window kernel and the field's lines along x), and ``transfer_ratio_theory_lattice`` /
+``transfer_cross_theory_lattice`` the same on the generated plane's own modes (k2 up to pi / dy, the sub-points and the
+sonic read bilinearly across y).  Prints one row per k bin and the z-scores of broad bands against both.
 
 Run (reduced, ~5 min on 2 loaded cores): ``python studies/staring_theory_vs_simulation.py 24 600``; a finer plane
 across the wind (dy = 0.25 m): ``... 24 600 0.25``; full size: ``python studies/staring_theory_vs_simulation.py
@@ -40,6 +42,8 @@ def run(n, duration, dy=0.5, seed0=33000):
     F = np.array(rows)  # (period, 3, k)
     return {"k": ds.k.values, "k_lower": ds.k_lower.values, "k_upper": ds.k_upper.values, "F": F,
             "theory1": ds.transfer_ratio_theory.values[0], "theory2": ds.transfer_cross_theory.values[0],
+            "lattice1": ds.transfer_ratio_theory_lattice.values[0],
+            "lattice2": ds.transfer_cross_theory_lattice.values[0],
             "old1": ds.transfer_theory_ratio.values[0], "old2": ds.transfer_theory_cross.values[0]}
 
 
@@ -61,31 +65,37 @@ def pooled(F, band=None, k_lower=None, k_upper=None):
     return full[0], se[0], full[1], se[1]
 
 
-def band_theory(res, band, which):
-    """The theory over a band, as the simulation pools it: the theory's ratio weighted by the pooled sonic spectrum."""
+def band_theory(res, band, which, kind="theory"):
+    """The theory over a band, as the simulation pools it: the theory's ratio weighted by the pooled sonic spectrum.
+
+    ``kind``: ``"theory"`` (the continuum) or ``"lattice"`` (the plane's own modes).
+    """
     sel = (res["k_lower"] >= band[0]) & (res["k_upper"] <= band[1])
     s = res["F"][:, 1, sel].sum(axis=0)
     if which == 1:
-        return float(np.sum(res["theory1"][sel] * s) / np.sum(s))
-    return float((np.sum(np.sqrt(res["theory2"][sel]) * s) / np.sum(s)) ** 2)
+        return float(np.sum(res[f"{kind}1"][sel] * s) / np.sum(s))
+    return float((np.sum(np.sqrt(res[f"{kind}2"][sel]) * s) / np.sum(s)) ** 2)
 
 
 def main(n=40, duration=600.0, dy=0.5):
     res = run(n, duration, dy)
     t1, s1, t2, s2 = pooled(res["F"])
     print(f"{n} periods of {duration:g} s, A2012 period C, tier los, plane dy = {dy:g} m")
-    print("   k      sim1     se1    th1     z1 |  sim2     se2    th2     z2 | old1   old2")
+    print("   k      sim1     se1    th1     z1 |  sim2     se2    th2     z2 | lat1    zl1  lat2    zl2")
     for j, kk in enumerate(res["k"]):
         if np.isfinite(t1[j]) and res["theory1"][j] > 1e-3:
             z1 = (t1[j] - res["theory1"][j]) / s1[j]
             z2 = (t2[j] - res["theory2"][j]) / s2[j]
             print(f"{kk:7.4f} {t1[j]:.4f} {s1[j]:.4f} {res['theory1'][j]:.4f} {z1:+5.1f} | {t2[j]:.4f} {s2[j]:.4f} "
-                  f"{res['theory2'][j]:.4f} {z2:+5.1f} | {res['old1'][j]:.4f} {res['old2'][j]:.4f}")
+                  f"{res['theory2'][j]:.4f} {z2:+5.1f} | {res['lattice1'][j]:.4f} {(t1[j] - res['lattice1'][j]) / s1[j]:+5.1f} "
+                  f"{res['lattice2'][j]:.4f} {(t2[j] - res['lattice2'][j]) / s2[j]:+5.1f}")
     for b in BANDS:
         t1, s1, t2, s2 = pooled(res["F"], b, res["k_lower"], res["k_upper"])
-        th1, th2 = band_theory(res, b, 1), band_theory(res, b, 2)
-        print(f"band {b}: method 1 {t1:.4f} +/- {s1:.4f} vs {th1:.4f} (z {(t1 - th1) / s1:+.2f}); "
-              f"method 2 {t2:.4f} +/- {s2:.4f} vs {th2:.4f} (z {(t2 - th2) / s2:+.2f})")
+        for kind in ("theory", "lattice"):
+            th1, th2 = band_theory(res, b, 1, kind), band_theory(res, b, 2, kind)
+            print(f"band {b} {'continuum' if kind == 'theory' else 'lattice  '}: method 1 {t1:.4f} +/- {s1:.4f} vs "
+                  f"{th1:.4f} (z {(t1 - th1) / s1:+.2f}); method 2 {t2:.4f} +/- {s2:.4f} vs {th2:.4f} "
+                  f"(z {(t2 - th2) / s2:+.2f})")
     return res
 
 

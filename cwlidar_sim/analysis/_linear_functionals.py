@@ -154,7 +154,7 @@ class LinearFunctional:
         """Number of outputs."""
         return self.weight_olc.shape[0]
 
-    def transfer(self, k1: float, k2, k3, U: float, *, probes=None) -> np.ndarray:
+    def transfer(self, k1: float, k2, k3, U: float, *, probes=None, read_y=None) -> np.ndarray:
         """Transfer vectors ``g_oc(k)`` at ``(k1, k2_n, k3_n)`` [-], complex, shape (n_o, n_nodes, 3).
 
         Parameters
@@ -167,6 +167,10 @@ class LinearFunctional:
             Mean wind speed [m/s] along +x.
         probes : sequence of callables or None, optional
             Stand-ins for ``looks.probe_l`` (the same functions, e.g. tabulated).
+        read_y : callable, optional
+            ``read_y(y_l, k2) -> (n_l, n_nodes)`` complex: how each look reads
+            a mode's ``exp(i k2 y)`` across y, in place of ``exp(i k2 y_l)``
+            (a plane's nodes interpolated, :func:`~cwlidar_sim.analysis.linear_theory.lattice_spectra`).
         """
         k2 = np.asarray(k2, dtype=float)
         k3 = np.asarray(k3, dtype=float)
@@ -174,8 +178,12 @@ class LinearFunctional:
         probes = lk.probe_l if probes is None else probes
         used = np.nonzero(np.any(self.weight_olc != 0.0, axis=(0, 2)))[0]
         p, n = lk.point_lc[used], lk.direction_lc[used]
-        e_ln = _cis(np.multiply.outer(k1 * (p[:, 0] - U * lk.time_l[used]), np.ones(k2.size))
-                    + np.multiply.outer(p[:, 1], k2) + np.multiply.outer(p[:, 2], k3))
+        if read_y is None:
+            e_ln = _cis(np.multiply.outer(k1 * (p[:, 0] - U * lk.time_l[used]), np.ones(k2.size))
+                        + np.multiply.outer(p[:, 1], k2) + np.multiply.outer(p[:, 2], k3))
+        else:
+            e_ln = _cis(np.multiply.outer(k1 * (p[:, 0] - U * lk.time_l[used]), np.ones(k2.size))
+                        + np.multiply.outer(p[:, 2], k3)) * read_y(p[:, 1], k2)
         for j, i in enumerate(used):
             if probes[i] is not None:
                 e_ln[j] *= np.conj(np.asarray(probes[i](k1 * n[j, 0] + k2 * n[j, 1] + k3 * n[j, 2]), dtype=complex))

@@ -37,6 +37,22 @@ earlier ``-pi / d``-only rule dropped ``+(2 a + 1) pi / d`` and, across y and
 z without interpolation, paired the partner's matrix at ``+pi / d`` with the
 transfer at ``-pi / d``).  The sum does not depend on the generator's sign
 convention.
+
+Planes (``generate_plane``).  A plane's modes ``(k1, k2)`` carry the tensor
+integrated over all k3 (``turbulence.plane_spectra``): for looks in the
+plane (one height, horizontal directions) that is the box's sum with one
+lateral index per k2 and ``k3 = 0`` (:class:`PlaneRows` gives the rows in the
+box's layout, ``N3 = 1``).  Its bilinear reading across y is either summed
+in power over the aliases as above (the expectation over the plane's
+offset against the instrument), or, with the plane's placement known,
+read exactly (:func:`plane_lines`): each look at ``y`` reads the nodes
+``j0 dy`` and ``(j0 + 1) dy`` around it, ``(1 - f) exp(i k2 j0 dy) + f
+exp(i k2 (j0 + 1) dy)`` with ``f = y / dy - j0`` (a Nyquist column's
+``(-1)^j`` included, whatever its sign), in place of ``exp(i k2 y)``.  A
+staring beam's weight lies within a few metres of its focus, which a
+misalignment of 1.2 deg moves across y by a fraction of a cell: its looks
+and a sonic at the focus read one fraction of a cell, not the average
+over fractions.
 """
 
 from __future__ import annotations
@@ -44,6 +60,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from .._validation import check_choice, check_int, check_real, check_tuple
+from ..turbulence._discrete import plane_phi_rows
 
 #: Alias terms (beyond the principal ones) whose gain L_x^2 L_y^2 L_z^2 is below this are skipped.
 _ALIAS_TOL = 1e-12
@@ -124,3 +143,102 @@ def lattice_lines(df, rows, g2, g3, spacing, interp, aliases, n_a, accumulate):
     keys = sorted(lines)
     out = np.array([lines[k] for k in keys]).reshape(len(keys), n_a, n_a)
     return np.array(keys, dtype=float) * df.dk1, out / df.dk1
+
+
+class PlaneRows:
+    """A plane's discrete matrices in :func:`lattice_lines`' box layout ``(N1, Ny, 1)`` (its rows on demand)."""
+
+    def __init__(self, params, shape, spacing):
+        self.params, self.plane_shape, self.spacing = params, tuple(shape), tuple(spacing)
+        self.shape = (self.plane_shape[0], self.plane_shape[1], 1)
+        self.dk1 = 2.0 * math.pi / (shape[0] * spacing[0])
+
+    def k1_of_rows(self, rows):
+        r = np.asarray(rows)
+        return self.dk1 * np.where(2 * r < self.shape[0], r, r - self.shape[0])
+
+    def phi_rows(self, rows):
+        return plane_phi_rows(self.params, self.plane_shape, self.spacing, rows)
+
+
+def node_reader(dy, y0):
+    """``read_y(y_l, k2)`` of a plane's bilinear reading across y (module notes): nodes at ``j dy - y0`` [m]."""
+    def read(y_l, k2):
+        u = (np.asarray(y_l, dtype=float) + y0) / dy
+        j0 = np.floor(u)
+        f = (u - j0)[:, None]
+        e0 = np.exp(1j * np.multiply.outer(j0 * dy, k2))
+        return e0 * ((1.0 - f) + f * np.exp(1j * k2 * dy)[None, :])
+    return read
+
+
+def plane_lines(df, rows, transfer, spacing, interp_x, aliases, n_a):
+    """:func:`lattice_lines` of a plane read exactly across y: ``transfer(q1, k2) -> (n_a, n_modes, 3)``.
+
+    ``transfer`` gives the functionals' transfer vectors at ``(q1, k2_n,
+    k3 = 0)`` with each look's reading across y (:func:`node_reader`);
+    ``interp_x`` ``"linear"`` or ``"none"`` as :func:`lattice_lines` (the
+    aliases along x are lines of their own).
+    """
+    dx, dy = spacing
+    n1, n2 = df.plane_shape
+    k2 = 2.0 * math.pi * np.fft.fftfreq(n2, dy)
+    on = interp_x == "linear"
+    lines = {}
+    for r, k1 in zip(rows, df.k1_of_rows(rows).astype(float)):
+        r = int(r)
+        phi = _phi_row(df, r, n2)
+        for s1, w1, _p in _shifts(dx, aliases if on else 0, 2 * r == n1):
+            q1 = float(k1) + s1
+            gx = w1 * _gain(q1, dx, on)
+            if q1 == 0.0 or gx == 0.0:
+                continue
+            g = transfer(q1, k2)
+            acc = 2.0 * gx * np.einsum("ani,nij,bnj->ab", np.conj(g), phi, g)
+            if 2 * r == n1:
+                acc *= 0.5  # the Nyquist row: a single row
+            key = int(round(abs(q1) / df.dk1))
+            lines[key] = lines.get(key, 0.0) + (np.conj(acc) if q1 < 0 else acc)
+    keys = sorted(lines)
+    out = np.array([lines[k] for k in keys]).reshape(len(keys), n_a, n_a)
+    return np.array(keys, dtype=float) * df.dk1, out / df.dk1
+
+
+def plane_arguments(fs, shape, spacing, rows, correction, hf_compensation, interpolation, aliases, origin):
+    """A plane's ``lattice_spectra`` arguments checked: ``(shape, spacing, rows, interp, aliases, origin)``.
+
+    ``origin`` comes back None unless y is read exactly (given, y ``"linear"``).
+    """
+    shape = check_tuple("shape", shape, 2, lambda n, v: check_int(n, v, lo=2))
+    spacing = check_tuple("spacing", spacing, 2, lambda n, v: check_real(n, v, lo=0.0, lo_open=True))
+    if correction != "cell" or hf_compensation:
+        raise ValueError(f"a plane has its own cell averages and no high-frequency compensation: correction='cell', "
+                         f"hf_compensation=False (got {correction!r}, {hf_compensation!r})")
+    interp = (interpolation,) * 2 if isinstance(interpolation, str) else tuple(interpolation)
+    if len(interp) != 2:
+        raise ValueError(f"interpolation of a plane must be 'none', 'linear' or a tuple of two of them, got "
+                         f"{interpolation!r}")
+    for a, v in zip("xy", interp):
+        check_choice(f"interpolation ({a})", v, ("none", "linear"))
+    aliases = check_int("aliases", aliases, lo=0)
+    n1 = shape[0]
+    rows = np.arange(1, n1 // 2 + 1) if rows is None else np.array(rows, dtype=np.int64, ndmin=1)
+    if rows.ndim != 1 or np.any(rows < 1) or np.any(rows > n1 // 2):
+        raise ValueError(f"rows must be row indices in 1 .. {n1 // 2} (N1 // 2)")
+    exact = origin is not None and interp[1] == "linear"
+    heights = np.concatenate([f.looks.point_lc[np.any(f.weight_olc != 0.0, axis=(0, 2)), 2] for f in fs])
+    if np.ptp(heights) > 1e-9:
+        raise ValueError(f"functionals: a plane holds looks at one height, got heights "
+                         f"{np.unique(heights).tolist()} m")
+    for i, f in enumerate(fs):
+        used = np.nonzero(np.any(f.weight_olc != 0.0, axis=(0, 2)))[0]
+        n = f.looks.direction_lc[used]
+        if np.any(np.abs(n[:, 2]) > 1e-12):
+            raise ValueError(f"functionals[{i}]: a plane holds looks with horizontal directions (n_z = 0), got "
+                             f"|n_z| up to {np.max(np.abs(n[:, 2])):g}")
+        if exact and any(f.looks.probe_l[j] is not None and abs(n[m, 1]) > 1e-12 for m, j in enumerate(used)):
+            raise ValueError(f"functionals[{i}]: with origin given, a look read across y must be a point or along x "
+                             f"(n_y = 0); expand a slanted beam's probe into point looks")
+    if exact:
+        origin = check_tuple("origin", origin, 2, lambda n, v: check_real(n, v))
+    return shape, spacing, rows, interp, aliases, (origin if exact else None)

@@ -108,7 +108,7 @@ from ._linear_functionals import (
     lorentzian_probe,
     point_functional,
 )
-from ._linear_lattice import lattice_lines
+from ._linear_lattice import PlaneRows, lattice_lines, node_reader, plane_arguments, plane_lines
 from ._linear_period import _check_k1, _dirichlet2, _loglog, PeriodStatistic, period_variance, refine_k1  # noqa: F401
 from .rews_theory import _GL_W, _GL_X, _panels
 
@@ -460,7 +460,8 @@ def functional_spectra(k1, params, functionals, mean_speed: float, *, quadrature
 
 
 def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, rows=None, correction: str = "cell",
-                    hf_compensation: bool = False, interpolation="none", aliases: int = 2) -> FunctionalSpectra:
+                    hf_compensation: bool = False, interpolation="none", aliases: int = 2,
+                    origin=None) -> FunctionalSpectra:
     """The spectra of :func:`functional_spectra` as a box of this grid holds them: sums over its own modes.
 
     A box ``u(x) = sum_k S(k) exp(i k.x)`` (periodic, advected through the
@@ -482,18 +483,22 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
     functionals : LinearFunctional or sequence of them
     mean_speed : float
         U [m/s], > 0.
-    shape : (N1, N2, N3)
-        The generated box's shape (before any lateral cropping).
-    spacing : (dx, dy, dz)
+    shape : (N1, N2, N3) or (N1, N2)
+        The generated box's shape (before any lateral cropping), or a
+        plane's (``generate_plane``: its modes carry the tensor integrated
+        over all k3, so every look must lie in one horizontal plane with a
+        horizontal direction).
+    spacing : (dx, dy, dz) or (dx, dy)
         Its spacing [m].
     rows : array_like of int, optional
         Rows n in ``1 .. N1 // 2``; default all of them.  The Nyquist row
         ``N1 / 2`` (even N1) is a single row and not doubled.
     correction : str
-        The box's low-wavenumber correction (``generate_box``'s).
+        The box's low-wavenumber correction (``generate_box``'s; a plane
+        has its own cell averages: "cell" only).
     hf_compensation : bool
-        The box's high-frequency compensation (``generate_box``'s).
-    interpolation : {"none", "linear"} or a tuple of three of them
+        The box's high-frequency compensation (``generate_box``'s; False for a plane).
+    interpolation : {"none", "linear"} or a tuple of three (a plane: two) of them
         How the looks read the box between its nodes, per axis (x, y, z) or
         for all three: ``"none"``, the modes themselves (a point on the
         nodes); ``"linear"``, the sampler's trilinear interpolation
@@ -502,6 +507,14 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
         Aliases m kept per interpolated axis, ``|m| <= aliases`` (>= 0); the
         power left out per axis is below ``2 / (3 pi^4 aliases^3)`` of a
         mode's (2.5e-4 at 3).
+    origin : (x0, y0), optional
+        A plane's only: the position [m] in the plane's frame (nodes at
+        ``(i dx, j dy)``) of the functionals' origin.  Given, with y
+        ``"linear"``, each look reads its two nodes across y exactly (its
+        own fraction of a cell, ``analysis/_linear_lattice.py``) instead of
+        the aliases summed in power (the expectation over the offset); a
+        look with a probe must then have no y extent (direction ``n_y =
+        0``: expand a slanted beam into point looks).
 
     Returns
     -------
@@ -528,6 +541,11 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
     _check_params(params)
     fs, names = _check_functionals(functionals)
     U = check_real("mean_speed", mean_speed, lo=0.0, lo_open=True)
+    if np.ndim(shape) == 1 and len(shape) == 2:
+        return _plane_lattice(params, fs, names, U, shape, spacing, rows, correction, hf_compensation, interpolation,
+                              aliases, origin)
+    if origin is not None:
+        raise ValueError("origin is a plane's (shape (N1, N2)); a box's looks read its aliases summed in power")
     shape, spacing = _check_grid(shape, spacing)
     if len(shape) != 3:
         raise ValueError(f"shape must be a box's (N1, N2, N3), got {shape!r}")
@@ -555,6 +573,35 @@ def lattice_spectra(params, functionals, mean_speed: float, shape, spacing, *, r
         _accumulate(fs, q1, k2, k3, w, phi, U, out, probes, plan)
 
     k_lines, out = lattice_lines(df, rows, g2, g3, spacing, interp, aliases, n_a, acc)
+    return FunctionalSpectra(k_lines, names, out)
+
+
+def _plane_lattice(params, fs, names, U, shape, spacing, rows, correction, hf_compensation, interpolation, aliases,
+                   origin):
+    """:func:`lattice_spectra` of a plane (``generate_plane``'s modes, k3 integrated; ``_linear_lattice`` notes)."""
+    shape, spacing, rows, interp, aliases, origin = plane_arguments(fs, shape, spacing, rows, correction,
+                                                                    hf_compensation, interpolation, aliases, origin)
+    df = PlaneRows(params, shape, spacing)
+    n_a = sum(f.n_outputs for f in fs)
+    q_max = math.sqrt(sum((math.pi * (2 * aliases + 1 if v == "linear" else 1) / d) ** 2
+                          for v, d in zip(interp, spacing)))
+    probes = _fast_probes(fs, q_max)
+    if origin is not None:
+        read, zero = node_reader(spacing[1], origin[1]), np.zeros(shape[1])
+
+        def transfer(q1, k2):
+            return np.concatenate([f.transfer(q1, k2, zero, U, probes=pr, read_y=read) for f, pr in zip(fs, probes)])
+
+        k_lines, out = plane_lines(df, rows, transfer, spacing, interp[0], aliases, n_a)
+        return FunctionalSpectra(k_lines, names, out)
+    plan = _plan(fs, probes, _FUSED)
+
+    def acc(q1, k2, k3, w, phi, out):
+        _accumulate(fs, q1, k2, k3, w, phi, U, out, probes, plan)
+
+    q2 = 2.0 * math.pi * np.fft.fftfreq(shape[1], spacing[1])
+    k_lines, out = lattice_lines(df, rows, q2, np.zeros_like(q2), tuple(spacing) + (1.0,), interp + ("none",),
+                                 aliases, n_a, acc)
     return FunctionalSpectra(k_lines, names, out)
 
 

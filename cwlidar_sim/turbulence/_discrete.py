@@ -214,3 +214,46 @@ def discrete_field(kind, params, shape, spacing, *, correction="cell", hf_compen
     dk = _dk(shape, spacing)
     pre2 = _prefactor(params) ** 2 * dk[0] * dk[1] * dk[2]
     return DiscreteField("box", shape, spacing, (shape[1], shape[2]), params, settings, (st, pre2))
+
+
+def plane_phi_rows(params, shape, spacing, rows) -> np.ndarray:
+    """``discrete_field("plane", ...).phi_rows(rows)``, computing only those rows (and their mirrors) [m^2 s^-2].
+
+    The plane's whole table holds ``N1 (N2 // 2 + 1)`` matrices (63 MB for a
+    600-s A2012 period); a lattice sum over a few hundred rows needs only
+    theirs.  The same kernel and tables as :func:`generate_plane` (bit for
+    bit the full table's values): returns (len(rows), 1, N2, 6) in the
+    component order (11, 22, 33, 13, 12, 23), the columns in numpy's
+    fftfreq order.
+    """
+    from ._kernels import plane_phi_kernel
+    from .fields import _plane_table
+    from .tensor import _prefactor
+
+    N1, N2 = (int(n) for n in shape)
+    n2h = N2 // 2 + 1
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
+    t = _plane_table(params, (N1, N2), tuple(float(d) for d in spacing))
+    m1 = (N1 - rows) % N1
+    need = np.unique(np.concatenate([rows % N1, m1]))
+    T = np.empty((need.size, n2h, 6))
+    o = np.empty((1, n2h, 3, 3))
+    for i, r in enumerate(need):
+        plane_phi_kernel(int(r), N1, t.dk1, t.near, t.r1, t.r2, t.j0, t.h, t.coef, t.rj0, t.rh, t.rcoef,
+                         _prefactor(params) ** 2, o)
+        T[i] = _to6(o[0]) * (t.dk1 * t.dk2)
+    if need[0] == 0:
+        T[0, 0] = 0.0  # generate_plane zeroes the mean
+    at = np.searchsorted(need, rows % N1)
+    at_m = np.searchsorted(need, m1)
+    # as DiscreteField._plane_rows: k2 = 0 and Nyquist columns take the smaller index of (n1, -n1), the
+    # columns beyond the half spectrum the mirror row's
+    drawn = np.where(rows % N1 <= m1, at, at_m)
+    out = np.empty((rows.size, 1, N2, 6))
+    for col in range(N2):
+        if col < n2h:
+            special = col == 0 or (N2 % 2 == 0 and col == N2 // 2)
+            out[:, 0, col] = T[drawn if special else at, col]
+        else:
+            out[:, 0, col] = T[at_m, N2 - col]
+    return out

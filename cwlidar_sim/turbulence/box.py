@@ -134,7 +134,19 @@ def _lifetime_nodes_table(params, shape, spacing):
 
 
 def _raw_box_spectra(params, shape, spacing, corr_33, r, ftab, fbase):
-    """Sum over (n2, n3) of M M^T for rows n1 = 0..N1/2 (no scale factors)."""
+    """Sum over (n2, n3) of M M^T for rows n1 = 0..N1/2 (no scale factors), as the generator draws them.
+
+    The Nyquist row of an even N1 pairs its modes within itself: the mode
+    with k3 < 0 is the conjugate of a stored mode of the same row, so it
+    carries that mode's matrix (the tensor at ``-pi/dx`` with the signs of
+    k2, k3 flipped, not at ``-pi/dx`` with its own k2, k3; the sheared tensor
+    tells the two apart): that row is the sum of the generator's own
+    matrices (``box_phi_rows_kernel``, checked against many seeds in
+    tests/analysis/test_linear_theory_nyquist.py).  ``box_spectrum_kernel``'s
+    row there was 17 % (u), 31 % (v), 13 % (w) low on an 8x6x4 box and had
+    the wrong sign of uw.
+    """
+    from ._conditioning_kernels import box_phi_rows_kernel
     from ._kernels import box_spectrum_kernel
 
     N1, N2, N3 = shape
@@ -148,6 +160,11 @@ def _raw_box_spectra(params, shape, spacing, corr_33, r, ftab, fbase):
                             corr_33, *r, out[t[0]:t[1]])
 
     _config.run_static(tasks, work)
+    if N1 % 2 == 0:
+        nyq = np.empty((1, N2, N3, 6))
+        box_phi_rows_kernel(np.array([N1 // 2], dtype=np.int64), N3, N1, N2, N3, *spacing, params.length_scale,
+                            params.gamma, ftab, fbase, corr_33, *r, False, nyq)
+        out[-1] = nyq[0].sum(axis=(0, 1))
     return out
 
 

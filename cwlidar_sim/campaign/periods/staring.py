@@ -342,7 +342,7 @@ def _linear_theory_variables(scene, r, params, PK, pk):
            f"{STARING_RESOLUTION:g}; not included: aliasing, the mean's removal (lowest bins), the estimator (tier los's statistic)")
     box = ("continuum (the field's own lines along x move it < 1e-4; a plane's k2 cut-off at pi / dy lowers the "
            "simulated method 1 above ~0.2 rad/m: studies/staring_theory_vs_simulation.py)")
-    return {
+    out = {
         "transfer_ratio_theory": (PK, pk(th["transfer_ratio_k"]), {
             "units": "1", "long_name": "method 1 (F_vr / F_vs), linear theory of the period's geometry",
             "theory": how, "weighting": scene.lidar.weighting, "box": box}),
@@ -350,6 +350,44 @@ def _linear_theory_variables(scene, r, params, PK, pk):
             "units": "1", "long_name": "method 2 (Re(chi)^2 / F_vs^2), linear theory of the period's geometry",
             "theory": how, "weighting": scene.lidar.weighting, "box": box}),
     }
+    lat, lbox = _lattice_theory(scene, r, params, lidar, th)
+    for name, key, what in (("transfer_ratio_theory_lattice", "transfer_ratio_k", "method 1 (F_vr / F_vs)"),
+                            ("transfer_cross_theory_lattice", "transfer_cross_k", "method 2 (Re(chi)^2 / F_vs^2)")):
+        out[name] = (PK, pk(lat[key]), {
+            "units": "1", "long_name": f"{what}, linear theory of the period's geometry on the field's own lattice",
+            "theory": how.replace("frozen Mann continuum of", "the generated field's own modes of").replace(
+                ", cut at the sub-points' Nyquist", " (each sub-point read as simulated)"),
+            "weighting": scene.lidar.weighting, "box": lbox})
+    return out
+
+
+def _lattice_theory(scene, r, params, lidar, th):
+    """The period's theory on its field's own modes and the ``box`` attribute naming the field (or why NaN)."""
+    plan, a = r["plan"], scene.analysis
+    nan = {"transfer_ratio_k": np.full_like(th["transfer_ratio_k"], np.nan),
+           "transfer_cross_k": np.full_like(th["transfer_cross_k"], np.nan)}
+    if plan.field is not None or scene.turbulence.condition_on:
+        return nan, ("NaN: the field is read from a file or conditioned on records, not a plane or line generated "
+                     "from the tensor")
+    if plan.kind == "line":
+        return th, (f"line {plan.shape} at dx = {plan.spacing[0]:g} m: its modes hold the exact one-point spectra "
+                    f"at every k1 and the sensors lie on it, so the lattice is the continuum (its lines along x "
+                    f"move it < 1e-4)")
+    if plan.kind != "plane":
+        return nan, "NaN: the lattice theory of a staring box is not built (a plane or a line is)"
+    if plan.spacing[0] > r["U"] / 10.0:
+        return nan, (f"NaN: the plane's dx = {plan.spacing[0]:g} m exceeds U / (10 Hz) = {r['U'] / 10.0:.4g} m: the "
+                     f"aliases of its reading along x fall inside the 10-Hz series' band (not built)")
+    la, sa = _readings()
+    lat = staring_transfer_theory(lidar, plan.sonic_position, params, r["U"], r["tf"].k_edges,
+                                  segment_duration=a.segment_duration, sample_rate=10.0, lidar_average=la,
+                                  sonic_average=sa, window=a.window,
+                                  plane=(plan.shape, plan.spacing, plan.lidar_position[:2]))
+    return lat, (f"plane {plan.shape} at (dx, dy) = {plan.spacing} m (generate_plane: k3 integrated, k2 up to "
+                 f"pi / dy), the telescope at ({plan.lidar_position[0]:.4g}, {plan.lidar_position[1]:.6g}) m in it: "
+                 f"the sum over its modes on its rows nearest the theory's k1 grid, the range cells' sub-points and "
+                 f"the sonic read bilinearly across y at their own fractions of a cell (x on the modes: the "
+                 f"reading's gain is common to both)")
 
 
 def period_dataset(scene: Scene, params, r: dict):

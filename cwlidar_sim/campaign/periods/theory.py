@@ -333,7 +333,7 @@ STARING_RESOLUTION = 8.0
 def staring_transfer_theory(lidar, sonic_position, params, mean_speed: float, k_edges, *, segment_duration: float,
                             sample_rate: float, lidar_average=None, sonic_average=None, probe: str = "cells",
                             window: str = "hann", per_decade: int = STARING_PER_DECADE,
-                            resolution: float = STARING_RESOLUTION) -> dict:
+                            resolution: float = STARING_RESOLUTION, plane=None) -> dict:
     """The expected A2012 transfer functions (methods 1 and 2) of a staring lidar against a sonic, binned as measured.
 
     The spectra of :func:`staring_functionals` (continuum, frozen Taylor
@@ -379,6 +379,17 @@ def staring_transfer_theory(lidar, sonic_position, params, mean_speed: float, k_
         The theory's k1 per decade (>= 4).
     resolution : float
         The polar quadrature's inner disc (:func:`~cwlidar_sim.analysis.linear_theory.functional_spectra`).
+    plane : (shape, spacing, origin), optional
+        The generated plane the period flies through (``generate_plane``'s
+        ``(Nx, Ny)``, ``(dx, dy)`` [m], and the telescope's ``(x, y)`` [m]
+        in it): the spectra are then its lattice
+        (:func:`~cwlidar_sim.analysis.linear_theory.lattice_spectra`, on
+        the plane's rows nearest the log grid), the beam's range cells
+        expanded into their sub-points, each and the sonic read bilinearly
+        across y from the plane's nodes as the simulation reads them (along
+        x the reading's gain is common to both and their aliases lie above
+        the series' Nyquist: x is taken on the modes); ``probe`` must be
+        ``"cells"``.
 
     Returns
     -------
@@ -399,10 +410,16 @@ def staring_transfer_theory(lidar, sonic_position, params, mean_speed: float, k_
     avg = tuple(None if a is None else tuple(tuple(float(x) for x in np.ravel(b)) for b in a)
                 for a in (lidar_average, sonic_average))
     window = check_choice("window", window, ("hann", "none"))
+    if plane is not None:
+        if probe != "cells":
+            raise ValueError(f"probe must be 'cells' with a plane's lattice (its sub-points are read), got {probe!r}")
+        shape, spacing, origin = plane
+        plane = (tuple(int(n) for n in shape), tuple(float(d) for d in spacing),
+                 tuple(float(x) for x in np.ravel(origin)[:2]))
     key = ("staring_transfer", repr(at0), rel, repr(params), U, tuple(e), T, fs, avg, probe, window, nd,
-           float(resolution))
+           float(resolution)) + (() if plane is None else (plane,))
     return cached(key, lambda: _staring_transfer(at0, rel, params, U, e, T, fs, lidar_average, sonic_average, probe,
-                                                 window, nd, resolution))
+                                                 window, nd, resolution, plane))
 
 
 def _window_kernel(x, window):
@@ -412,8 +429,19 @@ def _window_kernel(x, window):
     return (0.5 * np.sinc(x) + 0.25 * np.sinc(x - 1.0) + 0.25 * np.sinc(x + 1.0)) ** 2 / 0.375
 
 
+def _cells_points(lidar, lidar_average):
+    """The staring beam as point looks at its range cells' sub-points (weights as :func:`cells_probe`'s)."""
+    cells = lidar.probe_cells(lidar.instrument)
+    w_j = cells.fraction_j * np.repeat(cells.weight_s, np.diff(cells.ptr_s))
+    n = np.asarray(lidar.direction, dtype=float)
+    pts = np.asarray(lidar.position, dtype=float) + np.multiply.outer(np.maximum(lidar.instrument.focus + np.asarray(
+        cells.sub_j, dtype=float), 0.0), n)
+    h = None if lidar_average is None else _Average(*lidar_average)
+    return lt.lidar_functional(lt.Looks(pts, np.repeat(n[None], w_j.size, axis=0), None, None, h), w_j, ["lidar"])
+
+
 def _staring_transfer(lidar, sonic_position, params, U, e, T, fs, lidar_average, sonic_average, probe, window, nd,
-                      resolution):
+                      resolution, plane=None):
     from scipy.signal import fftconvolve
 
     from ...analysis.spectra import bin_average
@@ -430,7 +458,15 @@ def _staring_transfer(lidar, sonic_position, params, U, e, T, fs, lidar_average,
     k = np.logspace(lo, hi, max(int(np.ceil((hi - lo) * nd)) + 1, 2))
     beam, sonic = staring_functionals(lidar, sonic_position, probe=probe, lidar_average=lidar_average,
                                       sonic_average=sonic_average)
-    s = lt.functional_spectra(k, params, [beam, sonic], U, resolution=resolution)
+    if plane is None:
+        s = lt.functional_spectra(k, params, [beam, sonic], U, resolution=resolution)
+    else:
+        shape, spacing, origin = plane
+        dk1 = 2.0 * np.pi / (shape[0] * spacing[0])
+        rows = np.unique(np.clip(np.rint(k / dk1).astype(np.int64), 1, shape[0] // 2))
+        s = lt.lattice_spectra(params, [_cells_points(lidar, lidar_average), sonic], U, shape, spacing, rows=rows,
+                               interpolation=("none", "linear"), origin=origin)
+        k = s.k1_k
     F_s, F_r, chi = s.spectrum("1.sonic"), s.spectrum("0.lidar"), s.cross("0.lidar", "1.sonic")
     lk = np.log(k)
 

@@ -168,3 +168,27 @@ def test_staring_misaligned_is_eqs_12_to_14_and_rejects_a_flipped_probe(whole_li
     assert np.max(np.abs(s.cross("2.lidar", "1.sonic").real / chi - 1.0)) > 0.01
     f_vs2, f_vr2, chi2 = misaligned_spectra(k1, A2012_PARAMS, -30.0, zR)
     np.testing.assert_allclose(f_vr2, f_vr, rtol=1e-6)  # the symmetry
+
+
+def test_staring_results_carry_the_fields_lattice():
+    """A staring period's results carry the theory on its own field's modes: on a line (beam along the wind, the
+    sonic on it) the lattice is the continuum, bit for bit; on a plane (a misaligned beam) the plane's lattice,
+    below the continuum where the plane's k2 cut-off (pi / dy) removes the modes across the wind that pass the beam
+    (k2 ~ 19 k1 at 3 deg: above ~0.3 rad/m at dy = 0.5 m), with attributes naming the plane."""
+    sc = bundled_scene("a2012").with_values({"lidar.tier": "los", "lidar.variants": [], "analysis.fit": False,
+                                             "duration": 300.0, "analysis.segment_duration": 150.0})
+    per = sc.periods[2]
+    sc = sc.replace(periods=(dataclasses.replace(per, name="aligned", misalignment_deg=0.0),
+                             dataclasses.replace(per, name="turned", misalignment_deg=3.0)))
+    line, plane = (ps.run_unit(sc, i) for i in (0, 1))
+    assert line.transfer_ratio_theory_lattice.attrs["box"].startswith("line")
+    for v in ("ratio", "cross"):
+        assert line[f"transfer_{v}_theory_lattice"].values.tobytes() == line[f"transfer_{v}_theory"].values.tobytes()
+    box = plane.transfer_ratio_theory_lattice.attrs["box"]
+    shape = plan_field(sc, 1, sc.turbulence.params()).shape
+    assert box.startswith(f"plane {shape}") and "(0.5, 0.5)" in box
+    k = plane.k.values
+    cont, lat = plane.transfer_ratio_theory.values[0], plane.transfer_ratio_theory_lattice.values[0]
+    low, high = (k > 0.01) & (k < 0.1) & np.isfinite(cont), (k > 0.5) & (k < 1.0) & np.isfinite(cont)
+    np.testing.assert_allclose(lat[low], cont[low], rtol=5e-3)
+    assert np.all(lat[high] < 0.9 * cont[high])

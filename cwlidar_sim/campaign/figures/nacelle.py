@@ -112,7 +112,7 @@ def plot_preview(ds):
 
 
 def _against_focus(ax, r, y, **kw):
-    """``y`` against focus distance ``r``: a line through two finite points or more, else markers alone; none: nothing."""
+    """``y`` against focus distance ``r``: a line through two finite points or more, else markers; none: nothing."""
     y = np.asarray(y, dtype=np.float64)
     ok = np.isfinite(y)
     if not ok.any():

@@ -52,9 +52,11 @@ nodes each move the std ratio and the correlation by less than 1e-4 (at most
 7.8e-5, the correlation at 24 x 72 nodes); a fixed grid of 161 k1 agrees
 within 2e-5.  Not converged in that sense: 12 x 36 rotor nodes move the
 correlation by +0.0026 (the plane quadrature's scatter at that node set: its
-rotor std is 0.3 % above the closed form's).  Cost: 29 k1, 10.7 s of CPU per focus (the fixed
-4-per-decade grid of before: 16 k1, 7.6 s, its variances 1.7 % off with
-linear interpolation).
+rotor std is 0.3 % above the closed form's).  Cost: 29 k1, 10.7 s of CPU
+per focus (the fixed 4-per-decade grid of before: 16 k1, 7.6 s, its
+variances 1.7 % off with linear interpolation, the correlation 0.0024 low;
+on 60-s periods up to 0.007 low, a 121-k1 grid agreeing with the adaptive
+one within 1e-4).
 
 Evolving turbulence (a period's ``lifetime``): not here -- the general
 theory is frozen; the variables are NaN for such a period, whose evolving
@@ -79,14 +81,15 @@ from ...analysis.rews_theory import rotor_spectrum
 from .scanner_theory import rotor_disc_nodes
 from .theory import cached, nacelle_functionals
 
-__all__ = ["nacelle_theory", "paired_statistics", "k1_range", "THEORY_ROTOR_NODES", "THEORY_RESOLUTION", "THEORY_PHASES",
-           "K1_RANGE", "N_START", "TOL", "CONVERGENCE", "theory_attrs"]
+__all__ = ["nacelle_theory", "paired_statistics", "k1_range", "THEORY_ROTOR_NODES", "THEORY_RESOLUTION",
+           "THEORY_PHASES", "K1_RANGE", "N_START", "TOL", "CONVERGENCE", "theory_attrs"]
 
 #: The rotor disc's polar nodes (radial, azimuthal) of the results' theory.
 THEORY_ROTOR_NODES = (8, 24)
 #: The polar quadrature's resolution of the results' theory (:func:`~cwlidar_sim.analysis.linear_theory.functional_spectra`).
 THEORY_RESOLUTION = 20.0
-#: The polar quadrature's resolution of the rotor disc's own spectrum (:func:`~cwlidar_sim.analysis.rews_theory.rotor_spectrum`).
+#: The polar quadrature's resolution of the rotor disc's own spectrum
+#: (:func:`~cwlidar_sim.analysis.rews_theory.rotor_spectrum`).
 ROTOR_RESOLUTION = 60.0
 #: Scan phases averaged (evenly over the revolution).
 THEORY_PHASES = 2

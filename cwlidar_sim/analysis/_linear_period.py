@@ -231,6 +231,19 @@ def _check_repeat(repeat, name="repeat"):
             check_real(f"{name}[1] (interval)", repeat[1], lo=0.0, lo_open=True))
 
 
+def _is_output(o) -> bool:
+    return isinstance(o, (str, int, np.integer)) and not isinstance(o, bool)
+
+
+def _auto(M, a):
+    """The real spectrum [m^3 s^-2] of output index ``a``, or of ``sum_i w_i x_{a_i}`` for ``a`` a tuple of pairs."""
+    if isinstance(a, (int, np.integer)):
+        return M[:, a, a].real
+    idx = [i for i, _ in a]
+    w = np.array([x for _, x in a], dtype=float)
+    return np.einsum("a,kab,b->k", w, M[:, idx][:, :, idx].real, w)
+
+
 @dataclasses.dataclass(frozen=True)
 class PeriodStatistic:
     """One output's expected variance within a period, its mean removed: :func:`period_variance`'s ``within``.
@@ -249,6 +262,10 @@ class PeriodStatistic:
     repeat : (int, float) or None
         ``(n, tau)``: each sample the mean of n copies of the output tau [s]
         apart; None: one.
+    weights : tuple of float or None
+        With a tuple of outputs in ``output``: the statistic is of their sum
+        weighted so, ``sum_a w_a x_a`` (its spectrum ``sum_ab w_a w_b Re F_ab``:
+        a covariance from the variances of a sum and its parts); None: one output.
     """
 
     output: object
@@ -256,9 +273,18 @@ class PeriodStatistic:
     sample_interval: float | None = None
     block: float | None = None
     repeat: tuple | None = None
+    weights: tuple | None = None
 
     def __post_init__(self):
-        if not isinstance(self.output, (str, int, np.integer)) or isinstance(self.output, bool):
+        if self.weights is not None:
+            outs = self.output if isinstance(self.output, tuple) else None
+            if outs is None or not outs or not all(_is_output(o) for o in outs):
+                raise TypeError(f"output must be a tuple of output names or indices with weights, got {self.output!r}")
+            w = tuple(check_real(f"weights[{i}]", x) for i, x in enumerate(np.ravel(self.weights)))
+            if len(w) != len(outs):
+                raise ValueError(f"weights must hold one weight per output ({len(outs)}), got {self.weights!r}")
+            object.__setattr__(self, "weights", w)
+        elif not _is_output(self.output):
             raise TypeError(f"output must be an output's name or index, got {self.output!r}")
         object.__setattr__(self, "period", check_real("period", self.period, lo=0.0, lo_open=True))
         if self.sample_interval is not None:
@@ -314,8 +340,9 @@ def refine_k1(evaluate, index_s, statistics, mean_speed: float, k1_range=(1e-4, 
     ----------
     evaluate : callable
         ``evaluate(k1)`` -> the spectral matrices ``F_ab`` [m^3 s^-2], shape (n_k, n_a, n_a), at the k1 [rad/m].
-    index_s : sequence of int
-        Per statistic, its output's index a.
+    index_s : sequence of int or of tuples
+        Per statistic, its output's index a, or ``((a, w_a), ...)``: the
+        weighted sum of outputs (:class:`PeriodStatistic`'s ``weights``).
     statistics : sequence of PeriodStatistic
     mean_speed : float
         U [m/s].
@@ -356,7 +383,7 @@ def refine_k1(evaluate, index_s, statistics, mean_speed: float, k1_range=(1e-4, 
         k_new = np.concatenate([k, km])
         order = np.argsort(k_new)
         M_new = np.concatenate([M, Mm])[order]
-        err = np.array([_interval_errors(k, M[:, a, a].real, k_new[order], M_new[:, a, a].real, k[ia], k[ia + 1],
+        err = np.array([_interval_errors(k, _auto(M, a), k_new[order], _auto(M_new, a), k[ia], k[ia + 1],
                                          kern, U) for a, kern in zip(index_s, kernels)])
         M = M_new
         # a bisected interval's halves share what its change leaves: 1 / _RICHARDSON of it where the change fell
@@ -371,7 +398,7 @@ def refine_k1(evaluate, index_s, statistics, mean_speed: float, k1_range=(1e-4, 
         k, est, made = k_new[order], np.stack(e_new, axis=1), np.stack(m_new, axis=1)
         rounds += 1
         # open the intervals of largest estimate until what stays shut holds at most half the tolerance
-        budget = tol * np.array([_scale(k, M[:, a, a].real, kern, U) for a, kern in zip(index_s, kernels)])
+        budget = tol * np.array([_scale(k, _auto(M, a), kern, U) for a, kern in zip(index_s, kernels)])
         if np.all(est.sum(axis=1) <= budget):
             open_i = np.zeros(k.size - 1, dtype=bool)
             break
@@ -381,7 +408,7 @@ def refine_k1(evaluate, index_s, statistics, mean_speed: float, k1_range=(1e-4, 
         n_open = int(np.argmax(np.all(shut <= 0.5, axis=1))) + 1
         open_i = np.zeros(k.size - 1, dtype=bool)
         open_i[worst[:n_open]] = True
-    scale = np.array([_scale(k, M[:, a, a].real, kern, U) for a, kern in zip(index_s, kernels)])
+    scale = np.array([_scale(k, _auto(M, a), kern, U) for a, kern in zip(index_s, kernels)])
     error = est.sum(axis=1) / np.maximum(scale, 1e-300)
     return {"k1": k, "matrix": M, "error": tuple(float(e) for e in error), "converged": not bool(open_i.any()),
             "rounds": rounds}

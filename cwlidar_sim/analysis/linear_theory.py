@@ -109,7 +109,8 @@ from ._linear_functionals import (
     point_functional,
 )
 from ._linear_lattice import PlaneRows, lattice_lines, node_reader, plane_arguments, plane_lines
-from ._linear_period import _check_k1, _dirichlet2, _loglog, PeriodStatistic, period_variance, refine_k1  # noqa: F401
+from ._linear_period import (  # noqa: F401
+    _auto, _check_k1, _dirichlet2, _loglog, PeriodStatistic, period_variance, refine_k1)
 from .rews_theory import _GL_W, _GL_X, _panels
 
 __all__ = [
@@ -677,12 +678,13 @@ def adaptive_spectra(params, functionals, mean_speed: float, statistics, *, k1_r
     if not stats or not all(isinstance(st, PeriodStatistic) for st in stats):
         raise TypeError("statistics must be a non-empty sequence of PeriodStatistic")
     probe = FunctionalSpectra(np.ones(1), names, np.zeros((1, len(names), len(names)), dtype=complex))
-    index = [probe._index(st.output) for st in stats]
+    index = [probe._index(st.output) if st.weights is None
+             else tuple((probe._index(o), w) for o, w in zip(st.output, st.weights)) for st in stats]
 
     def evaluate(k):
         return functional_spectra(k, params, fs, mean_speed, quadrature=quadrature, resolution=resolution).matrix_kab
 
     r = refine_k1(evaluate, index, stats, mean_speed, k1_range, n_start=n_start, tol=tol, max_k1=max_k1)
     s = FunctionalSpectra(r["k1"], names, r["matrix"])
-    within = tuple(st.variance(s.k1_k, s.spectrum(a), mean_speed) for st, a in zip(stats, index))
+    within = tuple(st.variance(s.k1_k, _auto(s.matrix_kab, a), mean_speed) for st, a in zip(stats, index))
     return AdaptiveSpectra(s, within, r["error"], r["converged"], r["rounds"])

@@ -96,6 +96,32 @@ def test_cubic_interpolation_converges_faster_than_linear():
     assert abs(cub) < 2e-4 and abs(cub) < 0.1 * abs(lin), (cub, lin)
 
 
+def test_a_weighted_sum_of_outputs_gives_the_covariance():
+    """``weights``: the statistic of ``x_pair - x_cup`` (its spectrum ``F_00 + F_11 - 2 Re F_01``, the pair's dips
+    filled by the cup) converges to the dense grid's within tol; the covariance from the difference and from the sum
+    agree to the tolerance, and is far from zero (the pair and the cup share u at the same point)."""
+    tol = 1e-3
+    pair_cup = [lt.PeriodStatistic("0.u", T, 1.0), lt.PeriodStatistic("1.u", T, 1.0)]
+    diff = lt.PeriodStatistic(("0.u", "1.u"), T, 1.0, weights=(1.0, -1.0))
+    both = lt.PeriodStatistic(("0.u", "1.u"), T, 1.0, weights=(1.0, 1.0))
+    r = lt.adaptive_spectra(P, _pair(), U, pair_cup + [diff, both], tol=tol, quadrature="x_only")
+    k, s = _dense_spectra()
+    F_x = 2.0 * s.cross("0.u", "1.u").real
+    dense_d = diff.variance(k, s.spectrum(0) + s.spectrum(1) - F_x, U)
+    assert r.converged and abs(r.within[2] / dense_d - 1.0) < tol
+    v0, v1 = r.within[:2]
+    cov_d, cov_s = 0.5 * (v0 + v1 - r.within[2]), 0.5 * (r.within[3] - v0 - v1)
+    assert abs(cov_d - cov_s) < tol * (v0 + v1) and cov_d / math.sqrt(v0 * v1) > 0.5
+    # the weighted statistic is the sum's own: weights (2, 0) are four times the pair's variance
+    two = lt.adaptive_spectra(P, _pair(), U, [lt.PeriodStatistic(("0.u", "1.u"), T, 1.0, weights=(2.0, 0.0))],
+                              tol=tol, quadrature="x_only")
+    assert two.within[0] == pytest.approx(4.0 * _dense(pair_cup[0]), rel=tol)
+    with pytest.raises(ValueError, match="one weight per output"):
+        lt.PeriodStatistic(("0.u", "1.u"), T, weights=(1.0,))
+    with pytest.raises(TypeError, match="tuple of output"):
+        lt.PeriodStatistic("0.u", T, weights=(1.0,))
+
+
 def test_bad_statistics_are_refused_by_name():
     with pytest.raises(ValueError, match="period"):
         lt.PeriodStatistic("0.u", -1.0)

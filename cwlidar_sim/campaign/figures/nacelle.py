@@ -1,4 +1,4 @@
-"""Figures of a nacelle campaign's results: coherence against wavenumber, preview, estimator, evolution.
+"""Figures of a nacelle campaign's results: coherence against wavenumber, preview, estimator, evolution, std ratio.
 
 Every function takes the results Dataset of a nacelle scene
 (:func:`cwlidar_sim.campaign.periods.nacelle.run_unit`, joined) and returns a Figure.
@@ -12,7 +12,8 @@ import numpy as np
 
 from ..._atomic import atomic_path
 
-__all__ = ["plot_coherence_focus", "plot_estimators", "plot_evolution", "plot_preview", "make_nacelle_figures"]
+__all__ = ["plot_coherence_focus", "plot_estimators", "plot_evolution", "plot_preview", "plot_std_ratio",
+           "make_nacelle_figures"]
 
 
 def _plt():
@@ -110,12 +111,60 @@ def plot_preview(ds):
     return fig
 
 
+def _against_focus(ax, r, y, **kw):
+    """``y`` against focus distance ``r``: a line through two finite points or more, else markers; none: nothing."""
+    y = np.asarray(y, dtype=np.float64)
+    ok = np.isfinite(y)
+    if not ok.any():
+        return
+    if ok.sum() < 2:
+        kw = {**kw, "ls": "none"}
+    ax.plot(np.asarray(r)[ok], y[ok], **kw)
+
+
+def plot_std_ratio(ds):
+    """Lidar / rotor std ratio and their correlation against focus distance per period: simulated (tier 1) and theory.
+
+    The simulated values are the paired series' (``std_ratio``, ``correlation``:
+    one period each); the general linear theory's (``std_ratio_theory``,
+    ``correlation_theory``, :mod:`cwlidar_sim.campaign.periods.nacelle_theory`:
+    the continuum, frozen periods only) and, where the results hold it, the
+    lattice of the period's own box (``*_theory_lattice``) are drawn beside them.
+    """
+    plt = _plt()
+    j = _estimate(ds, "tier1")
+    r = ds.focus.values
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    for ax, var, lab in zip(axes, ("std_ratio", "correlation"), ("lidar / rotor std ratio [-]",
+                                                                  "lidar-rotor correlation coefficient [-]")):
+        for ip, p in enumerate(ds.period.values):
+            c = f"C{ip}"
+            if var in ds:  # (results written before the std ratio was simulated have none)
+                _against_focus(ax, r, ds[var].values[ip, :, j], color=c, ls="-", marker="o", label=f"{p}, simulated")
+            if f"{var}_theory" in ds:
+                box = ds[f"{var}_theory"].attrs.get("theory_box", "continuum")
+                _against_focus(ax, r, ds[f"{var}_theory"].values[ip], color=c, ls="--", marker="s", mfc="none",
+                               label=f"{p}, linear theory ({box.split(' ')[0]})")
+            if f"{var}_theory_lattice" in ds:
+                _against_focus(ax, r, ds[f"{var}_theory_lattice"].values[ip], color=c, ls=(0, (1, 1)), marker="v",
+                               mfc="none", label=f"{p}, linear theory (lattice)")
+        ax.set_xlabel("focus distance r [m]")
+        ax.set_ylabel(lab)
+        ax.grid(alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
+    fig.suptitle("the preview's std ratio and correlation over each period (tier 1)", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
 def make_nacelle_figures(ds, out_dir) -> list:
     """Write the nacelle figures as PNG into ``out_dir``; returns the paths."""
     plt = _plt()
     os.makedirs(out_dir, exist_ok=True)
     figs = {"coherence_focus": lambda: plot_coherence_focus(ds), "estimators": lambda: plot_estimators(ds),
-            "evolution": lambda: plot_evolution(ds), "preview_time": lambda: plot_preview(ds)}
+            "evolution": lambda: plot_evolution(ds), "preview_time": lambda: plot_preview(ds),
+            "std_ratio": lambda: plot_std_ratio(ds)}
     paths = []
     for name, make in figs.items():
         fig = make()

@@ -51,7 +51,8 @@ Per period (:mod:`cwlidar_sim.campaign.scenes.nacelle`):
    general linear theory's (``*_theory``,
    :mod:`cwlidar_sim.campaign.periods.nacelle_theory`: frozen Mann
    continuum, the simulation's looks and range cells at tier ``los``, the
-   same span and delay; NaN for evolving turbulence or a moving platform).
+   same span and delay, on an adaptive k1 grid with its convergence in the
+   attributes; NaN for evolving turbulence or a moving platform).
 
 Results: dims ``period``, ``focus`` [m], ``estimate`` (tier1, main,
 variants), ``k`` [rad/m], ``time_preview`` [s]; units on every variable.
@@ -76,7 +77,7 @@ from ..._version import __version__
 from ...signal.processing import usable_mask
 from ..scenes.nacelle import NacelleScene
 from ..scenes.spec import RESULTS_VERSION
-from .nacelle_theory import paired_statistics, period_theory
+from .nacelle_theory import paired_statistics, period_theory, theory_attrs
 
 __all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "period_records", "summary", "statistics",
            "write_preview", "preview_table", "COST_S_PER_SIM_HOUR"]
@@ -88,9 +89,9 @@ COST_S_PER_SIM_HOUR = {"los": 10.0, "spectral": 80.0, "signal": 50000.0}
 #: (bundled scene: 8 beams, 12 bins, 8-12 s per focus distance on the shared machine).
 THEORY_S_PER_BEAM2_BIN = 0.012
 #: Wall time [s] on one core of the general theory's std ratio and correlation per focus of a frozen period
-#: (:mod:`cwlidar_sim.campaign.periods.nacelle_theory`; bundled scene, 100 m, 600 s: 10 s of CPU with the range
-#: cells band-limited, 55 s without); once per geometry.
-THEORY_STD_S_PER_FOCUS = 10.0
+#: (:mod:`cwlidar_sim.campaign.periods.nacelle_theory`; bundled scene, 100 m, 600 s: 10.7 s of CPU on the adaptive
+#: k1 grid, 29 k1; 7.6 s on the fixed 4-per-decade grid before); once per geometry.
+THEORY_STD_S_PER_FOCUS = 11.0
 
 
 def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
@@ -320,13 +321,7 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
             k50_th[i] = coherence_bandwidth(kc[fin], theory[i, fin])
     info["cost_s"]["coherence_and_theory"] = time.perf_counter() - t0
     info["cost_s"]["std_theory"] = t_std_theory
-    how = ("general linear theory (cwlidar_sim.campaign.periods.nacelle_theory): frozen Mann continuum (box = "
-           "continuum), the simulation's looks (one per dwell at its mid-azimuth) and range cells at tier los ('"
-           + scene.sensor(p).weighting + "' weighting cut to the span, the mean-wind tail without fluctuation), "
-           "u = los / m_x averaged over the revolution, two scan phases averaged, shifted by the pairing's delay; the "
-           "rotor's disc on 8 x 24 polar nodes; within-period variances of the paired span sampled every dwell "
-           "(period_variance, 1/N), polar resolution 20; NaN for evolving turbulence (its theory: coherence_theory) "
-           "or a moving platform")
+    how = theory_attrs(scene.sensor(p).weighting)
     sim_how = ("the paired series of the coherence (the lidar's trailing revolution mean, the REWS the whole-sample "
                "delay later), 1/N about the span's mean, over the samples finite in the lidar's")
     P = ("period",)
@@ -366,13 +361,13 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
                         {"units": "1", "long_name": "correlation coefficient of the lidar's estimate and the REWS "
                                                     "it previews", "statistic": sim_how}),
         "lidar_std_theory": (P + ("focus",), th_std["lidar_std"][None],
-                             {"units": "m s-1", "long_name": "lidar_std, linear theory", "theory": how}),
+                             {"units": "m s-1", "long_name": "lidar_std, linear theory", **how}),
         "rotor_std_theory": (P + ("focus",), th_std["rotor_std"][None],
-                             {"units": "m s-1", "long_name": "rotor_std, linear theory", "theory": how}),
+                             {"units": "m s-1", "long_name": "rotor_std, linear theory", **how}),
         "std_ratio_theory": (P + ("focus",), th_std["std_ratio"][None],
-                             {"units": "1", "long_name": "std_ratio, linear theory", "theory": how}),
+                             {"units": "1", "long_name": "std_ratio, linear theory", **how}),
         "correlation_theory": (P + ("focus",), th_std["correlation"][None],
-                               {"units": "1", "long_name": "correlation, linear theory", "theory": how}),
+                               {"units": "1", "long_name": "correlation, linear theory", **how}),
         "preview_time": (P + ("focus",), preview[None], {"units": "s", "long_name": "preview time r cos(a) / U"}),
         "availability": (P + ("focus", "estimate"), avail[None],
                          {"units": "1", "long_name": "fraction of usable estimates: finite, with no failure, "

@@ -493,7 +493,7 @@ def windscanner_variables(scene, index: int, k_k) -> dict:
     }
 
 
-#: The std ratios' continuum: the adaptive quadrature's k1 range [rad/m] and polar resolution (studies/theory_vs_simulation.py's).
+#: The std ratios' continuum: the adaptive quadrature's k1 range [rad/m] and polar resolution (the study's).
 _STD_K1_RANGE, _STD_RESOLUTION = (1e-4, 2.0), 20.0
 
 

@@ -251,7 +251,7 @@ def summarise(ds):
 
 
 def summary(scene: WindScannerScene, ds) -> dict:
-    """The CLI's short report: per period and estimate, each component's std over the sonic's and its rmse."""
+    """The CLI's short report: per period and estimate, each component's std ratio and rmse, the theory's."""
     out = {}
     for ip, p in enumerate(ds.period.values):
         row = {}
@@ -260,6 +260,10 @@ def summary(scene: WindScannerScene, ds) -> dict:
                                                              / ds.sonic_std.values[ip, ic]), 4),
                                     "rmse": round(float(ds.wind_rmse.values[ip, je, ic]), 4)}
                            for ic, c in enumerate(ds.component.values)}
+        if "std_ratio_theory" in ds:  # results written before the std ratios' theory lack it
+            row["theory"] = {str(c): {"std_ratio": round(float(ds.std_ratio_theory.values[ip, ic]), 4),
+                                      "std_ratio_lattice": round(float(ds.std_ratio_theory_lattice.values[ip, ic]), 4)}
+                             for ic, c in enumerate(ds.component.values)}
         row["condition_max"] = round(float(ds.condition_max.values[ip]), 3)
         out[str(p)] = row
     return {"windscanner": out}

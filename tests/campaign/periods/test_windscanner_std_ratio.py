@@ -44,6 +44,10 @@ def test_the_std_ratios_and_their_theory_are_in_the_results_with_their_attrs(run
         assert "range cells" in v.attrs["theory"] and "9677 samples" in v.attrs["theory"] and v.attrs["numerics"]
     assert "laterally doubled" in ds.std_ratio_theory_lattice.attrs["box"]
     assert grid[0] == (108, 72, 51) and grid[1] == (4.0, 4.0, 4.0)
+    row = registry.kind_of(scene).summary(scene, ds)["windscanner"]["a"]
+    assert row["theory"]["w"] == {"std_ratio": round(float(ds.std_ratio_theory.values[0, 2]), 4),
+                                  "std_ratio_lattice": round(float(ds.std_ratio_theory_lattice.values[0, 2]), 4)}
+    assert row["tier1"]["w"]["std_ratio"] == round(float(ds.std_ratio.values[0, 0, 2]), 4)
 
 
 def test_the_theory_is_the_studys_for_the_same_box(run):

@@ -43,7 +43,8 @@ Not included: evolving turbulence, the platform's motion, the chain's noise
 and estimators (the theory is tier ``los``'s), the box's trilinear
 interpolation (except :func:`windscanner_lattice_variances`).
 
-The periods' theory (:func:`windscanner_variables`, :func:`spinner_variables`)
+The periods' theory (:func:`windscanner_variables`, :func:`windscanner_std_ratio_variables`,
+:func:`spinner_variables`)
 depends on the scene, not the realisation: it is computed once per geometry,
 tensor, U (and T) in a process and reused by every period that shares them.
 Its cost is cut where the cut is measured to be small:
@@ -75,7 +76,8 @@ from .theory import _band_limited_cells_probe, _probe, cached, node_interpolated
 
 __all__ = ["windscanner_functionals", "windscanner_theory", "windscanner_lattice_variances", "node_sonic",
            "spinner_functionals", "spinner_theory",
-           "rotor_disc_nodes", "windscanner_variables", "spinner_variables", "spinner_k_edges"]
+           "rotor_disc_nodes", "windscanner_variables", "windscanner_std_ratio_variables", "spinner_variables",
+           "spinner_k_edges"]
 
 #: Wavenumbers of each coarse tail of the w-variance ratio's spectra, below and above the asked k1 (log-spaced from 1e-4
 #: rad/m; log-log interpolated between).
@@ -488,6 +490,79 @@ def windscanner_variables(scene, index: int, k_k) -> dict:
         "w_variance_ratio_theory": (P, np.array([wr]), {
             "units": "1", "long_name": "variance of the reconstructed w within the period over the sonic's, linear "
                                        "theory (samples at the estimate rate, mean removed)", "theory": how}),
+    }
+
+
+#: The std ratios' continuum: the adaptive quadrature's k1 range [rad/m] and polar resolution (the study's).
+_STD_K1_RANGE, _STD_RESOLUTION = (1e-4, 2.0), 20.0
+
+
+def _std_ratio_theory(ws, params, U, grid):
+    """Continuum and lattice within-period variances (u, v, w) of the reconstruction and the sonic, range cells."""
+    shape, spacing, origin, n = grid
+    dt = 1.0 / ws.instrument.estimate_rate
+    lat = windscanner_lattice_variances(ws, params, U, shape, spacing, origin, n, probe="cells")
+    stats = [lt.PeriodStatistic(f"{j}.{c}", n * dt, dt) for j in range(2) for c in "uvw"]
+    a = lt.adaptive_spectra(params, list(windscanner_functionals(ws, probe="cells")), U, stats,
+                            k1_range=_STD_K1_RANGE, resolution=_STD_RESOLUTION)
+    cont = np.array(a.within)
+    return {"continuum": np.sqrt(cont[:3] / cont[3:]), "lattice": np.sqrt(lat["lidar"] / lat["sonic"])}
+
+
+def windscanner_std_ratio_variables(scene, index: int, grid) -> dict:
+    """The WindScanner period's std-ratio theory, ``name -> (dims, values, attrs)`` on ``period`` (module notes).
+
+    ``std_ratio_theory`` (component): the reconstructed component's std
+    within the period over the sonic's on the frozen Mann continuum;
+    ``std_ratio_theory_lattice`` (component): the same over the period's
+    generated box as the simulation reads it
+    (:func:`windscanner_lattice_variances`: the box's own modes, laterally
+    doubled, the range cells trilinearly, the sonic between its nodes).
+    Both take the simulation's range cells as the beams' weighting and the
+    period's samples (every ``1 / estimate_rate``, mean removed); NaN for a
+    moving focus (held points only).  Computed once per geometry, tensor,
+    U, samples and box in a process (about 10 s for a 30-s period, 30 s for
+    600 s on two loaded cores).
+
+    Parameters
+    ----------
+    scene : WindScannerScene
+    index : int
+        The period.
+    grid : (shape, spacing, origin, n_samples)
+        The generated box's shape (before the lateral crop) [-], spacing [m],
+        a node (its first) [m], and the period's steps [-].
+    """
+    p = scene.periods[index]
+    ws = scene.sensor()
+    shape, spacing, origin, n = (tuple(int(a) for a in grid[0]), tuple(float(a) for a in grid[1]),
+                                 tuple(float(a) for a in grid[2]), int(grid[3]))
+    cont, lat = np.full(3, np.nan), np.full(3, np.nan)
+    box = (f"box {'x'.join(str(a) for a in shape)} generated (laterally doubled: the y extent twice the "
+           f"simulated one, as the box generator draws it) at {'/'.join(f'{a:g}' for a in spacing)} m")
+    if scene.scanner.pattern == "point":
+        params, U = scene.period_params(p), p.mean_speed
+        th = cached(("windscanner_std", repr(ws), repr(params), U, shape, spacing, origin, n),
+                    lambda: _std_ratio_theory(ws, params, U, (shape, spacing, origin, n)))
+        cont, lat = np.array(th["continuum"]), np.array(th["lattice"])
+        reason = ""
+    else:
+        reason = f"; NaN: pattern={scene.scanner.pattern!r} (a moving focus; the theory is a held point's)"
+    common = (f"linear theory, frozen Mann turbulence, weighting: the simulation's range cells at each unit's range "
+              f"(tier los), the reconstruction N^-1 (cross-contamination included), within-period std over "
+              f"{n} samples every 1/estimate_rate, mean removed")
+    C = ("period", "component")
+    return {
+        "std_ratio_theory": (C, cont[None], {
+            "units": "1", "long_name": "std of the reconstructed component over the sonic's, linear theory",
+            "theory": common + "; a point sonic" + reason, "box": "continuum",
+            "numerics": f"adaptive k1 quadrature over {_STD_K1_RANGE} rad/m, polar resolution {_STD_RESOLUTION:g}"}),
+        "std_ratio_theory_lattice": (C, lat[None], {
+            "units": "1", "long_name": "std of the reconstructed component over the sonic's, linear theory on the "
+                                      "period's box",
+            "theory": common + "; the sonic bilinear between its (y, z) nodes and between the nodes along x" + reason,
+            "box": box, "numerics": "the sum over the box's wavenumbers (its Nyquist modes and cell correction), "
+                                    "the range cells read trilinearly (sinc^2 gains per axis), no aliases"}),
     }
 
 

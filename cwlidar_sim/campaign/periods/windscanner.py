@@ -28,7 +28,10 @@ Results: dims ``period``, ``estimate`` (tier1, main, variants),
 Beside them, the linear theory (:func:`cwlidar_sim.campaign.periods.scanner_theory.windscanner_variables`):
 each component's transfer functions by both methods and the w-variance
 ratio, from the beams' weightings and the reconstruction matrix on the
-frozen continuum, once per period.
+frozen continuum, once per period; and beside the simulated ``std_ratio``
+(each reconstructed component's std over the sonic's) its theory on the
+continuum (``std_ratio_theory``) and on the period's own box
+(``std_ratio_theory_lattice``, :func:`cwlidar_sim.campaign.periods.scanner_theory.windscanner_std_ratio_variables`).
 """
 
 from __future__ import annotations
@@ -43,10 +46,10 @@ from ..._version import __version__
 from ...signal.processing import usable_mask
 from ..scenes.spec import RESULTS_VERSION
 from ..scenes.windscanner import WindScannerScene
-from .scanner_theory import windscanner_variables
+from .scanner_theory import windscanner_std_ratio_variables, windscanner_variables
 from .in_situ import field_subgrid_variance, sonic_variables, subgrid_unavailable
 
-__all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "summary", "period_record",
+__all__ = ["run_unit", "box_grid", "estimate_bytes", "estimate_unit", "summarise", "summary", "period_record",
            "COST_S_PER_SIM_HOUR", "COMPONENTS"]
 
 #: Wall time [s] on one core per simulated hour of the three units' records (~323 estimates per second and
@@ -76,6 +79,13 @@ def estimate_bytes(scene: WindScannerScene) -> float:
     """Size of a WindScanner scene's results [bytes]: spectra per period, estimate, component and wavenumber."""
     ne = 2 + len(scene.lidar.variants)
     return 8.0 * 8 * len(scene.periods) * ne * 3 * scene.scanner.n_k + 1e6
+
+
+def box_grid(box, n_samples: int):
+    """The std-ratio theory's grid of a period's box: ``(generated shape, spacing [m], first node [m], n_samples)``."""
+    return (tuple(int(n) for n in box.attrs["generated_shape"]),
+            tuple(float(box[c][1] - box[c][0]) for c in "xyz"),
+            tuple(float(box[c][0]) for c in "xyz"), int(n_samples))
 
 
 def _estimate_kinds(scene):
@@ -174,6 +184,7 @@ def run_unit(scene: WindScannerScene, index: int, params=None, *, status=None):
     cost["analysis"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     theory = windscanner_variables(scene, index, kc)
+    theory.update(windscanner_std_ratio_variables(scene, index, box_grid(box, time_k.size)))
     cost["theory"] = time.perf_counter() - t0
     cond = scene.sensor().condition_numbers()
     P = ("period",)
@@ -195,6 +206,10 @@ def run_unit(scene: WindScannerScene, index: int, params=None, *, status=None):
                                                                                       "missing or unusable (NaN)"}),
         "sonic_mean": (P + ("component",), sonic_kc.mean(axis=0)[None], {"units": "m s-1"}),
         "sonic_std": (P + ("component",), sonic_kc.std(axis=0, ddof=1)[None], {"units": "m s-1"}),
+        "std_ratio": (P + E, (std / sonic_kc.std(axis=0, ddof=1))[None], {
+            "units": "1", "long_name": "wind_std over sonic_std: the reconstructed component's std within the "
+                                       "period over the sonic's (std_ratio_theory, std_ratio_theory_lattice beside "
+                                       "it)"}),
         "condition_min": (P, np.array([cond.min()]), {"units": "1", "long_name": "smallest condition number of the "
                                                                                  "beams over the pattern"}),
         "condition_max": (P, np.array([cond.max()]), {"units": "1", "long_name": "largest condition number of the "
@@ -236,7 +251,7 @@ def summarise(ds):
 
 
 def summary(scene: WindScannerScene, ds) -> dict:
-    """The CLI's short report: per period and estimate, each component's std over the sonic's and its rmse."""
+    """The CLI's short report: per period and estimate, each component's std ratio and rmse, the theory's."""
     out = {}
     for ip, p in enumerate(ds.period.values):
         row = {}
@@ -245,6 +260,10 @@ def summary(scene: WindScannerScene, ds) -> dict:
                                                              / ds.sonic_std.values[ip, ic]), 4),
                                     "rmse": round(float(ds.wind_rmse.values[ip, je, ic]), 4)}
                            for ic, c in enumerate(ds.component.values)}
+        if "std_ratio_theory" in ds:  # results written before the std ratios' theory lack it
+            row["theory"] = {str(c): {"std_ratio": round(float(ds.std_ratio_theory.values[ip, ic]), 4),
+                                      "std_ratio_lattice": round(float(ds.std_ratio_theory_lattice.values[ip, ic]), 4)}
+                             for ic, c in enumerate(ds.component.values)}
         row["condition_max"] = round(float(ds.condition_max.values[ip]), 3)
         out[str(p)] = row
     return {"windscanner": out}

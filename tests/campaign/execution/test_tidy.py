@@ -206,6 +206,12 @@ def test_a_nacelle_run_writes_its_table_its_time_axis_and_a_preview_signal_that_
     assert set(df.start_time) == {"2024-05-01T10:00:00.000000Z"}
     k = df[(df.quantity == "k_half") & (df.estimate == "main")].set_index("focus").value
     np.testing.assert_array_equal(k.values, ds["k_half"].sel(estimate="main").values[0])
+    # the lattice theory beside the continuum's, its box named, in the results and the table
+    for name in ("lidar_std", "rotor_std", "std_ratio", "correlation"):
+        lat = ds[f"{name}_theory_lattice"]
+        assert np.all(np.isfinite(lat.values)) and lat.attrs["theory_box"].startswith("lattice: the period's box")
+        assert set(df[df.quantity == f"{name}_theory_lattice"].focus) == {40.0, 80.0}
+    assert np.all(np.abs(ds["std_ratio_theory_lattice"].values - ds["std_ratio_theory"].values) < 0.1)
     text = (tmp_path / "nt.preview.csv").read_text()
     delays = ds["preview_delay"].values[0]
     assert f"p0 at 40 m: {delays[0]:.6g}" in text and "time_s = estimate_time_s + delay_s" in text

@@ -285,6 +285,7 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
     th_std = {k: np.full(nf, np.nan) for k in th_names}
     th_lat = {k: np.full(nf, np.nan) for k in th_names}
     t_std_theory = t_lattice = 0.0
+    lat_attrs = {}
     t0 = time.perf_counter()
     for i, r in enumerate(s.focus_distances):
         rec = recs[r]
@@ -323,7 +324,7 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
         lat = period_lattice(scene, p, r, (time_t.size - lid.estimates_per_rev + 1 - m) * dt, m * dt, info)
         for k in th_names:
             th_lat[k][i] = lat[k]
-        lat_attrs = lat["attrs"] if i == 0 or math.isfinite(lat["std_ratio"]) else lat_attrs
+        lat_attrs = lat["attrs"] if not lat_attrs or math.isfinite(lat["std_ratio"]) else lat_attrs
         t_lattice += time.perf_counter() - t1
         theory[i] = _theory(scene, p, r, edges)
         fin = np.isfinite(theory[i])

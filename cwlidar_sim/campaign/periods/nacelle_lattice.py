@@ -57,7 +57,7 @@ from . import theory as th
 from .lattice_theory import DENSE_ROWS, ROW_RATIO, _fill, sparse_rows
 from .nacelle_theory import THEORY_PHASES
 
-__all__ = ["nacelle_lattice", "box_rotor_nodes", "period_lattice", "lattice_attrs", "LATTICE_VARS", "BUNDLED"]
+__all__ = ["nacelle_lattice", "lattice_statistics", "box_rotor_nodes", "period_lattice", "lattice_attrs", "LATTICE_VARS", "BUNDLED"]
 
 #: The lattice variables: units and long name.
 LATTICE_VARS = {
@@ -128,41 +128,59 @@ def nacelle_lattice(lidar, focus: float, params, mean_speed: float, period: floa
         ``covariance`` [m^2 s^-2] (the plain lattice's), ``rows`` (computed), ``wall_s``.
     """
     t0 = time.perf_counter()
-    U, T = float(mean_speed), float(period)
-    shape, spacing = tuple(int(n) for n in shape), tuple(float(d) for d in spacing)
-    epr, dt = lidar.estimates_per_rev, lidar.dwell_time
-    fs = []
+    U = float(mean_speed)
+    epr = lidar.estimates_per_rev
+    ests = []
     for j in range(phases):
         rotor, est = th.nacelle_functionals(lidar, focus, U, nodes, n_beams=None, preview_shift=preview_shift,
                                             probe="cells", phase=(j * epr) // phases)
-        fs += [rotor] if not fs else []
-        fs.append(est)
+        ests.append(est)
+    out = lattice_statistics(params, rotor, ests, U, period, lidar.dwell_time, shape, spacing,
+                             hf_compensation=hf_compensation, interpolation=interpolation, aliases=aliases,
+                             all_rows=all_rows)
+    return dict(out, wall_s=time.perf_counter() - t0)
+
+
+def lattice_statistics(params, rotor, lidars, mean_speed: float, period: float, sample_interval: float, shape,
+                       spacing, *, hf_compensation: bool = False, interpolation: str = "linear", aliases: int = 0,
+                       all_rows: bool = False) -> dict:
+    """The paired series' within-period statistics over a box, from the rotor's and the lidar phases' functionals.
+
+    ``rotor``: the rotor's :class:`~cwlidar_sim.analysis.linear_theory.LinearFunctional` (its nodes on the box's
+    grid across the wind); ``lidars``: one functional per scan phase (the lidar's variance their mean);
+    ``sample_interval``: the series' [s]; the rest and the result as :func:`nacelle_lattice` (without ``wall_s``).
+    """
+    U, T, dt = float(mean_speed), float(period), float(sample_interval)
+    shape, spacing = tuple(int(n) for n in shape), tuple(float(d) for d in spacing)
+    phases = len(lidars)
     n_rows = shape[0] // 2
     rows = np.arange(1, n_rows + 1) if all_rows else sparse_rows(n_rows)
     k_all = 2.0 * math.pi / (shape[0] * spacing[0]) * np.arange(1, n_rows + 1)
 
     def within(k, F):
-        return lt.period_variance(k_all, _fill(k, F, k_all), U, T, sample_interval=dt, lines=True)["within"]
+        F = F if all_rows else _fill(k, F, k_all)
+        return lt.period_variance(k_all, F, U, T, sample_interval=dt, lines=True)["within"]
 
     kw = dict(rows=rows, correction="cell", hf_compensation=hf_compensation)
     lids = [f"{j + 1}.lidar" for j in range(phases)]
-    plain = lt.lattice_spectra(params, fs, U, shape, spacing, **kw)
+    plain = lt.lattice_spectra(params, [rotor] + list(lidars), U, shape, spacing, **kw)
     k, F_r = plain.k1_k, plain.spectrum("0.rotor")
     vr = within(k, F_r)
     vl = float(np.mean([within(k, plain.spectrum(a)) for a in lids]))
+    # the covariance from the lidar less the rotor (its spectrum >= 0, interpolated log-log like theirs)
     vd = float(np.mean([within(k, plain.spectrum(a) + F_r - 2.0 * plain.cross(a, "0.rotor").real) for a in lids]))
     cov = 0.5 * (vl + vr - vd)
     corr = cov / math.sqrt(vl * vr)
     if interpolation != "none":
-        s_l = lt.lattice_spectra(params, fs[1:], U, shape, spacing, interpolation=interpolation, aliases=aliases, **kw)
+        s_l = lt.lattice_spectra(params, list(lidars), U, shape, spacing, interpolation=interpolation,
+                                 aliases=aliases, **kw)
         vl = float(np.mean([within(s_l.k1_k, s_l.spectrum(f"{j}.lidar" if phases > 1 else "lidar"))
                             for j in range(phases)]))
-        s_r = lt.lattice_spectra(params, fs[0], U, shape, spacing, interpolation=(interpolation, "none", "none"),
+        s_r = lt.lattice_spectra(params, rotor, U, shape, spacing, interpolation=(interpolation, "none", "none"),
                                  aliases=aliases, **kw)
         vr = within(s_r.k1_k, s_r.spectrum("rotor"))
     return {"lidar_var": vl, "rotor_var": vr, "covariance": cov, "lidar_std": math.sqrt(vl), "rotor_std": math.sqrt(vr),
-            "std_ratio": math.sqrt(vl / vr), "correlation": corr, "rows": int(rows.size),
-            "wall_s": time.perf_counter() - t0}
+            "std_ratio": math.sqrt(vl / vr), "correlation": corr, "rows": int(rows.size)}
 
 
 def _reason(scene, period, lidar, span):

@@ -52,7 +52,11 @@ Per period (:mod:`cwlidar_sim.campaign.scenes.nacelle`):
    :mod:`cwlidar_sim.campaign.periods.nacelle_theory`: frozen Mann
    continuum, the simulation's looks and range cells at tier ``los``, the
    same span and delay, on an adaptive k1 grid with its convergence in the
-   attributes; NaN for evolving turbulence or a moving platform).
+   attributes; NaN for evolving turbulence or a moving platform), and the
+   same statistics over the period's own box (``*_theory_lattice``,
+   :mod:`cwlidar_sim.campaign.periods.nacelle_lattice`: the box's shape,
+   spacing, cell correction and lateral doubling in the attributes; NaN,
+   with the reason, for evolving turbulence or a box read from a file).
 
 Results: dims ``period``, ``focus`` [m], ``estimate`` (tier1, main,
 variants), ``k`` [rad/m], ``time_preview`` [s]; units on every variable.
@@ -93,6 +97,9 @@ THEORY_S_PER_BEAM2_BIN = 0.012
 #: (:mod:`cwlidar_sim.campaign.periods.nacelle_theory`; bundled scene, 100 m, 600 s: 10.7 s of CPU on the adaptive
 #: k1 grid, 29 k1; 7.6 s on the fixed 4-per-decade grid before); once per geometry.
 THEORY_STD_S_PER_FOCUS = 11.0
+#: Wall time [s] on one core of the lattice theory per focus of a frozen period with a generated box
+#: (:mod:`cwlidar_sim.campaign.periods.nacelle_lattice`; bundled scene, 100 m, 600 s: 8.8 s of CPU, 63 rows).
+THEORY_LATTICE_S_PER_FOCUS = 10.0
 
 
 def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
@@ -111,7 +118,7 @@ def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
     seconds = (3 * points * 30e-9 * planes * (3 if planes > 1 else 1)
                + dur / 3600.0 * nf * COST_S_PER_SIM_HOUR[scene.lidar.tier] * (1 + 0.2 * len(scene.lidar.variants))
                + nf * THEORY_S_PER_BEAM2_BIN * s.theory_beams**2 * theory_wavenumbers(scene, p).size
-               + (nf * THEORY_STD_S_PER_FOCUS if p.lifetime is None else 0.0))
+               + (nf * (THEORY_STD_S_PER_FOCUS + THEORY_LATTICE_S_PER_FOCUS) if p.lifetime is None else 0.0))
     return {"seconds": seconds, "memory_bytes": 3 * 4 * points * (planes + 1) + 100e6}
 
 

@@ -62,7 +62,8 @@ from . import theory as th
 from .lattice_theory import DENSE_ROWS, ROW_RATIO, _fill, sparse_rows
 from .nacelle_theory import THEORY_PHASES
 
-__all__ = ["nacelle_lattice", "lattice_statistics", "box_rotor_nodes", "period_lattice", "lattice_attrs", "LATTICE_VARS", "BUNDLED"]
+__all__ = ["nacelle_lattice", "lattice_statistics", "box_rotor_nodes", "period_lattice", "lattice_attrs",
+           "LATTICE_VARS", "BUNDLED"]
 
 #: The lattice variables: units and long name.
 LATTICE_VARS = {

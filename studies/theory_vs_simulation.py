@@ -115,11 +115,12 @@ import time
 import numpy as np
 
 from cwlidar_sim.analysis import linear_theory as lt
-from cwlidar_sim.analysis.rews import RotorDisc, rews_from_box, rotor_node_weights
+from cwlidar_sim.analysis.rews import RotorDisc, rews_from_box
 from cwlidar_sim.campaign.execution.reproduce import bundled_scene
 from cwlidar_sim.campaign.periods import scanner_theory as st
 from cwlidar_sim.campaign.periods import theory as th
 from cwlidar_sim.campaign.periods.conical_simulation import simulate_conical_period
+from cwlidar_sim.campaign.periods.nacelle_lattice import box_rotor_nodes, lattice_statistics
 from cwlidar_sim.campaign.scenes.conical import default_spacing
 from cwlidar_sim.sensors import ConicalLidar, Cup
 from cwlidar_sim.sensors.nacelle import measure_nacelle
@@ -250,10 +251,7 @@ def nacelle_case(n_periods, duration, *, focus=100.0, seed0=2000, break_=None, s
         n_s = a.size
         if i == 0:
             shape, spacing = box.attrs["generated_shape"], tuple(float(box[c][1] - box[c][0]) for c in "xyz")
-            w = rotor_node_weights(rotor_disc, box["y"].values, box["z"].values, pos[1], pos[2])
-            Y, Z = np.meshgrid(box["y"].values - pos[1], box["z"].values - pos[2], indexing="ij")
-            keep = w > 0
-            nodes = (Y[keep], Z[keep], w[keep] / w[keep].sum())
+            nodes = box_rotor_nodes(s.rotor_radius, s.rotor_exponent, box["y"].values, box["z"].values, pos[1], pos[2])
         del box
     t_sim = time.perf_counter() - t0
     ratio, se_ratio = jackknife(var_l, var_r)
@@ -272,18 +270,12 @@ def nacelle_case(n_periods, duration, *, focus=100.0, seed0=2000, break_=None, s
             est_f = lt.LinearFunctional(lt.Looks(looks.point_lc, looks.direction_lc, None, looks.probe_l),
                                         est_f.weight_olc, est_f.names)
         ests.append(est_f)
-    spec = lt.lattice_spectra(params, [rotor] + ests, U, shape, spacing)
     T = n_s * dt
-    vl = np.mean([_within(spec, f"{j + 1}.lidar", U, T, dt) for j in range(phases)])
-    vr = _within(spec, "0.rotor", U, T, dt)
-    vc = np.mean([_within(spec, f"{j + 1}.lidar", U, T, dt, other="0.rotor") for j in range(phases)])
-    th_corr = vc / math.sqrt(vl * vr)  # the plain lattice's (one interpolation per call: the cross needs both)
-    if interpolation != "none":
-        # the lidar reads the box trilinearly, the rotor its nodes across (y, z) and linearly along x (rews_from_box)
-        spec_l = lt.lattice_spectra(params, ests, U, shape, spacing, interpolation=interpolation, aliases=aliases)
-        vl = np.mean([_within(spec_l, f"{j}.lidar" if phases > 1 else "lidar", U, T, dt) for j in range(phases)])
-        vr = _within(lt.lattice_spectra(params, rotor, U, shape, spacing, interpolation=("linear", "none", "none"),
-                                        aliases=aliases), "rotor", U, T, dt)
+    # the package's lattice (campaign.periods.nacelle_lattice, every row here): the correlation the plain lattice's,
+    # the variances read as the sampler reads the box (the lidar trilinearly, the rotor's REWS linearly along x)
+    r = lattice_statistics(params, rotor, ests, U, T, dt, shape, spacing, interpolation=interpolation,
+                           aliases=aliases, all_rows=True)
+    vl, vr, th_corr = r["lidar_var"], r["rotor_var"], r["correlation"]
     t_th = time.perf_counter() - t0
     base = {"n": n_periods, "duration": duration, "box": tuple(shape), "t_sim": t_sim, "t_theory": t_th,
             "variances": {"sim lidar": float(np.mean(var_l)), "sim rotor": float(np.mean(var_r)), "theory lidar": vl,

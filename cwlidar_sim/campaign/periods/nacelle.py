@@ -52,7 +52,11 @@ Per period (:mod:`cwlidar_sim.campaign.scenes.nacelle`):
    :mod:`cwlidar_sim.campaign.periods.nacelle_theory`: frozen Mann
    continuum, the simulation's looks and range cells at tier ``los``, the
    same span and delay, on an adaptive k1 grid with its convergence in the
-   attributes; NaN for evolving turbulence or a moving platform).
+   attributes; NaN for evolving turbulence or a moving platform), and the
+   same statistics over the period's own box (``*_theory_lattice``,
+   :mod:`cwlidar_sim.campaign.periods.nacelle_lattice`: the box's shape,
+   spacing, cell correction and lateral doubling in the attributes; NaN,
+   with the reason, for evolving turbulence or a box read from a file).
 
 Results: dims ``period``, ``focus`` [m], ``estimate`` (tier1, main,
 variants), ``k`` [rad/m], ``time_preview`` [s]; units on every variable.
@@ -77,6 +81,7 @@ from ..._version import __version__
 from ...signal.processing import usable_mask
 from ..scenes.nacelle import NacelleScene
 from ..scenes.spec import RESULTS_VERSION
+from .nacelle_lattice import LATTICE_VARS, period_lattice
 from .nacelle_theory import paired_statistics, period_theory, theory_attrs
 
 __all__ = ["run_unit", "estimate_bytes", "estimate_unit", "summarise", "period_records", "summary", "statistics",
@@ -92,6 +97,9 @@ THEORY_S_PER_BEAM2_BIN = 0.012
 #: (:mod:`cwlidar_sim.campaign.periods.nacelle_theory`; bundled scene, 100 m, 600 s: 10.7 s of CPU on the adaptive
 #: k1 grid, 29 k1; 7.6 s on the fixed 4-per-decade grid before); once per geometry.
 THEORY_STD_S_PER_FOCUS = 11.0
+#: Wall time [s] on one core of the lattice theory per focus of a frozen period with a generated box
+#: (:mod:`cwlidar_sim.campaign.periods.nacelle_lattice`; bundled scene, 100 m, 600 s: 8.8 s of CPU, 63 rows).
+THEORY_LATTICE_S_PER_FOCUS = 10.0
 
 
 def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
@@ -110,7 +118,7 @@ def estimate_unit(scene: NacelleScene, index: int, params=None) -> dict:
     seconds = (3 * points * 30e-9 * planes * (3 if planes > 1 else 1)
                + dur / 3600.0 * nf * COST_S_PER_SIM_HOUR[scene.lidar.tier] * (1 + 0.2 * len(scene.lidar.variants))
                + nf * THEORY_S_PER_BEAM2_BIN * s.theory_beams**2 * theory_wavenumbers(scene, p).size
-               + (nf * THEORY_STD_S_PER_FOCUS if p.lifetime is None else 0.0))
+               + (nf * (THEORY_STD_S_PER_FOCUS + THEORY_LATTICE_S_PER_FOCUS) if p.lifetime is None else 0.0))
     return {"seconds": seconds, "memory_bytes": 3 * 4 * points * (planes + 1) + 100e6}
 
 
@@ -183,6 +191,8 @@ def period_records(scene: NacelleScene, index: int, *, status=None):
                          times=any_rec.time_e, U=U)
     shape = tuple(int(n) for n in rotor_box.u.shape)
     info = {"box_shape": shape, "generated_shape": rotor_box.attrs.get("generated_shape", shape), "cost_s": cost,
+            "spacing": tuple(float(rotor_box[c][1] - rotor_box[c][0]) for c in "xyz"), "y": rotor_box["y"].values,
+            "z": rotor_box["z"].values, "lateral_doubling": bool(rotor_box.attrs.get("lateral_doubling", False)),
             "evolution": None if evolution is None else evolution.as_dict()}
     return rews, any_rec.time_e, recs, info
 
@@ -280,7 +290,9 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
     l_std, r_std, ratio, corr = (np.full((nf, ne), np.nan) for _ in range(4))
     th_names = ("lidar_std", "rotor_std", "std_ratio", "correlation")
     th_std = {k: np.full(nf, np.nan) for k in th_names}
-    t_std_theory = 0.0
+    th_lat = {k: np.full(nf, np.nan) for k in th_names}
+    t_std_theory = t_lattice = 0.0
+    lat_attrs = {}
     t0 = time.perf_counter()
     for i, r in enumerate(s.focus_distances):
         rec = recs[r]
@@ -315,12 +327,19 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
         for k in th_names:
             th_std[k][i] = th[k]
         t_std_theory += time.perf_counter() - t1
+        t1 = time.perf_counter()
+        lat = period_lattice(scene, p, r, (time_t.size - lid.estimates_per_rev + 1 - m) * dt, m * dt, info)
+        for k in th_names:
+            th_lat[k][i] = lat[k]
+        lat_attrs = lat["attrs"] if not lat_attrs or math.isfinite(lat["std_ratio"]) else lat_attrs
+        t_lattice += time.perf_counter() - t1
         theory[i] = _theory(scene, p, r, edges)
         fin = np.isfinite(theory[i])
         if fin.sum() >= 2:
             k50_th[i] = coherence_bandwidth(kc[fin], theory[i, fin])
     info["cost_s"]["coherence_and_theory"] = time.perf_counter() - t0
     info["cost_s"]["std_theory"] = t_std_theory
+    info["cost_s"]["std_theory_lattice"] = t_lattice
     how = theory_attrs(scene.sensor(p).weighting)
     sim_how = ("the paired series of the coherence (the lidar's trailing revolution mean, the REWS the whole-sample "
                "delay later), 1/N about the span's mean, over the samples finite in the lidar's")
@@ -368,6 +387,9 @@ def run_unit(scene: NacelleScene, index: int, params=None, *, status=None):
                              {"units": "1", "long_name": "std_ratio, linear theory", **how}),
         "correlation_theory": (P + ("focus",), th_std["correlation"][None],
                                {"units": "1", "long_name": "correlation, linear theory", **how}),
+        **{key: (P + ("focus",), th_lat[key[:-len("_theory_lattice")]][None],
+                 {"units": units, "long_name": long, "theory_weighting": how["theory_weighting"], **lat_attrs})
+           for key, (units, long) in LATTICE_VARS.items()},
         "preview_time": (P + ("focus",), preview[None], {"units": "s", "long_name": "preview time r cos(a) / U"}),
         "availability": (P + ("focus", "estimate"), avail[None],
                          {"units": "1", "long_name": "fraction of usable estimates: finite, with no failure, "
@@ -438,7 +460,7 @@ def statistics(ds) -> dict:
              "preview_rews": "rotor", "k_half_theory": "theory", "k_half": "lidar", "availability": "lidar",
              "lidar_std": "lidar", "rotor_std": "rotor", "std_ratio": "lidar", "correlation": "lidar",
              "lidar_std_theory": "theory", "rotor_std_theory": "theory", "std_ratio_theory": "theory",
-             "correlation_theory": "theory",
+             "correlation_theory": "theory", **dict.fromkeys(LATTICE_VARS, "theory"),
              "preview_time": "lidar", "preview_delay": "lidar", "n_blocked": "lidar", "preview_estimate": "lidar"}
     return {k: v for k, v in names.items() if k in ds.data_vars}
 

@@ -206,6 +206,12 @@ def test_a_nacelle_run_writes_its_table_its_time_axis_and_a_preview_signal_that_
     assert set(df.start_time) == {"2024-05-01T10:00:00.000000Z"}
     k = df[(df.quantity == "k_half") & (df.estimate == "main")].set_index("focus").value
     np.testing.assert_array_equal(k.values, ds["k_half"].sel(estimate="main").values[0])
+    # the lattice theory beside the continuum's, its box named, in the results and the table
+    for name in ("lidar_std", "rotor_std", "std_ratio", "correlation"):
+        lat = ds[f"{name}_theory_lattice"]
+        assert np.all(np.isfinite(lat.values)) and lat.attrs["theory_box"].startswith("lattice: the period's box")
+        assert set(df[df.quantity == f"{name}_theory_lattice"].focus) == {40.0, 80.0}
+    assert np.all(np.abs(ds["std_ratio_theory_lattice"].values - ds["std_ratio_theory"].values) < 0.1)
     text = (tmp_path / "nt.preview.csv").read_text()
     delays = ds["preview_delay"].values[0]
     assert f"p0 at 40 m: {delays[0]:.6g}" in text and "time_s = estimate_time_s + delay_s" in text
@@ -222,3 +228,31 @@ def test_a_nacelle_run_writes_its_table_its_time_axis_and_a_preview_signal_that_
         undelayed = np.corrcoef(f.rews_estimate_m_s, rews[i])[0, 1]
         assert at_rotor > undelayed + 0.05, (r, at_rotor, undelayed)
     assert abs(pv[pv.focus_m == 40.0].dropna().rews_estimate_m_s.mean() - 10.0) < 1.0
+
+
+def test_a_nacelle_campaign_merges_and_resumes_with_its_lattice_theory(tmp_path):
+    """The nacelle's ``*_theory_lattice`` (issue 33) through a campaign's merge and a run's resume, attrs kept."""
+    from cwlidar_sim.campaign.execution import batch
+    from cwlidar_sim.campaign.execution.sweep import loads_campaign
+
+    (tmp_path / "base.toml").write_text(NACELLE.format(start=""))
+    sweep = 'paired = false\n[[sweep]]\n"lidar.cnr_db" = [-5.0, -8.0]'
+    spec = loads_campaign(f'name = "c"\nseed = 3\nbase = "base.toml"\n{sweep}', base_dir=str(tmp_path))
+    s = batch.run_campaign(spec, tmp_path / "out", local=True, progress=False)
+    assert s["done"] == 2 and not s["failed"]
+    merged = batch.merge_campaign(tmp_path / "out")
+    for name in ("lidar_std", "rotor_std", "std_ratio", "correlation"):
+        lat = merged[f"{name}_theory_lattice"]
+        assert np.all(np.isfinite(lat.values)) and lat.attrs["theory_box"].startswith("lattice: the period's box")
+    # each task its own turbulence (paired = false) over the same geometry: the same lattice, its simulation its own
+    sweep = json.loads(merged.attrs["sweep_dims"])[0]
+    lat, sim = (merged[v].transpose(sweep, ...).values.reshape(2, -1)
+                for v in ("std_ratio_theory_lattice", "std_ratio"))
+    assert np.array_equal(lat[0], lat[1]) and not np.array_equal(sim[0], sim[1])
+    # a run resumed from its kept period returns the same lattice, bit for bit
+    scene = loads_scene(NACELLE.format(start=""))
+    first = run_scene(scene, tmp_path / "r", progress=False)
+    again = run_scene(scene, tmp_path / "r", progress=False)
+    for name in ("std_ratio_theory_lattice", "correlation_theory_lattice"):
+        assert first[name].values.tobytes() == again[name].values.tobytes()
+        assert first[name].attrs == again[name].attrs

@@ -212,7 +212,7 @@ def unit_variables(rows, revs, span: str) -> dict:
         return {}
     dv = {}
     # the continuum's description of the functional and tensor (not its k1 grid: the lattice sums the box's lines)
-    same = {k: v for k, v in rows[0].get("theory_attrs", {}).items() if k != "theory_numerics"}
+    same = {k: v for k, v in rows[0].get("theory_attrs", {}).items() if k not in ("theory_numerics", "theory_u")}
     for key, (per_scan, units, long) in LATTICE_VARS.items():
         name = key[:-len("_theory_lattice")]
         vals = []

@@ -145,7 +145,8 @@ class ScanSpec(Spec):
     theory : {None, 'none', 'continuum', 'lattice', 'only', 'auto'}
         The linear theory of the std ratios
         (:mod:`cwlidar_sim.campaign.periods.conical_theory`).  None (default):
-        ``"continuum"`` in dwell mode, ``"none"`` in cycle mode; ``"none"``:
+        ``"continuum"`` in dwell mode, ``"none"`` in cycle mode or with a
+        ``turbulence.file`` (the tensor is not the file's); ``"none"``:
         none; ``"continuum"``: the continuum beside the simulation
         (``*_theory`` variables; a few seconds per distinct height, speed and
         direction, cached, or interpolated in U where a height has many
@@ -542,12 +543,19 @@ class ConicalScene(SceneSpec):
         ``"only"`` (the theory alone, in seconds) where the scene asks only
         for what it answers (tier ``los``, no processing variants, a
         generated field, dwell mode); otherwise ``"continuum"`` beside the
-        simulation (``"none"`` in cycle mode, which the theory cannot take).
+        simulation (``"none"`` in cycle mode, which the theory cannot take,
+        and for a field file, whose turbulence the ``[turbulence]`` tensor
+        does not describe; also the default there).
         """
+        if self.scan.theory is None and self.turbulence.file is not None:
+            return "none", ("turbulence.file: the [turbulence] tensor is not the file's field, so no theory by "
+                            "default (set scan.theory = 'continuum' to have the tensor's beside it)")
         if self.scan.theory != "auto":
             return self.scan.theory_mode(), ""
         if self.scan.cycle:
             return "none", "the lidar cycles through the heights (scan.cycle = true), which the theory cannot take"
+        if self.turbulence.file is not None:
+            return "none", "simulated without theory: turbulence.file (the [turbulence] tensor is not the file's field)"
         why = _theory_only_blockers(self)
         if why:
             return "continuum", "simulated, the theory beside it: the scene asks for " + "; ".join(why)

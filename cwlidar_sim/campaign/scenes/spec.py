@@ -44,7 +44,10 @@ __all__ = ["RESULTS_VERSION", "Spec", "SceneSpec", "set_path", "select_periods",
 #: series: a conical period's ``availability`` drops by its zero-crossing loss; 8: a nacelle period keeps its
 #: preview series, ``preview_estimate``, ``preview_rews`` and ``preview_delay``, for the preview file; 9: a conical
 #: scene carries the continuum theory by default and ``scan.theory = "continuum"`` no longer the lattice (now
-#: ``"lattice"``): a period stored before would mix units with and without the theory's variables).
+#: ``"lattice"``): a period stored before would mix units with and without the theory's variables; in the same
+#: landing the nacelle ``*_theory`` values moved to the adaptive k1 grid (correlation by up to 0.007), staring and
+#: nacelle periods gained ``*_theory_lattice``, WindScanner periods ``std_ratio*``, and boxes generated with
+#: ``hf_compensation`` a corrected Nyquist-row gain).
 RESULTS_VERSION = 9
 
 

@@ -63,6 +63,7 @@ def test_results_carry_the_lattice_beside_the_continuum(monkeypatch):
     assert a["theory_box"].startswith("lattice: the unit's box 320x136x60 at 2/2/2 m")
     assert "laterally doubled" in a["theory_box"] and "cell correction" in a["theory_box"]
     assert a["theory_weighting"] == "exact" and "theory_numerics" not in a and "theory_lattice_numerics" in a
+    assert "theory_u" not in a and "theory_u" in s.std_ratio_theory.attrs  # the lattice is never interpolated in U
     lidar, z = ct.scene_lidar(scene, 0, 2.0)
     direct = lat.unit_lattice_theory(lidar, z, 8.0, 60.0, scene.turbulence.params(z, 8.0), (1, 3),
                                      Cup(position=(0.0, float(unit.in_situ_y[0]), float(unit.in_situ_height[0]))),

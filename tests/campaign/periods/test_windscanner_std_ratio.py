@@ -51,8 +51,10 @@ def test_the_std_ratios_and_their_theory_are_in_the_results_with_their_attrs(run
 
 
 def test_the_theory_is_the_studys_for_the_same_box(run):
-    """The study's own function (lattice: windscanner_lattice_variances; continuum: the adaptive quadrature) on the
-    period's box gives the results' numbers; the box lifts w's ratio well above the continuum's (the study: 0.6193
+    """Wiring: the study's own function (lattice: windscanner_lattice_variances; continuum: the adaptive quadrature)
+    on the period's box gives the results' numbers (the same routines: this checks the box, samples and rows the
+    results pass them, not the theory, which the acceptance in test_theory_vs_simulation.py holds against the
+    simulation); the box lifts w's ratio well above the continuum's (the study: 0.6193
     against 0.5338 at 160 s, the 4-m box lowering the sonic's variance far more than the reconstruction's)."""
     scene, ds, (shape, spacing, origin, n) = run
     t = _study().windscanner_theory({"scene": scene, "shape": shape, "spacing": spacing, "origin": origin, "n_t": n})
